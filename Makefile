@@ -1,0 +1,29 @@
+# Two commands do all the set-up on a fresh clone: `make demo` and `make test`.
+# Each creates the virtual environment .venv and installs rmbench into it on first use.
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-stamp
+
+.PHONY: demo test bench install clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/rmbench demo
+
+test: $(STAMP)
+	@if [ -f ../shared/tools/check_layers.py ]; then $(BIN)/python ../shared/tools/check_layers.py src/rmbench; fi
+	$(BIN)/python -m pytest -q sim_tests
+
+bench: $(STAMP)
+	$(BIN)/python bench/modes.py | tee bench/results/modes.txt
+
+clean:
+	rm -rf $(VENV) rmbench_demo

@@ -1,0 +1,72 @@
+"""Options shared by several commands, and their conversion from UI units (mm, degrees) to SI."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from rmbench.errors import InputError
+
+__all__ = ["add_robot_options", "load_robot", "resolve_posture", "print_json"]
+
+
+def add_robot_options(p, *, posture: bool = True) -> None:
+    p.add_argument("--robot", default="irb6660", help="bundled robot name or MJCF path (default irb6660)")
+    p.add_argument("--tool", default=None,
+                   help="bundled tool name (dummy, endmill) or tool MJCF path (default: the robot's own)")
+    p.add_argument("--spindle-rpm", type=float, default=0.0,
+                   help="spindle speed, rev/min (non-zero adds gyroscopic, non-reciprocal coupling)")
+    if posture:
+        p.add_argument("--posture", default=None,
+                       help="x,y,theta in mm, mm, degrees (default: 1800,-200,0, or the robot's reference posture)")
+        p.add_argument("--joints", default=None,
+                       help="arm joint commands in degrees, comma-separated (instead of --posture)")
+
+
+def load_robot(args):
+    from rmbench.robot import Robot
+
+    return Robot.load(args.robot, tool=args.tool, spindle_rpm=args.spindle_rpm)
+
+
+def resolve_posture(robot, args):
+    """A Posture or a joint vector (rad) from --posture / --joints / the robot's defaults."""
+    from rmbench.robot import parse_posture
+    from rmbench.robot.spec import custom_numeric
+
+    if args.posture and args.joints:
+        raise InputError("give either --posture or --joints, not both")
+    if args.joints:
+        try:
+            q = np.radians([float(v) for v in args.joints.split(",")])
+        except ValueError:
+            raise InputError(f"--joints must be numbers in degrees, got {args.joints!r}") from None
+        if len(q) != len(robot.arm_joints):
+            raise InputError(f"--joints needs {len(robot.arm_joints)} values, got {len(q)}")
+        return q
+    if args.posture:
+        return parse_posture(args.posture)
+    ref = custom_numeric(robot.spec, "rmbench_reference_q")
+    return ref if ref is not None else parse_posture("1800,-200,0")
+
+
+def print_json(obj) -> None:
+    def default(o):
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        raise TypeError(type(o).__name__)
+
+    def clean(o):
+        if isinstance(o, float) and not math.isfinite(o):
+            return None
+        if isinstance(o, dict):
+            return {k: clean(v) for k, v in o.items()}
+        if isinstance(o, (list, tuple)):
+            return [clean(v) for v in o]
+        return o
+
+    print(json.dumps(clean(obj), default=default))

@@ -1,0 +1,111 @@
+"""``rmbench model info`` and ``rmbench model variant``."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+
+from rmbench.cli._common import add_robot_options, load_robot, print_json, resolve_posture
+from rmbench.errors import InputError
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    p = sub.add_parser("model", help="robot models: exact modes, variants")
+    msub = p.add_subparsers(dest="model_command", metavar="SUBCOMMAND", parser_class=type(p))
+    info = msub.add_parser("info", help="exact mode table of a robot at a posture")
+    add_robot_options(info)
+    info.add_argument("--band", choices=("low", "high", "both"), default="both")
+    info.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    info.set_defaults(func=cmd_info)
+
+    var = msub.add_parser("variant", help="derive a robot variant by editing its specification")
+    add_robot_options(var, posture=False)
+    var.add_argument("--set", dest="edits", action="append", default=[], metavar="EDIT",
+                     help="TARGET.FIELD(=|*=|+=)VALUE, e.g. j2_flex.stiffness*=0.8 (repeatable)")
+    var.add_argument("--add-mass", action="append", default=[], metavar="WHERE:KG[:DX,DY,DZ]",
+                     help="point mass (kg) at a site or body, offset in m (repeatable)")
+    var.add_argument("--compliant-base", default=None, metavar="K_LAT,K_TILT",
+                     help="mount on a compliant foundation: lateral N/m, tilt N m/rad")
+    var.add_argument("--out", required=True, help="MJCF file to write")
+    var.set_defaults(func=cmd_variant)
+    p.set_defaults(func=lambda args: p.print_help() or 2)
+
+
+def cmd_info(args) -> int:
+    robot = load_robot(args)
+    posture = resolve_posture(robot, args)
+    op = robot.at(posture)
+    bands = ("low", "high") if args.band == "both" else (args.band,)
+    tables = [op.modes(b) for b in bands]
+    if args.json:
+        out = {"robot": robot.name, "tool": robot.tool, "spindle_rpm": robot.spindle_rpm,
+               "posture": None if op.posture is None else
+               {"x": op.posture.x, "y": op.posture.y, "theta": op.posture.theta},
+               "q_cmd": op.q_cmd, "joints": list(robot.arm_joints),
+               "s_1a": {b: robot.bands[b].s_1a for b in bands},
+               "units": {"q_cmd": "rad", "posture": "m, m, rad", "f_n": "Hz", "zeta": "ratio",
+                         "phiR": "s/kg", "phiL": "1 (normalised: phiL 1aY = 1)"},
+               "modes": [m for t in tables for m in t.to_dict()]}
+        print_json(out)
+        return 0
+    where = op.posture.label() + " (x mm, y mm, theta deg)" if op.posture else "joint command"
+    print(f"{robot.name} with tool {robot.tool or 'none'}, posture {where}, spindle {robot.spindle_rpm:g} rpm")
+    print("q_cmd (deg): " + ", ".join(f"{n} {math.degrees(q):.3f}" for n, q in zip(robot.arm_joints, op.q_cmd)))
+    for t in tables:
+        b = robot.bands[t.band]
+        print(f"\n{t.band} band {b.f_min:g}-{b.f_max:g} Hz, point 1a {1000 * b.s_1a:g} mm up the tool; "
+              "phi_R in s/kg, phi_L normalised to 1aY = 1")
+        print(f"{'mode':>4} {'f_n Hz':>10} {'zeta %':>7}  " + "  ".join(f"{'phiR ' + c:>21}" for c in ("1X", "1Y", "1aX", "1aY")))
+        for i in range(len(t)):
+            vec = "  ".join(f"{_cx(t.phi_r[i, k]):>21}" for k in range(4))
+            print(f"{i + 1:>4} {t.f_n[i]:10.3f} {100 * t.zeta[i]:7.3f}  {vec}")
+        print(f"{'':>23}" + "  ".join(f"{'phiL ' + c:>21}" for c in ("1X", "1Y", "1aX", "1aY")))
+        for i in range(len(t)):
+            print(f"{i + 1:>4}{'':>19}" + "  ".join(f"{_cx(t.phi_l[i, k]):>21}" for k in range(4)))
+    return 0
+
+
+def cmd_variant(args) -> int:
+    from rmbench.robot.variant import make_variant
+
+    robot = load_robot(args)
+    masses = []
+    for text in args.add_mass:
+        parts = text.split(":")
+        if len(parts) not in (2, 3):
+            raise InputError(f"--add-mass must be WHERE:KG[:DX,DY,DZ], got {text!r}")
+        try:
+            mass = float(parts[1])
+            offset = tuple(float(v) for v in parts[2].split(",")) if len(parts) == 3 else (0.0, 0.0, 0.0)
+        except ValueError:
+            raise InputError(f"--add-mass must be WHERE:KG[:DX,DY,DZ] with numbers, got {text!r}") from None
+        if len(offset) != 3:
+            raise InputError(f"--add-mass offset needs three numbers, got {text!r}")
+        masses.append((parts[0], mass, offset))
+    base = None
+    if args.compliant_base:
+        try:
+            base = tuple(float(v) for v in args.compliant_base.split(","))
+        except ValueError:
+            raise InputError(f"--compliant-base must be K_LAT,K_TILT, got {args.compliant_base!r}") from None
+        if len(base) != 2:
+            raise InputError(f"--compliant-base must be K_LAT,K_TILT, got {args.compliant_base!r}")
+    if not (args.edits or masses or base):
+        raise InputError("nothing to change: give --set, --add-mass or --compliant-base")
+    xml = make_variant(robot, args.edits, masses=masses, compliant_base=base)
+    out = Path(args.out)
+    tmp = out.with_name(out.name + ".part")
+    tmp.write_text(xml)
+    tmp.replace(out)  # never leave a half-written model behind
+    print(f"wrote {out} ({len(args.edits)} edits, {len(masses)} masses"
+          f"{', compliant base' if base else ''}); use it with --robot {out}")
+    return 0
+
+
+def _cx(z: complex) -> str:
+    return f"{z.real:+.4g}{z.imag:+.4g}i"
+
+

@@ -1,0 +1,252 @@
+"""Model variants: what-if edits of a robot's specification, saved as MJCF.
+
+Edits go through mujoco.MjSpec, never hand-copied XML. A variant file is a complete robot (with its
+tool, if one was attached) that every command accepts via ``--robot PATH``.
+
+Edit syntax (CLI ``--set``), ``TARGET.FIELD OP VALUE`` with OP one of ``=``, ``*=``, ``+=``:
+
+- joints: ``stiffness``, ``damping``, ``armature``, ``springref`` (``j2_flex.stiffness*=0.8``;
+  ``tool_contact_*.stiffness*=2`` changes the tool-holder contact; shell-style wildcards match
+  several joints);
+- bodies: ``mass`` (``flange.mass+=5``), ``pos`` (``x,y,z`` in m);
+- sites: ``pos`` (m) and ``euler`` (``rx,ry,rz`` in degrees, applied after the current orientation).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import re
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from rmbench.errors import InputError, ModelError
+from rmbench.robot.spec import copy_body
+
+__all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant"]
+
+_EDIT = re.compile(r"^(?P<target>[\w*?\[\]-]+)\.(?P<field>\w+)\s*(?P<op>\*=|\+=|=)\s*(?P<value>.+)$")
+_JOINT_FIELDS = {"stiffness", "damping", "armature", "springref"}
+_BODY_FIELDS = {"mass", "pos"}
+_SITE_FIELDS = {"pos", "euler"}
+
+
+@dataclass(frozen=True)
+class Edit:
+    """One parsed edit: ``target.field op value``."""
+
+    target: str
+    field: str
+    op: str
+    value: tuple[float, ...]
+
+    def __str__(self) -> str:
+        return f"{self.target}.{self.field}{self.op}{','.join(f'{v:g}' for v in self.value)}"
+
+
+def parse_edit(text: str) -> Edit:
+    """Parse ``TARGET.FIELD OP VALUE`` (see module docstring)."""
+    m = _EDIT.match(text.strip())
+    if m is None:
+        raise InputError(f"cannot parse edit {text!r}; expected e.g. j2_flex.stiffness*=0.8")
+    try:
+        value = tuple(float(v) for v in m["value"].split(","))
+    except ValueError:
+        raise InputError(f"edit {text!r}: value must be numbers separated by commas") from None
+    if not all(np.isfinite(value)):
+        raise InputError(f"edit {text!r}: value must be finite")
+    return Edit(m["target"], m["field"], m["op"], value)
+
+
+def apply_edit(spec: mujoco.MjSpec, edit: Edit) -> int:
+    """Apply an edit to every matching joint, body or site; returns how many elements changed."""
+    count = 0
+    if edit.field in _JOINT_FIELDS:
+        for joint in spec.joints:
+            if fnmatch.fnmatchcase(joint.name, edit.target):
+                _edit_joint(joint, edit)
+                count += 1
+    if edit.field in _SITE_FIELDS and count == 0:
+        for site in spec.sites:
+            if fnmatch.fnmatchcase(site.name, edit.target):
+                _edit_vector(site, edit, edit.field)
+                count += 1
+    if edit.field in _BODY_FIELDS and count == 0:
+        for body in spec.bodies:
+            if fnmatch.fnmatchcase(body.name, edit.target):
+                if edit.field == "mass":
+                    if not body.explicitinertial:
+                        raise InputError(f"edit {edit}: body {body.name!r} has no explicit inertial")
+                    body.mass = _combine(body.mass, edit)
+                    if body.mass <= 0:
+                        raise InputError(f"edit {edit}: mass of {body.name!r} must stay positive")
+                else:
+                    _edit_vector(body, edit, "pos")
+                count += 1
+    if edit.field not in _JOINT_FIELDS | _BODY_FIELDS | _SITE_FIELDS:
+        raise InputError(f"edit {edit}: unknown field {edit.field!r}; joints take "
+                         f"{sorted(_JOINT_FIELDS)}, bodies {sorted(_BODY_FIELDS)}, sites {sorted(_SITE_FIELDS)}")
+    if count == 0:
+        raise InputError(f"edit {edit}: no joint, body or site named {edit.target!r} has field {edit.field!r}")
+    return count
+
+
+def add_point_mass(spec: mujoco.MjSpec, where: str, mass: float, offset=(0.0, 0.0, 0.0)) -> None:
+    """Add a point mass (kg) rigidly at a site or body, optionally offset (m, in its frame)."""
+    if not mass > 0:
+        raise InputError(f"point mass must be positive, got {mass}")
+    site = _find(spec.sites, where)
+    body = _find(spec.bodies, where)
+    if site is not None:
+        parent, pos = site.parent, np.array(site.pos) + _rotate(site.quat, offset)
+    elif body is not None:
+        parent, pos = body, np.asarray(offset, float)
+    else:
+        raise InputError(f"no site or body named {where!r} to add a mass to")
+    n = sum(1 for b in spec.bodies if b.name.startswith("point_mass"))
+    child = parent.add_body(name=f"point_mass{n + 1}", pos=pos)
+    # a tiny sphere carrying the mass: MuJoCo's XML writer drops a bare <inertial> at the origin
+    child.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.004, 0, 0], mass=mass,
+                   contype=0, conaffinity=0, rgba=[1, 0, 1, 1])
+
+
+def add_compliant_base(spec: mujoco.MjSpec, k_lateral: float, k_tilt: float, *,
+                       k_vertical: float | None = None, k_torsion: float | None = None,
+                       damping_ratio: float = 0.05, base_mass: float = 1000.0) -> None:
+    """Mount the robot on a compliant foundation.
+
+    A base plate (``base_mount``, ``base_mass`` kg) on passive slides x, y, z and hinges about x, y,
+    z carries the whole arm. Stiffness in N/m and N·m/rad; each damper is set to ``damping_ratio``
+    of critical against the arm's mass (translations) or its mass at 1 m (rotations).
+    """
+    for name, k in (("k_lateral", k_lateral), ("k_tilt", k_tilt)):
+        if not k > 0:
+            raise InputError(f"{name} must be positive, got {k}")
+    k_vertical = 5 * k_lateral if k_vertical is None else k_vertical
+    k_torsion = k_tilt if k_torsion is None else k_torsion
+    if _find(spec.bodies, "base_mount") is not None:
+        raise InputError("the robot already stands on a compliant base")
+    arm = spec.worldbody.first_body()
+    if arm is None:
+        raise ModelError("the robot has no moving body to mount on a compliant base")
+    mass = float(spec.compile().body_subtreemass[1]) + base_mass
+    base = spec.worldbody.add_body(name="base_mount")
+    base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.6, 0.6, 0.05], pos=[0, 0, -0.05],
+                  mass=base_mass, contype=0, conaffinity=0, rgba=[0.4, 0.4, 0.4, 1])
+    for name, kind, axis, k, m_eff in (
+            ("base_x", mujoco.mjtJoint.mjJNT_SLIDE, (1, 0, 0), k_lateral, mass),
+            ("base_y", mujoco.mjtJoint.mjJNT_SLIDE, (0, 1, 0), k_lateral, mass),
+            ("base_z", mujoco.mjtJoint.mjJNT_SLIDE, (0, 0, 1), k_vertical, mass),
+            ("base_rx", mujoco.mjtJoint.mjJNT_HINGE, (1, 0, 0), k_tilt, mass),
+            ("base_ry", mujoco.mjtJoint.mjJNT_HINGE, (0, 1, 0), k_tilt, mass),
+            ("base_rz", mujoco.mjtJoint.mjJNT_HINGE, (0, 0, 1), k_torsion, mass)):
+        base.add_joint(name=name, type=kind, axis=axis, stiffness=[k, 0, 0],
+                       damping=[2 * damping_ratio * np.sqrt(k * m_eff), 0, 0])
+    old = "__moved"
+    for element in _subtree(arm):
+        if element.name:
+            element.name += old
+    copy_body(arm, base, strip=old)
+    spec.delete(arm)
+
+
+def make_variant(robot, edits=(), *, masses=(), compliant_base=None) -> str:
+    """MJCF text of a variant of ``robot`` (a :class:`~rmbench.robot.Robot`).
+
+    Parameters
+    ----------
+    edits : sequence of str or Edit
+    masses : sequence of (where, mass_kg, offset_m)
+    compliant_base : (k_lateral N/m, k_tilt N·m/rad) or None
+    """
+    from rmbench.robot.spec import spec_to_xml
+
+    spec = robot.spec
+    log = []
+    for e in edits:
+        e = parse_edit(e) if isinstance(e, str) else e
+        apply_edit(spec, e)
+        log.append(str(e))
+    for where, mass, offset in masses:
+        add_point_mass(spec, where, mass, offset)
+        log.append(f"mass {mass:g} kg at {where}")
+    if compliant_base is not None:
+        add_compliant_base(spec, *compliant_base)
+        log.append(f"compliant base {compliant_base}")
+    try:
+        spec.compile()
+    except ValueError as err:
+        raise InputError(f"the variant does not compile: {str(err).splitlines()[0]}") from None
+    previous = next((t.data for t in spec.texts if t.name == "rmbench_variant"), "")
+    note = "; ".join(([previous] if previous else []) + log)
+    for t in spec.texts:
+        if t.name == "rmbench_variant":
+            t.data = note
+            break
+    else:
+        spec.add_text(name="rmbench_variant", data=note)
+    return spec_to_xml(spec)
+
+
+def _subtree(body):
+    """The body, its joints, geoms and sites, and those of all its descendants."""
+    yield body
+    yield from body.joints
+    yield from body.geoms
+    yield from body.sites
+    for child in body.bodies:
+        yield from _subtree(child)
+
+
+def _find(elements, name):
+    for e in elements:
+        if e.name == name:
+            return e
+    return None
+
+
+def _combine(old, edit: Edit):
+    v = edit.value[0]
+    return {"=": v, "*=": old * v, "+=": old + v}[edit.op]
+
+
+def _edit_joint(joint, edit: Edit) -> None:
+    if len(edit.value) != 1:
+        raise InputError(f"edit {edit}: joint fields take one number")
+    if edit.field in ("stiffness", "damping"):
+        arr = np.array(getattr(joint, edit.field), float)
+        arr[0] = _combine(arr[0], edit)
+        if arr[0] < 0:
+            raise InputError(f"edit {edit}: {edit.field} of {joint.name!r} must stay non-negative")
+        setattr(joint, edit.field, arr)
+    else:
+        new = _combine(getattr(joint, edit.field), edit)
+        if edit.field == "armature" and new < 0:
+            raise InputError(f"edit {edit}: armature must stay non-negative")
+        setattr(joint, edit.field, new)
+
+
+def _edit_vector(element, edit: Edit, field: str) -> None:
+    if len(edit.value) != 3:
+        raise InputError(f"edit {edit}: {field} takes three numbers x,y,z")
+    v = np.array(edit.value)
+    if field == "pos":
+        old = np.array(element.pos, float)
+        element.pos = {"=": v, "+=": old + v, "*=": old * v}[edit.op]
+        return
+    if edit.op == "*=":
+        raise InputError(f"edit {edit}: euler takes = or +=")
+    q = np.zeros(4)
+    mujoco.mju_euler2Quat(q, np.radians(v), "xyz")
+    if edit.op == "+=":
+        out = np.zeros(4)
+        mujoco.mju_mulQuat(out, np.array(element.quat, float), q)
+        q = out
+    element.quat = q
+
+
+def _rotate(quat, vec) -> np.ndarray:
+    out = np.zeros(3)
+    mujoco.mju_rotVecQuat(out, np.asarray(vec, float), np.asarray(quat, float))
+    return out
