@@ -16,10 +16,13 @@ def _clamped_tool(name, rigid_contact=True):
     """The tool alone, clamped at the holder face (contact joints locked if rigid_contact)."""
     spec = mujoco.MjSpec.from_string(tool_xml(TOOLS[name]))
     spec.option.gravity = [0, 0, 0]
-    if rigid_contact:
+    if rigid_contact:  # contact slides locked; the root hinges keep only the root bending
+        c1 = TOOLS[name].hinge_layout()[0]
         for j in spec.joints:
-            if j.name.startswith("contact"):
+            if j.name in ("contact_x", "contact_y"):
                 j.stiffness = [1e15, 0, 0]
+            elif j.name in ("contact_rx", "contact_ry"):
+                j.stiffness = [1 / c1, 0, 0]
     model = spec.compile()
     data = mujoco.MjData(model)
     equilibrium(model, data, np.array([], int))
@@ -33,7 +36,7 @@ def test_bundled_tool_files_match_their_generator(name):
 
 @pytest.mark.parametrize("name", sorted(TOOLS))
 def test_lumped_tool_tip_compliance_equals_timoshenko_cantilever(name):
-    # Gauss-point hinges reproduce L³/3EI + L/κGA exactly (static condensation is exact)
+    # the hinge layout reproduces L³/3EI + L/κGA exactly (static condensation is exact)
     model, data, lin = _clamped_tool(name)
     jac = np.zeros((3, model.nv))
     mujoco.mj_jacSite(model, data, jac, None, model.site("tip").id)
@@ -43,8 +46,8 @@ def test_lumped_tool_tip_compliance_equals_timoshenko_cantilever(name):
 
 def test_reference_tool_first_bending_mode_near_7_khz():
     # Euler-Bernoulli gives 6.8 kHz for the Ø20 x 50 mm carbide cantilever; Timoshenko theory
-    # (shear, rotary inertia; 60-element FE) 6.3 kHz. Three rigid segments resolve the first
-    # mode to a few per cent: 5 %.
+    # (shear, rotary inertia; 60-element FE) 6.3 kHz. Two rigid segments with exact statics
+    # resolve the first mode to better than 10 %.
     tool = TOOLS["dummy"]
     _, _, lin = _clamped_tool("dummy")
     f1 = lin.modes().f_n.min()
@@ -55,7 +58,7 @@ def test_reference_tool_first_bending_mode_near_7_khz():
     rho_a = tool.density * math.pi * tool.diameter**2 / 4
     f_eb = 1.875**2 / (2 * math.pi) * math.sqrt(tool.ei / (rho_a * tool.overhang**4))
     assert f_timoshenko < f_eb
-    assert f1 == pytest.approx(f_timoshenko, rel=0.05)
+    assert f1 == pytest.approx(f_timoshenko, rel=0.10)
 
 
 def test_timoshenko_elements_reach_euler_bernoulli_for_a_slender_beam():

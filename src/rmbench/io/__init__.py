@@ -1,6 +1,8 @@
 """File formats (netCDF datasets, UFF58, CSV): readers and writers that import no stage.
 
-Filled by the stages that produce files (impact campaigns onwards).
+`uff58`: receptance matrices of a campaign to and from UFF58 universal files (METHODS.md §1 nodes).
 """
 
-__all__: list[str] = []
+from rmbench.io.uff58 import DEFAULT_NODE_MAP, LOW_BAND_LIMIT_HZ, read_uff58, write_uff58
+
+__all__ = ["write_uff58", "read_uff58", "DEFAULT_NODE_MAP", "LOW_BAND_LIMIT_HZ"]

@@ -248,12 +248,7 @@ class OperatingPoint:
         sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
         if sid < 0:
             raise ModelError(f"unknown site {site!r}")
-        axis = d.site_xmat[sid].reshape(3, 3)[:, 2]
-        point = d.site_xpos[sid] + offset_up * axis
-        body = int(m.site_bodyid[sid])
-        # walk up the tool's segments until the body's origin (its hinge) lies above the point
-        while offset_up > 0 and body > 0 and (d.xpos[body] - d.site_xpos[sid]) @ axis < offset_up - 1e-12:
-            body = int(m.body_parentid[body])
+        point, body = tool_point(m, d, sid, offset_up)
         jacp = np.zeros((3, m.nv))
         mujoco.mj_jac(m, d, jacp, None, point, body)
         return jacp
@@ -299,6 +294,20 @@ class OperatingPoint:
         s = b.s_1a if s_1a is None else s_1a
         t = self.coordinate_map(COORDS, s_1a=s)
         return mode_table(self.linear.modes(), t, t, b, threshold=threshold)
+
+
+def tool_point(model: mujoco.MjModel, data: mujoco.MjData, site: int, s_up: float):
+    """World position of the point ``s_up`` (m) up the site's +z axis, and the body carrying it.
+
+    Walks up the tool's segments from the site's body until the body's origin (its hinge) lies
+    above the point.
+    """
+    axis = data.site_xmat[site].reshape(3, 3)[:, 2]
+    point = data.site_xpos[site] + s_up * axis
+    body = int(model.site_bodyid[site])
+    while s_up > 0 and body > 0 and (data.xpos[body] - data.site_xpos[site]) @ axis < s_up - 1e-12:
+        body = int(model.body_parentid[body])
+    return point, body
 
 
 def _set_custom_text(spec: mujoco.MjSpec, name: str, value: str) -> None:

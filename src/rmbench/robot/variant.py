@@ -24,7 +24,8 @@ import numpy as np
 from rmbench.errors import InputError, ModelError
 from rmbench.robot.spec import copy_body
 
-__all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant"]
+__all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant",
+           "condensed", "with_tool_masses"]
 
 _EDIT = re.compile(r"^(?P<target>[\w*?\[\]-]+)\.(?P<field>\w+)\s*(?P<op>\*=|\+=|=)\s*(?P<value>.+)$")
 _JOINT_FIELDS = {"stiffness", "damping", "armature", "springref"}
@@ -250,3 +251,55 @@ def _rotate(quat, vec) -> np.ndarray:
     out = np.zeros(3)
     mujoco.mju_rotVecQuat(out, np.asarray(vec, float), np.asarray(quat, float))
     return out
+
+
+def condensed(robot, prefixes=("spindle_", "tool_")):
+    """The robot with the freedoms of joints named ``prefixes*`` removed (welded rigid).
+
+    For long simulations: stiff freedoms (the spindle, holder and tool: 0.8-60 kHz) bound the
+    stable time step, while well below their modes they act as static springs, whose compliance
+    the caller adds back. Returns a :class:`~rmbench.robot.Robot` of the same name and tool.
+    """
+    from rmbench.robot.model import Robot
+    from rmbench.robot.spec import spec_to_xml
+
+    spec = robot.spec
+    doomed = [j for j in spec.joints if j.name.startswith(prefixes)]
+    names = {j.name for j in doomed}
+    for act in list(spec.actuators):
+        if act.target in names:
+            spec.delete(act)
+    for j in doomed:
+        spec.delete(j)
+    spin_kept = not any("spindle_spin".startswith(p) for p in prefixes)
+    return Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool,
+                 spindle_rpm=robot.spindle_rpm if spin_kept else 0.0, spec=spec)
+
+
+def with_tool_masses(robot, masses):
+    """The robot with point masses (sensors) on the tool.
+
+    Parameters
+    ----------
+    masses : sequence of (s_up, mass)
+        Distance up the tool axis from the tip (m) and mass (kg) of each point mass.
+    """
+    from rmbench.robot.model import Robot, tool_point
+    from rmbench.robot.spec import spec_to_xml
+
+    spec = robot.spec
+    model = robot.model
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    sid = model.site(robot.tcp).id
+    for k, (s_up, mass) in enumerate(masses):
+        if mass <= 0:
+            continue
+        point, body = tool_point(model, data, sid, s_up)
+        local = data.xmat[body].reshape(3, 3).T @ (point - data.xpos[body])
+        parent = spec.body(model.body(body).name)
+        child = parent.add_body(name=f"sensor_mass{k + 1}", pos=local)
+        child.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.002, 0, 0], mass=mass,
+                       contype=0, conaffinity=0, rgba=[0, 0.8, 0, 1])
+    return Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool,
+                 spindle_rpm=robot.spindle_rpm, spec=spec)

@@ -1,0 +1,72 @@
+"""``rmbench campaign``: run (dry and real), export/import through UFF58, plot; errors as one line."""
+
+import json
+
+import pytest
+
+from rmbench.cli import main
+
+TINY = """
+seed = 3
+method = "linear"
+[grid]
+kind = "list"
+postures = [[1800, -200, 0], [1800, 200, 60]]
+"""
+
+
+def _run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    cap = capsys.readouterr()
+    return code, cap.out, cap.err
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return path
+
+
+def test_dry_run_lists_postures_and_estimates(capsys, tiny):
+    code, out, _ = _run(capsys, "campaign", "run", tiny, "--dry-run", "--method", "time", "--json")
+    est = json.loads(out)
+    assert code == 0 and est["n_postures"] == 2
+    assert est["steps_total"] > 0 and est["estimated_core_seconds"] > 0
+
+
+def test_run_export_import_plot(capsys, tiny, tmp_path):
+    data = tmp_path / "tiny.nc"
+    code, out, _ = _run(capsys, "campaign", "run", tiny, "--out", data, "--workers", 0, "--no-progress", "--json")
+    assert code == 0 and json.loads(out)["ok"] == 2
+    code, _, _ = _run(capsys, "campaign", "export", data, "--uff", tmp_path / "uff", "--binary")
+    assert code == 0
+    code, _, _ = _run(capsys, "campaign", "import", tmp_path / "uff", "--out", tmp_path / "back.nc")
+    assert code == 0
+    from rmbench.impact import open_campaign
+    import numpy as np
+
+    a, b = open_campaign(data), open_campaign(tmp_path / "back.nc")
+    np.testing.assert_array_equal(a.H.values, b.H.values)  # binary UFF58b is exact
+    assert "H_exact" not in b  # an imported test has no ground truth
+    code, _, _ = _run(capsys, "campaign", "plot", data, "--posture", "1800,200,60", "--out", tmp_path / "f.png")
+    assert code == 0 and (tmp_path / "f.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["campaign", "run", "missing.toml", "--out", "x.nc"], "config file not found"),
+    (["campaign", "plot", "missing.nc", "--index", "0", "--out", "f.png"], "dataset not found"),
+    (["campaign", "import", "no_such_dir", "--out", "x.nc"], ""),
+], ids=["missing-config", "missing-dataset", "missing-uff-dir"])
+def test_bad_input_is_one_line_and_exit_2(capsys, argv, message):
+    code, _, err = _run(capsys, *argv)
+    assert code == 2 and message in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_bad_config_fails_before_anything_runs(capsys, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[hits]\naverages = 0\n")
+    code, _, err = _run(capsys, "campaign", "run", bad, "--out", tmp_path / "x.nc")
+    assert code == 2 and "hits.averages" in err
+    assert not (tmp_path / "x.nc").exists() and not (tmp_path / "x.nc.parts").exists()

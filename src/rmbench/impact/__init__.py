@@ -1,0 +1,20 @@
+"""Virtual impact campaigns: hammer, sensors, time-domain simulation, FRF estimation, datasets.
+
+::
+
+    cfg = load_config("seed_full")            # or a TOML path
+    run_campaign(cfg, "campaign.nc", workers=2)
+    ds = open_campaign("campaign.nc")          # xarray Dataset, DATA.md layout
+"""
+
+from rmbench.impact.campaign import Campaign, dry_run, postures_of, run_campaign, run_posture
+from rmbench.impact.config import CampaignConfig, bundled_configs, load_config, parse_config
+from rmbench.impact.dataset import DATASET_VERSION, open_campaign, save, track_modes
+from rmbench.impact.estimate import exponential_window, force_window, h1
+from rmbench.impact.hammer import Hit, draw_hit, pulse
+from rmbench.impact.sensors import SensorSet, sensor_set
+
+__all__ = ["Campaign", "CampaignConfig", "load_config", "parse_config", "bundled_configs",
+           "run_campaign", "run_posture", "dry_run", "postures_of", "open_campaign", "save",
+           "track_modes", "DATASET_VERSION", "Hit", "draw_hit", "pulse", "SensorSet", "sensor_set",
+           "force_window", "exponential_window", "h1"]

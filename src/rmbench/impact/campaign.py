@@ -1,0 +1,282 @@
+"""Virtual impact campaigns: many postures, run in parallel, written as they finish, resumable.
+
+Each posture is an independent task (dask.distributed: a local cluster by default, or an existing
+scheduler). Its random numbers come from ``(seed, posture index)``, so results do not depend on the
+number of workers or on the order of completion. Each finished posture is written at once to
+``OUT.parts/``; a rerun skips the postures already there; when all are done they are assembled into
+one dataset (``OUT``) and the parts are removed.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import shutil
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rmbench.errors import InputError, RmbenchError
+from rmbench.impact.config import CampaignConfig
+from rmbench.impact.measure import band_lines, exact_band, measure_band
+from rmbench.impact.sensors import COORDS, sensor_set
+from rmbench.robot import Posture, Robot, seed_grid, validation_postures
+from rmbench.robot.model import Band
+from rmbench.robot.variant import condensed, with_tool_masses
+
+__all__ = ["Campaign", "postures_of", "run_posture", "run_campaign", "dry_run"]
+
+
+def postures_of(cfg: CampaignConfig) -> list[Posture]:
+    """The campaign's postures in order."""
+    g = cfg.grid
+    if g.kind == "seed":
+        return seed_grid()
+    if g.kind == "validation":
+        return validation_postures()
+    if g.kind == "product":
+        return [Posture.from_mm_deg(x, y, t) for x in g.x_mm for y in g.y_mm for t in g.theta_deg]
+    return [Posture.from_mm_deg(*p) for p in g.postures]
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A validated configuration with its robot models, ready to measure postures.
+
+    Attributes
+    ----------
+    config : CampaignConfig
+    toml : str
+        The configuration text (kept in the dataset).
+    robot : Robot
+        The bare robot.
+    """
+
+    config: CampaignConfig
+    toml: str
+    robot: Robot
+
+    @classmethod
+    def build(cls, config: CampaignConfig, toml: str = "") -> "Campaign":
+        r = config.robot
+        robot = Robot.load(r.name, tool=r.tool, spindle_rpm=r.spindle_rpm)
+        return cls(config, toml, robot)
+
+    @functools.cached_property
+    def bands(self) -> dict[str, Band]:
+        return {name: Band(name, b.f_min, b.f_max, 1e-3 * b.s_1a_mm) for name, b in self.config.bands.items()}
+
+    @functools.cached_property
+    def sensors(self) -> dict:
+        rng = np.random.default_rng([self.config.seed, 1_000_003])  # calibration: once per campaign
+        return {name: sensor_set(b, self.config, rng) for name, b in self.config.bands.items()}
+
+    @functools.cached_property
+    def hammer_gain(self) -> dict[str, float]:
+        rng = np.random.default_rng([self.config.seed, 1_000_033])
+        return {name: 1 + b.hammer.calibration_error * rng.standard_normal()
+                for name, b in self.config.bands.items()}
+
+    @functools.cached_property
+    def tested_robots(self) -> dict[str, Robot]:
+        """Per band: the robot as tested (sensor masses on the tool)."""
+        out = {}
+        for name, s in self.sensors.items():
+            out[name] = with_tool_masses(self.robot, s.tool_masses()) if s.mass > 0 else self.robot
+        return out
+
+    @functools.cached_property
+    def sim_robots(self) -> dict[str, Robot]:
+        """Per band: the model that is integrated in the time domain.
+
+        For the low band the spindle, holder and tool freedoms (0.8-28 kHz, far above the band)
+        are welded and their static compliance added back to the readings; the high band
+        integrates the full robot as tested.
+        """
+        return {name: condensed(self.tested_robots[name], ("spindle_", "tool_")) if b.sensor == "laser"
+                else self.tested_robots[name] for name, b in self.config.bands.items()}
+
+    @property
+    def freq(self) -> np.ndarray:
+        return np.concatenate([band_lines(b) for b in self.config.bands.values()])
+
+    @property
+    def band_of_line(self) -> np.ndarray:
+        return np.concatenate([[name] * len(band_lines(b)) for name, b in self.config.bands.items()])
+
+
+def run_posture(campaign: Campaign, index: int, posture: Posture) -> dict:
+    """Measure one posture; never raises for a posture that fails (it is recorded with its reason).
+
+    Returns
+    -------
+    dict
+        Arrays of the posture (see :func:`rmbench.impact.dataset.posture_part`).
+    """
+    cfg = campaign.config
+    rng = np.random.default_rng([cfg.seed, index])
+    coords = tuple(cfg.hits.points)
+    out = {"index": index, "posture": posture, "ok": True, "reason": "", "bands": {}, "q_cmd": None,
+           "steps": 0, "overloads": 0, "seconds": 0.0}
+    t0 = time.perf_counter()
+    try:
+        op_bare = campaign.robot.at(posture)
+        out["q_cmd"] = op_bare.q_cmd
+        for name, bcfg in cfg.bands.items():
+            band = campaign.bands[name]
+            sensors = campaign.sensors[name]
+            tested = campaign.tested_robots[name]
+            op_t = tested.at(op_bare.q_cmd) if tested is not campaign.robot else op_bare
+            freq = band_lines(bcfg)
+            h_ex, h_bare, modes, modes_bare = exact_band(op_t, op_bare, sensors, band, freq, COORDS)
+            op_sim = campaign.sim_robots[name].at(op_bare.q_cmd) if cfg.method == "time" else op_t
+            h_ex_in = h_ex[:, :, [COORDS.index(c) for c in coords]]
+            (h, coh), steps, over = measure_band(
+                op_sim, op_t, sensors, bcfg, band, campaign.hammer_gain[name], cfg.hits.averages,
+                coords, rng, method=cfg.method, h_exact=h_ex_in, noise_scale=cfg.noise_scale)
+            if not np.all(np.isfinite(h)):
+                raise RmbenchError(f"{name} band: the simulation diverged")
+            out["bands"][name] = {"freq": freq, "H": _full(h, coords), "coherence": _full(coh, coords),
+                                  "H_exact": h_ex, "H_exact_bare": h_bare, "modes": modes,
+                                  "modes_bare": modes_bare}
+            out["steps"] += steps
+            out["overloads"] += over
+    except RmbenchError as err:
+        out.update(ok=False, reason=str(err), bands={})
+    except Exception as err:  # a crash in one posture must not stop the campaign
+        out.update(ok=False, reason=f"{type(err).__name__}: {err}", bands={},
+                   trace=traceback.format_exc(limit=3))
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def _full(h: np.ndarray, coords) -> np.ndarray:
+    """Place measured columns (hit coordinates) into the 4x4 matrix; columns not hit stay NaN."""
+    full = np.full(h.shape[:2] + (4,), np.nan, dtype=h.dtype)
+    for k, c in enumerate(coords):
+        full[:, :, COORDS.index(c)] = h[:, :, k]
+    return full
+
+
+@functools.lru_cache(maxsize=4)
+def _campaign_from_json(config_json: str, toml: str) -> Campaign:
+    """Per-process cache: a worker builds the robot models once per campaign."""
+    return Campaign.build(CampaignConfig.model_validate_json(config_json), toml)
+
+
+def _task(config_json: str, toml: str, index: int, posture: tuple) -> dict:
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    return run_posture(_campaign_from_json(config_json, toml), index, Posture(*posture))
+
+
+def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", workers: int | None = None,
+                 scheduler: str | None = None, progress: bool = True) -> Path:
+    """Run a campaign into the dataset file ``out`` (netCDF), resuming from ``out.parts/``.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Local worker processes (default: the machine's cores); 0 runs in this process.
+    scheduler : str, optional
+        Address of an existing dask scheduler (then ``workers`` is ignored).
+    """
+    from rmbench.impact import dataset
+
+    out = Path(out)
+    postures = postures_of(cfg)
+    if not postures:
+        raise InputError("the posture grid is empty")
+    Campaign.build(cfg, toml)  # fail fast on a bad robot or tool, before anything runs
+    parts = dataset.PartStore(out, cfg, n_postures=len(postures))
+    todo = [i for i in range(len(postures)) if not parts.has(i)]
+    config_json = cfg.model_dump_json()
+    bar = _progress(len(postures), len(postures) - len(todo), progress)
+    if todo:
+        if scheduler is None and workers == 0:
+            for i in todo:
+                parts.write(_task(config_json, toml, i, _tuple(postures[i])))
+                bar.update(1)
+        else:
+            _run_dask(todo, postures, config_json, toml, parts, bar, workers, scheduler)
+    bar.close()
+    ds = parts.assemble(toml, postures)
+    dataset.save(ds, out)
+    parts.remove()
+    return out
+
+
+def _run_dask(todo, postures, config_json, toml, parts, bar, workers, scheduler):
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    if scheduler is not None:
+        client = Client(scheduler)
+        cluster = None
+    else:
+        n = workers or os.cpu_count() or 1
+        os.environ["OMP_NUM_THREADS"] = "1"
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=40)
+        client = Client(cluster)
+    try:
+        futures = [client.submit(_task, config_json, toml, i, _tuple(postures[i]), key=f"posture-{i}-{parts.digest}",
+                                 pure=False) for i in todo]
+        for fut in as_completed(futures):
+            parts.write(fut.result())
+            bar.update(1)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _tuple(p: Posture) -> tuple:
+    return (p.x, p.y, p.theta)
+
+
+def _progress(total, done, enabled):
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=done, unit="posture", disable=not enabled, desc="campaign",
+                dynamic_ncols=True)
+
+
+def dry_run(cfg: CampaignConfig) -> dict:
+    """Validate, list the postures and estimate the work: steps to simulate and time.
+
+    The time is extrapolated from the steps and a short timing of each band's simulator at the
+    first posture.
+    """
+    from rmbench.robot.simulate import simulate
+
+    campaign = Campaign.build(cfg)
+    postures = postures_of(cfg)
+    est = {"postures": [p.label() for p in postures], "n_postures": len(postures), "bands": {}}
+    op = campaign.robot.at(postures[0])
+    total_s = 0.0
+    for name, b in cfg.bands.items():
+        tested = campaign.tested_robots[name]
+        op_t = tested.at(op.q_cmd)
+        if cfg.method == "linear":
+            est["bands"][name] = {"steps_per_posture": 0}
+            continue
+        op_sim = campaign.sim_robots[name].at(op.q_cmd)
+        from rmbench.impact.measure import _decay_time, integrator_of, substeps
+
+        sub = substeps(op_sim, b)
+        n_samp = min(int(round(b.sample_rate / b.line_spacing)),
+                     int(np.ceil(_decay_time(op_t, campaign.bands[name], b.decay) * b.sample_rate)))
+        steps = n_samp * sub * len(cfg.hits.points) * cfg.hits.averages
+        t0 = time.perf_counter()
+        simulate(op_sim, np.zeros((2000, op_sim.robot.model.nv)), dt=1.0 / (b.sample_rate * sub),
+                 integrator=integrator_of(b))
+        rate = 2000 / (time.perf_counter() - t0)
+        est["bands"][name] = {"steps_per_posture": steps, "dt": 1.0 / (b.sample_rate * sub),
+                              "steps_per_s": rate}
+        total_s += steps / rate
+    est["steps_total"] = sum(v["steps_per_posture"] for v in est["bands"].values()) * len(postures)
+    est["estimated_core_seconds"] = total_s * len(postures)
+    return est

@@ -1,0 +1,272 @@
+"""One posture of an impact campaign: simulate the hits, record them as sensors would, estimate FRFs.
+
+Per band (METHODS.md §1, issue 3):
+
+- **high band** (accelerometers, hard tip): the full robot with the accelerometers' masses on the
+  tool is integrated by RK4 at ≈ 11 µs (below the stability limit of the tool's 28 kHz tip-segment
+  mode) until the slowest in-band mode has decayed to ``decay``;
+- **low band** (lasers, soft tip): the spindle, holder and tool freedoms are welded (their modes
+  are far above the band) so that a 1 ms RK4 step suffices for the 5 s decay of the low modes;
+  their static compliance under the hammer force is added back to the readings (quasi-static
+  condensation, error of order (f/f_spindle)² ≈ 0.1 %).
+
+Sensor signals then pass through the sensor dynamics, an anti-aliasing filter and decimation to the
+DAQ rate, noise, resolution and range; the records continue (noise only) to the length set by the
+line spacing; force and exponential windows; H1 and coherence over the averages.
+With ``method="linear"`` the exact as-tested FRF gets the same sensors' noise model instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+from rmbench.impact.estimate import SpectralSums, exponential_window, force_window, h1
+from rmbench.impact.hammer import Hit, draw_hit, pulse
+from rmbench.impact.sensors import COORDS, SensorSet, nominal_point
+from rmbench.robot.modes import mode_table
+from rmbench.robot.simulate import simulate, stable_step
+
+__all__ = ["BandResult", "band_lines", "measure_band", "exact_band", "hammer_rows", "integrator_of",
+           "substeps"]
+
+
+@dataclass
+class BandResult:
+    """Measured and exact receptance of one band at one posture (SI units).
+
+    Attributes
+    ----------
+    freq : ndarray, shape (n_lines,), Hz
+    H, coherence : ndarray, shape (n_lines, 4, 4)
+        Measured receptance (m/N; row response, column excitation) and coherence.
+    H_exact, H_exact_bare : ndarray, shape (n_lines, 4, 4)
+        Exact receptance as tested (sensor effects in) and of the bare structure.
+    modes, modes_bare : ModeTable
+        Exact modal parameters as tested and bare.
+    steps : int
+        Time steps simulated (0 for the linear method).
+    overloads : int
+        Samples clipped at a sensor's range.
+    """
+
+    freq: np.ndarray
+    H: np.ndarray
+    coherence: np.ndarray
+    H_exact: np.ndarray
+    H_exact_bare: np.ndarray
+    modes: object
+    modes_bare: object
+    steps: int = 0
+    overloads: int = 0
+    info: dict = field(default_factory=dict)
+
+
+def band_lines(band_cfg) -> np.ndarray:
+    """Frequency lines of a band (multiples of the line spacing inside [f_min, f_max]), Hz."""
+    df = band_cfg.line_spacing
+    k0 = int(np.ceil(band_cfg.f_min / df - 1e-9))
+    k1 = int(np.floor(band_cfg.f_max / df + 1e-9))
+    return np.arange(k0, k1 + 1) * df
+
+
+def hammer_rows(op, coords, s_1a: float, hits: list[Hit] | None = None) -> np.ndarray:
+    """Generalised-force rows of hammer hits, shape (n, n_dof): nominal, or as actually hit."""
+    rows = []
+    for k, c in enumerate(coords):
+        s, a = nominal_point(c, s_1a)
+        if hits is not None:
+            s, a = max(0.0, s + hits[k].location_error), a + hits[k].direction_error
+        d = np.array([np.cos(a), np.sin(a), 0.0])
+        rows.append(d @ op.point_jacobian(op.robot.tcp, s))
+    return np.array(rows)
+
+
+def exact_band(op_tested, op_bare, sensors: SensorSet, band, freq, coords=COORDS):
+    """Exact receptance and modes of a band, as tested and bare (see :class:`BandResult`)."""
+    s_1a = band.s_1a
+    read = sensors.reading_rows(op_tested)
+    ham_t = hammer_rows(op_tested, coords, s_1a)
+    h_exact = op_tested.linear.frf(freq, read, ham_t)
+    nominal = op_bare.coordinate_map(coords, s_1a=s_1a)
+    h_bare = op_bare.linear.frf(freq, nominal, nominal)
+    modes = mode_table(op_tested.linear.modes(), read, ham_t, band)
+    modes_bare = mode_table(op_bare.linear.modes(), nominal, nominal, band)
+    return h_exact, h_bare, modes, modes_bare
+
+
+def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gain: float,
+                 n_avg: int, coords, rng: np.random.Generator, *, method: str = "time",
+                 h_exact: np.ndarray | None = None, records: list | None = None,
+                 noise_scale: float = 1.0):
+    """Measured receptance and coherence of one band, shape (n_lines, 4, n_coords) each.
+
+    Parameters
+    ----------
+    op_sim : OperatingPoint
+        The model that is integrated (for the low band the condensed one).
+    op_full : OperatingPoint
+        The full as-tested model (static compliance of the condensed freedoms; linear method).
+    band_cfg : BandConfig
+        File units.
+    hammer_gain : float
+        Actual over nominal load-cell sensitivity.
+    noise_scale : float
+        Scale of the load cell's noise (the sensors' is in ``sensors``).
+    records : list, optional
+        If given, receives ``(k, force, responses)`` per hit: the windowed records at the DAQ
+        rate (coordinate index k, force shape (n_rec,), responses shape (n_rec, 4)), for checking
+        the estimate with another tool.
+    """
+    freq = band_lines(band_cfg)
+    fs = band_cfg.sample_rate
+    n_rec = int(round(fs / band_cfg.line_spacing))
+    lines = np.rint(freq / band_cfg.line_spacing).astype(int)
+    omega = 2 * np.pi * freq
+    accel = sensors.kind == "accelerometer"
+    hcfg = band_cfg.hammer
+    win_f = force_window(n_rec, fs, _force_window_length(hcfg, fs))
+    win_e = exponential_window(n_rec, band_cfg.exp_window)
+    load_noise = hcfg.load_cell_noise_n * noise_scale
+
+    if method == "linear":
+        return _linear_band(h_exact, omega, n_rec, fs, sensors, hcfg, n_avg, win_f, win_e,
+                            lines, load_noise, rng), 0, 0
+
+    integrator = integrator_of(band_cfg)
+    sub = substeps(op_sim, band_cfg)
+    dt = 1.0 / (fs * sub)
+    t_sim = _decay_time(op_full, band, band_cfg.decay)
+    n_samp = min(n_rec, int(np.ceil(t_sim * fs)))
+    n_step = n_samp * sub
+    t = np.arange(n_step) * dt
+
+    read_sim = sensors.reading_rows(op_sim)
+    flex, read_full = _condensation(op_sim, op_full, sensors)
+    sums = [SpectralSums(len(freq), 4) for _ in coords]
+    hits = [[draw_hit(c, hcfg, rng) for c in coords] for _ in range(n_avg)]
+    qfrc = np.empty((len(coords) * n_avg, n_step, op_sim.robot.model.nv))
+    forces = np.empty((len(coords) * n_avg, n_step))
+    static = np.zeros((len(coords) * n_avg, 4))
+    for a in range(n_avg):
+        rows_sim = hammer_rows(op_sim, coords, band.s_1a, hits[a])
+        rows_full = hammer_rows(op_full, coords, band.s_1a, hits[a]) if flex is not None else None
+        for k in range(len(coords)):
+            j = a * len(coords) + k
+            forces[j] = pulse(hits[a][k], t)
+            qfrc[j] = forces[j][:, None] * rows_sim[k][None, :]
+            if flex is not None:
+                static[j] = read_full[:, flex] @ np.linalg.solve(
+                    op_full.linear.K[np.ix_(flex, flex)], rows_full[k][flex])
+    q0 = op_sim.data.qpos
+    states = simulate(op_sim, qfrc, dt=dt, integrator=integrator)
+    overloads = 0
+    for j in range(len(forces)):
+        k = j % len(coords)
+        disp = (states[j] - q0) @ read_sim.T + forces[j][:, None] * static[j][None, :]
+        if accel:
+            resp = _second_derivative(disp, dt)
+            if sensors.highpass > 0:
+                b, a_ = signal.bilinear([1, 0], [1, 2 * np.pi * sensors.highpass], fs * sub)
+                resp = signal.lfilter(b, a_, resp, axis=0)
+        else:
+            resp = disp
+        # anti-aliasing FIR and decimation to the DAQ rate, force and responses alike
+        f_rec = _record(forces[j], sub, n_rec)
+        y_rec = np.stack([_record(resp[:, i], sub, n_rec) for i in range(4)], axis=1)
+        f_rec = hammer_gain * f_rec + load_noise * rng.standard_normal(n_rec)
+        y_rec = sensors.gain * y_rec + sensors.noise * rng.standard_normal((n_rec, 4))
+        if sensors.resolution > 0:
+            y_rec = np.round(y_rec / sensors.resolution) * sensors.resolution
+        over = np.abs(y_rec) > sensors.full_range
+        overloads += int(over.sum())
+        y_rec = np.clip(y_rec, -sensors.full_range, sensors.full_range)
+        f_win, y_win = f_rec * win_f * win_e, y_rec * win_e[:, None]
+        if records is not None:
+            records.append((k, f_win, y_win))
+        spec_f = np.fft.rfft(f_win)[lines]
+        spec_y = np.fft.rfft(y_win, axis=0)[lines]
+        sums[k].add(spec_f, spec_y)
+    h = np.empty((len(freq), 4, len(coords)), complex)
+    coh = np.empty((len(freq), 4, len(coords)))
+    for k, s in enumerate(sums):
+        hk, ck = h1(s)
+        h[:, :, k] = -hk / omega[:, None] ** 2 if accel else hk
+        coh[:, :, k] = ck
+    return (h, coh), n_step * len(forces), overloads
+
+
+def integrator_of(band_cfg) -> str:
+    """The band's integrator: ``auto`` is RK4 (error (ω dt)⁴ on the condensed models)."""
+    return "rk4" if band_cfg.integrator == "auto" else band_cfg.integrator
+
+
+def substeps(op_sim, band_cfg) -> int:
+    """Simulation steps per DAQ sample: below the stability limit and fine enough for the band.
+
+    Accuracy bounds ω·dt at f_max: 0.3 for RK4 (error ~(ω dt)⁴/120), 0.15 for Euler.
+    """
+    integrator = integrator_of(band_cfg)
+    accuracy = (0.3 if integrator == "rk4" else 0.15) / (2 * np.pi * band_cfg.f_max)
+    dt_max = min(stable_step(op_sim, integrator=integrator), accuracy)
+    return int(np.ceil(1.0 / (band_cfg.sample_rate * dt_max)))
+
+
+def _force_window_length(hcfg, fs: float) -> float:
+    """Pulse (and double hit) with margin, and at least 32 samples: the anti-aliasing filter
+    spreads a pulse of a few samples over its impulse response, which the window must keep."""
+    extra = hcfg.double_hit_delay_ms if hcfg.double_hit_probability > 0 else 0.0
+    return max(1e-3 * (3 * hcfg.pulse_ms + extra), 32 / fs)
+
+
+def _decay_time(op, band, decay: float) -> float:
+    """Time for the slowest mode in the band to decay to ``decay`` of its initial amplitude, s."""
+    modes = op.linear.modes()
+    in_band = (modes.f_n >= band.f_min) & (modes.f_n <= band.f_max)
+    rate = np.min(-modes.poles.real[in_band]) if np.any(in_band) else 2 * np.pi * band.f_min * 0.01
+    return float(np.log(1 / decay) / rate)
+
+
+def _condensation(op_sim, op_full, sensors):
+    """Freedoms of the full model missing from the simulated one, and the full model's reading rows."""
+    if op_sim.linear.n_dof == op_full.linear.n_dof:
+        return None, None
+    kept = set(op_sim.linear.dof_names)
+    flex = np.array([i for i, n in enumerate(op_full.linear.dof_names) if n not in kept])
+    return flex, sensors.reading_rows(op_full)
+
+
+def _second_derivative(y: np.ndarray, dt: float) -> np.ndarray:
+    out = np.zeros_like(y)
+    out[1:-1] = (y[2:] - 2 * y[1:-1] + y[:-2]) / dt**2
+    return out
+
+
+def _record(x: np.ndarray, sub: int, n_rec: int) -> np.ndarray:
+    """Anti-alias, decimate by ``sub`` and pad with the structure at rest to ``n_rec`` samples."""
+    y = signal.resample_poly(x, 1, sub) if sub > 1 else x
+    out = np.zeros(n_rec)
+    out[: min(n_rec, len(y))] = y[:n_rec]
+    return out
+
+
+def _linear_band(h_exact, omega, n_rec, fs, sensors, hcfg, n_avg, win_f, win_e, lines, load_noise, rng):
+    """Exact as-tested FRF plus the noise an H1 estimate of the same test would carry."""
+    t = np.arange(n_rec) / fs
+    nominal = Hit(coordinate="1X", peak=hcfg.peak_n, duration=1e-3 * hcfg.pulse_ms)
+    f_spec = np.fft.rfft(pulse(nominal, t) * win_f * win_e)[lines]
+    # white noise of rms σ over n samples has E|N_k|² = n σ² per DFT line (before windowing)
+    e_win = np.mean(win_e**2)
+    s_nn = n_rec * sensors.noise**2 * e_win
+    s_ff_noise = n_rec * load_noise**2 * np.mean((win_f * win_e) ** 2)
+    to_reading = -(omega**2) if sensors.kind == "accelerometer" else np.ones_like(omega)
+    h_read = h_exact * to_reading[:, None, None]
+    sff = np.abs(f_spec) ** 2
+    sigma_h = np.sqrt(s_nn / (n_avg * sff))[:, None, None]
+    noise = sigma_h * (rng.standard_normal(h_exact.shape) + 1j * rng.standard_normal(h_exact.shape)) / np.sqrt(2)
+    h_meas = (h_read + noise) / to_reading[:, None, None]
+    signal_power = np.abs(h_read) ** 2 * sff[:, None, None]
+    coh = signal_power / (signal_power + s_nn) * (sff / (sff + s_ff_noise))[:, None, None]
+    return h_meas, coh
