@@ -24,6 +24,8 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/modes.py | tee bench/results/modes.txt
+	$(BIN)/python bench/invalidation.py | tee bench/results/invalidation.txt
+	$(BIN)/python bench/campaign_speed.py | tee bench/results/campaign_speed.txt
 
 clean:
 	rm -rf $(VENV) rmbench_demo
