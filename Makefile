@@ -26,6 +26,8 @@ bench: $(STAMP)
 	$(BIN)/python bench/modes.py | tee bench/results/modes.txt
 	$(BIN)/python bench/invalidation.py | tee bench/results/invalidation.txt
 	$(BIN)/python bench/campaign_speed.py | tee bench/results/campaign_speed.txt
+	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
+	$(BIN)/python bench/modal_vs_sdypy.py | tee bench/results/modal_vs_sdypy.txt
 
 clean:
 	rm -rf $(VENV) rmbench_demo

@@ -20,7 +20,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rmbench.cli import campaign, demo, model, tracker
+    from rmbench.cli import campaign, demo, modal, model, tracker
 
     parser = _Parser(prog="rmbench", description="Virtual test bench for robotic machining dynamics.")
     parser.add_argument("--version", action="version", version=f"rmbench {__version__}")
@@ -28,6 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     model.register(sub)
     campaign.register(sub)
+    modal.register(sub)
     tracker.register(sub)
     demo.register(sub)
     return parser

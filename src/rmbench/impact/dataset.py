@@ -21,7 +21,7 @@ from rmbench.errors import InputError
 from rmbench.robot.modes import PARAMS
 from rmbench.impact.sensors import COORDS
 
-__all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "mac"]
+__all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "posture_positions", "mac"]
 
 DATASET_VERSION = 1
 
@@ -31,44 +31,112 @@ def mac(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * np.vdot(b, b).real))
 
 
-def track_modes(tables: list, max_cost: float = 0.6) -> np.ndarray:
-    """Consistent mode numbers over a sequence of postures.
+def posture_positions(x, y, theta) -> np.ndarray:
+    """Posture coordinates for neighbour search: 0.1 m of travel weighs as much as 10° of θ.
 
-    Modes are numbered by frequency at the first posture that has any; each later posture's modes
-    are paired with the last known value of each tracked mode by minimum cost
-    ``(1 − MAC(φR)) + |Δf|/f`` (Hungarian assignment); a pairing above ``max_cost`` is left out.
+    Parameters
+    ----------
+    x, y : array_like, shape (n_postures,), m
+    theta : array_like, shape (n_postures,), rad
+
+    Returns
+    -------
+    ndarray, shape (n_postures, 3)
+    """
+    return np.column_stack([np.asarray(x) / 0.1, np.asarray(y) / 0.1, np.asarray(theta) / np.radians(10)])
+
+
+def track_modes(tables: list, positions: np.ndarray | None = None, *, freq_tol: float = 0.05,
+                max_cost: float = 3.0) -> np.ndarray:
+    """Consistent mode numbers over the postures of a campaign.
+
+    Modes are numbered by frequency at the first posture that has any (the root; DATA.md). The
+    other postures are visited along the minimum spanning tree of their ``positions`` from the
+    root (in the order given without positions), and each posture's modes are paired with the
+    tracked modes of its parent — its nearest already-tracked neighbour, so that a mode never
+    jumps across the workspace between two comparisons — by minimum cost
+    ``(1 − MAC([φR, φL])) + |Δf| / (f · freq_tol)`` (Hungarian assignment); a mode missing at
+    the parent is compared with its value further up the tree. A mode whose best pairing costs
+    more than ``max_cost`` starts a new track, numbered after the existing ones. Comparing φR and φL together (8 complex entries) separates close modes
+    better than φR alone; the frequency term dominates once two modes are more than
+    ``freq_tol`` apart, because base-frame eigenvector components rotate with the wrist (two
+    perpendicular spindle bending modes swap their X/Y shapes as θ turns) while a mode's
+    frequency moves little between neighbouring postures.
 
     Parameters
     ----------
     tables : list of ModeTable or None
         One per posture (None for a failed posture).
+    positions : ndarray, shape (n_postures, d), optional
+        Posture coordinates scaled to comparable units (see :func:`posture_positions`).
 
     Returns
     -------
     ndarray, shape (n_postures, n_tracked, 16)
         Parameters in DATA.md order, NaN where a mode was not found.
     """
-    ref = next((t for t in tables if t is not None and len(t)), None)
-    n = len(ref) if ref is not None else 0
-    out = np.full((len(tables), n, 16), np.nan)
-    if n == 0:
-        return out
-    last_f = ref.f_n.copy()
-    last_phi = ref.phi_r.copy()
-    for p, t in enumerate(tables):
-        if t is None or len(t) == 0:
+    valid = [p for p, t in enumerate(tables) if t is not None and len(t)]
+    if not valid:
+        return np.full((len(tables), 0, 16), np.nan)
+    root = valid[0]
+    n = len(tables[root])
+    order, parent = _visit_order(valid, root, positions)
+    t0 = tables[root]
+    rank = np.argsort(t0.f_n)
+    columns = [np.full((len(tables), 16), np.nan) for _ in range(n)]
+    for i, j in enumerate(rank):
+        columns[i][root] = t0.params()[j]
+    origin = [(t0.f_n[j], _shapes(t0)[j]) for j in rank]  # where each track was first seen
+    state = {root: {i: origin[i] for i in range(n)}}
+    for p in order:
+        if p == root:
             continue
-        cost = np.empty((n, len(t)))
-        for i in range(n):
-            for j in range(len(t)):
-                cost[i, j] = (1 - mac(last_phi[i], t.phi_r[j])) + abs(t.f_n[j] - last_f[i]) / last_f[i]
+        # the parent's view of every track; tracks it never saw, as first seen
+        known = {i: state[parent[p]].get(i, origin[i]) for i in range(len(columns))}
+        t = tables[p]
+        shapes = _shapes(t)
+        cost = np.array([[(1 - mac(known[i][1], shapes[j]))
+                          + abs(t.f_n[j] - known[i][0]) / (known[i][0] * freq_tol)
+                          for j in range(len(t))] for i in range(len(columns))])
         rows, cols = linear_sum_assignment(cost)
         params = t.params()
+        paired = set()
         for i, j in zip(rows, cols):
             if cost[i, j] <= max_cost:
-                out[p, i] = params[j]
-                last_f[i], last_phi[i] = t.f_n[j], t.phi_r[j]
-    return out
+                columns[i][p] = params[j]
+                known[i] = (t.f_n[j], shapes[j])
+                paired.add(j)
+        for j in np.argsort(t.f_n):
+            if j not in paired:  # a mode unlike every tracked one starts a track of its own
+                columns.append(np.full((len(tables), 16), np.nan))
+                columns[-1][p] = params[j]
+                origin.append((t.f_n[j], shapes[j]))
+                known[len(columns) - 1] = origin[-1]
+        state[p] = known
+    return np.stack(columns, axis=1)
+
+
+def _shapes(table) -> np.ndarray:
+    """[φR / |φR|, φL / |φL|] of each mode, shape (n_modes, 8): both sides weigh alike in the MAC."""
+    r = table.phi_r / np.linalg.norm(table.phi_r, axis=1, keepdims=True)
+    lft = table.phi_l / np.linalg.norm(table.phi_l, axis=1, keepdims=True)
+    return np.concatenate([r, lft], axis=1)
+
+
+def _visit_order(valid: list, root: int, positions) -> tuple[list, dict]:
+    """Postures in tree order from the root and each one's parent (the previous one without positions)."""
+    if positions is None:
+        order = [root] + [p for p in valid if p != root]
+        return order, {p: q for q, p in zip(order[:-1], order[1:])}
+    from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
+    from scipy.spatial.distance import cdist
+
+    pos = np.asarray(positions, float)[valid]
+    # ties in distance are broken by index; a tiny offset keeps zero distances as edges
+    tree = minimum_spanning_tree(cdist(pos, pos) + 1e-9)
+    idx, pred = breadth_first_order(tree, valid.index(root), directed=False)
+    order = [valid[i] for i in idx]
+    return order, {valid[i]: valid[pred[i]] for i in idx if pred[i] >= 0}
 
 
 class PartStore:
@@ -165,7 +233,9 @@ class PartStore:
                 start += n_b
         modal, mode_band = {}, []
         for k in ("modes", "modes_bare"):
-            blocks = [track_modes(tables[(b, k)]) for b in bands]
+            pos = posture_positions([p.x for p in postures], [p.y for p in postures],
+                                    [p.theta for p in postures])
+            blocks = [track_modes(tables[(b, k)], pos) for b in bands]
             modal[k] = np.concatenate(blocks, axis=1) if blocks else np.zeros((self.n, 0, 16))
             if k == "modes":
                 mode_band = np.concatenate([[b] * blk.shape[1] for b, blk in zip(bands, blocks)])

@@ -101,11 +101,7 @@ def write_uff58(ds: xr.Dataset, directory: str | os.PathLike, *, binary: bool = 
     """
     h, freq, band_lines, rows = _campaign(ds)
     attributes = _attributes_json(ds.attrs)
-    directory = Path(directory)
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create the UFF directory {directory}: {exc.strerror or exc}") from None
+    directory = _uff_directory(directory)
     date = _uff_date(ds.attrs.get("created"))
     written = []
     for p, row in enumerate(rows):
@@ -300,6 +296,16 @@ def _read_attributes(directory: Path) -> dict:
     if not isinstance(attrs, dict):
         raise InputError(f"attribute file {path} must hold a JSON object, got {type(attrs).__name__}")
     return attrs
+
+
+def _uff_directory(directory) -> Path:
+    """The output directory as a Path, created if missing (one-line error if it cannot be)."""
+    directory = Path(directory)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the UFF directory {directory}: {exc.strerror or exc}") from None
+    return directory
 
 
 def _write_atomic(path: Path, payload: bytes) -> None:

@@ -1,0 +1,251 @@
+"""Specification of rmbench.modal: blind pLSCF + MDOF fitting of one band's 4x4 receptance matrix."""
+
+import numpy as np
+import pytest
+
+from rmbench.errors import InputError
+from rmbench.modal import PARAM_NAMES, ModalFit, NotFittedError, synthesize
+from rmbench.modal import mdof
+
+# Table B1 of seed 000 (identified modal parameters at the representative posture): f_n in Hz,
+# ζ in %, φL and φR·1e7 (s/kg) at 1X, 1Y, 1aX, 1aY — the column order METHODS §2 states; it is
+# confirmed by the data (1X ≈ 1aX and 1Y ≈ 1aY at the low modes) and by φL[1aY] = 1 in the last
+# column.
+TABLE_B1 = [
+    (10.44, 1.16, [1.55 - 1.12j, 0.54 + 0.70j, 0.20 - 1.80j, 1],
+     [19.04 - 8.83j, -2.26 + 5.44j, 17.90 - 8.68j, -2.28 + 5.42j]),
+    (13.11, 7.98, [0.13 + 0.04j, 1.00 + 0.03j, 0.16 - 0.001j, 1],
+     [28.60 - 37.61j, -80.28 - 286.20j, 19.77 - 52.51j, -83.08 - 289.94j]),
+    (15.24, 6.05, [-7.73 + 11.96j, 0.84 - 0.58j, -7.63 + 12.29j, 1],
+     [-22.17 + 4.47j, 1.56 + 2.70j, -21.01 + 5.14j, 1.28 + 2.96j]),
+    (15.96, 2.08, [-2.89 + 1.52j, 0.66 + 0.05j, -2.73 + 1.39j, 1],
+     [12.89 + 69.23j, -0.25 - 14.60j, 12.60 + 65.55j, -0.56 - 13.83j]),
+    (21.17, 5.04, [0.08 + 0.02j, 1.01 + 0.02j, 0.13 + 0.03j, 1],
+     [-4.27 - 27.81j, -63.86 - 326.41j, -8.77 - 37.14j, -62.74 - 327.64j]),
+    (844.46, 9.92, [0.15 + 0.48j, 0.87 + 0.29j, 0.11 + 0.34j, 1],
+     [241.37 + 10.54j, 578.91 - 1642.99j, 299.70 - 240.88j, 475.05 - 1405.91j]),
+    (863.46, 5.89, [-1.72 + 2.31j, 0.41 + 0.77j, -1.27 + 1.65j, 1],
+     [-551.97 + 131.80j, 215.69 + 277.06j, -458.39 + 171.29j, 131.43 + 245.93j]),
+    (884.06, 1.42, [-0.06 + 2.61j, 0.45 + 1.37j, -1.02 + 2.40j, 1],
+     [-69.69 + 101.74j, 24.62 + 46.83j, -59.94 + 96.89j, 14.62 + 49.69j]),
+    (895.58, 2.30, [-0.72 + 0.10j, 1.19 + 0.69j, -0.69 + 0.03j, 1],
+     [285.42 + 80.93j, -407.64 - 244.84j, 194.78 + 34.62j, -319.32 - 205.79j]),
+]
+F_N = np.array([row[0] for row in TABLE_B1])
+ZETA = np.array([row[1] for row in TABLE_B1]) / 100
+PHI_L = np.array([row[2] for row in TABLE_B1], complex)
+PHI_R = np.array([row[3] for row in TABLE_B1], complex) * 1e-7
+BANDS = {"low": (np.arange(5.0, 30.0 + 1e-9, 0.05), slice(0, 5)),
+         "high": (np.arange(750.0, 1000.0 + 1e-9, 0.5), slice(5, 9))}
+
+
+def poles_of(f_n, zeta):
+    wn = 2 * np.pi * f_n
+    return -zeta * wn + 1j * wn * np.sqrt(1 - zeta**2)
+
+
+def mac(a, b):
+    return np.abs(np.sum(a.conj() * b, axis=-1)) ** 2 / (
+        np.sum(np.abs(a) ** 2, axis=-1) * np.sum(np.abs(b) ** 2, axis=-1))
+
+
+def noisy(H, level, seed):
+    """Complex Gaussian noise of ``level`` times each FRF's peak magnitude (rms)."""
+    rng = np.random.default_rng(seed)
+    peak = np.abs(H).max(axis=0)
+    return H + level * peak * (rng.standard_normal(H.shape)
+                               + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
+
+
+@pytest.fixture(scope="module")
+def table_b1_fits():
+    """Both bands synthesised from all 9 modes (out-of-band modes act as residuals), 1 % noise,
+    fitted blind."""
+    fits = {}
+    for band, (freq, _) in BANDS.items():
+        H = noisy(synthesize(freq, poles_of(F_N, ZETA), PHI_R, PHI_L), 0.01, seed=1)
+        fits[band] = (freq, H, ModalFit().fit(freq, H))
+    return fits
+
+
+@pytest.mark.parametrize("band", ["low", "high"])
+def test_table_b1_recovered_blind(table_b1_fits, band):
+    """Issue 4 acceptance: frequency within 0.5 %, damping within 10 %, MAC >= 0.98.
+
+    The limits are the issue's; with 1 % noise the fit lands well inside them (errors of a few
+    0.01 % in frequency and < 1 % in damping), so a regression shows long before they fail.
+    """
+    _, _, fit = table_b1_fits[band]
+    sel = BANDS[band][1]
+    assert fit.n_modes_ == len(F_N[sel])
+    assert np.max(np.abs(fit.f_n_ / F_N[sel] - 1)) < 0.005
+    assert np.max(np.abs(fit.zeta_ / ZETA[sel] - 1)) < 0.10
+    assert np.min(mac(fit.phi_r_, PHI_R[sel])) >= 0.98
+    assert np.min(mac(fit.phi_l_, PHI_L[sel])) >= 0.98
+    np.testing.assert_array_equal(fit.phi_l_[:, 3], 1)
+
+
+@pytest.mark.parametrize("band", ["low", "high"])
+def test_standard_errors_cover_the_truth(table_b1_fits, band):
+    """The Jacobian's standard errors are honest: every f_n and ζ within 5 σ of the table."""
+    _, _, fit = table_b1_fits[band]
+    sel = BANDS[band][1]
+    assert np.all(np.isfinite(fit.std_)) and np.all(fit.std_[:, :2] > 0)
+    assert np.all(np.abs(fit.params_[:, 0] - F_N[sel]) < 5 * fit.std_[:, 0])
+    assert np.all(np.abs(fit.params_[:, 1] - ZETA[sel]) < 5 * fit.std_[:, 1])
+
+
+def test_params_follow_data_md_order(table_b1_fits):
+    """params_ columns are DATA.md's (the robot stage's PARAMS), built from the fitted arrays."""
+    from rmbench.robot.modes import PARAMS
+
+    assert PARAM_NAMES == PARAMS
+    _, _, fit = table_b1_fits["low"]
+    assert fit.params_.shape == fit.std_.shape == (fit.n_modes_, 16)
+    np.testing.assert_allclose(fit.params_[:, 0], fit.f_n_)
+    np.testing.assert_allclose(fit.params_[:, 1], fit.zeta_)
+    for name, col in zip(PARAM_NAMES[2:], fit.params_[:, 2:].T):
+        side, coord, part = name.split("_")
+        vec = fit.phi_l_ if side == "phiL" else fit.phi_r_
+        val = vec[:, ("1X", "1Y", "1aX", "1aY").index(coord)]
+        np.testing.assert_allclose(col, val.real if part == "re" else val.imag)
+
+
+def test_model_fits_to_the_noise_floor(table_b1_fits):
+    """predict() (modes plus residual terms) explains the data down to the 1 % noise."""
+    for freq, H, fit in table_b1_fits.values():
+        assert fit.predict(freq).shape == H.shape
+        assert fit.nmse_.shape == (4, 4) and np.all(fit.nmse_ < 0.01)
+        assert set(fit.residual_) == {"lower", "upper"}
+        st = fit.stabilization_
+        assert len(st.order) == len(st.pole) == len(st.stable) == len(st.cluster)
+
+
+def test_synthesize_is_eq16_term_by_term():
+    """The vectorised Eq. 15 equals the explicit double sum of Eq. 16."""
+    freq = np.array([5.0, 12.0, 860.0])
+    lam = poles_of(F_N, ZETA)
+    H = synthesize(freq, lam, PHI_R, PHI_L)
+    for f_i, f in enumerate(freq):
+        s = 2j * np.pi * f
+        for j in range(4):
+            for k in range(4):
+                ref = sum(PHI_R[r, j] * PHI_L[r, k] / (s - lam[r])
+                          + np.conj(PHI_R[r, j] * PHI_L[r, k]) / (s - np.conj(lam[r]))
+                          for r in range(len(lam)))
+                assert H[f_i, j, k] == pytest.approx(ref, rel=1e-12)
+
+
+def test_reciprocal_data_give_left_proportional_to_right():
+    """A symmetric (reciprocal) system, φL = φR / φR[1aY], must come back with φL ∝ φR."""
+    sel = BANDS["low"][1]
+    phi_r = PHI_R[sel]
+    phi_l = phi_r / phi_r[:, 3:]
+    freq = BANDS["low"][0]
+    H = noisy(synthesize(freq, poles_of(F_N[sel], ZETA[sel]), phi_r, phi_l), 0.005, seed=2)
+    np.testing.assert_allclose(H, np.swapaxes(H, 1, 2), atol=0.05 * np.abs(H).max())
+    fit = ModalFit().fit(freq, H)
+    assert fit.n_modes_ == 5
+    assert np.min(mac(fit.phi_l_, fit.phi_r_)) > 0.99
+
+
+@pytest.mark.parametrize("ref", [3, 0], ids=["ref-1aY", "ref-1X"])
+@pytest.mark.parametrize("residuals", [True, False], ids=["residuals", "no-residuals"])
+def test_analytic_jacobian_matches_finite_differences(ref, residuals):
+    """The hand-written Jacobian equals central differences (relative 1e-6 of its scale)."""
+    rng = np.random.default_rng(3)
+    n = 3
+    lam = np.array([-0.02 + 0.8j, -0.05 + 1.0j, -0.03 + 1.3j])
+    phi_r = rng.standard_normal((n, 4)) + 1j * rng.standard_normal((n, 4))
+    phi_l = rng.standard_normal((n, 4)) + 1j * rng.standard_normal((n, 4))
+    phi_l /= phi_l[:, ref:ref + 1]
+    refs = np.full(n, ref)
+    low, up = (rng.standard_normal((2, 4, 4)) + 1j * rng.standard_normal((2, 4, 4))) * 0.1
+    x = mdof._pack(lam, phi_r, phi_l, low, up, refs, residuals)
+    omega = np.linspace(0.5, 1.6, 40)
+    Hs = rng.standard_normal((40, 4, 4)) + 1j * rng.standard_normal((40, 4, 4))
+    W = rng.uniform(0.5, 2.0, (40, 4, 4))
+    args = (omega, Hs, W, n, refs, residuals)
+    J = mdof._jacobian(x, *args)
+    h = 1e-6
+    J_fd = np.column_stack([(mdof._residual(x + h * e, *args) - mdof._residual(x - h * e, *args))
+                            / (2 * h) for e in np.eye(len(x))])
+    assert J.shape == J_fd.shape
+    np.testing.assert_allclose(J, J_fd, atol=1e-6 * np.abs(J).max())
+
+
+def test_ref_moves_the_normalisation_not_the_model(table_b1_fits):
+    """ref=0 fixes φL[1X] = 1; the poles and the model FRF are those of the default ref.
+
+    The two parameterisations reach the same least-squares minimum only to the optimiser's
+    stopping rule (χ² changing by < 1e-3 of the residual variance), so the model FRFs are
+    compared to 1e-3 of the data's noise (1 % of the peak), far below anything physical."""
+    freq, H, fit3 = table_b1_fits["low"]
+    fit0 = ModalFit(ref=0).fit(freq, H)
+    np.testing.assert_array_equal(fit0.phi_l_[:, 0], 1)
+    assert fit0.ref_ == 0 and np.all(fit0.refs_ == 0)
+    np.testing.assert_allclose(fit0.poles_, fit3.poles_, rtol=1e-6)
+    np.testing.assert_allclose(fit0.predict(freq), fit3.predict(freq),
+                               atol=1e-3 * 0.01 * np.abs(H).max())
+
+
+def test_n_modes_takes_the_strongest_clusters(table_b1_fits):
+    """Asking for 3 of the 5 low modes selects 3 clusters, each one of the table's modes.
+
+    (The fitted poles then compromise for the 2 modes left out, so only the selection is
+    checked against the table.)"""
+    freq, H, _ = table_b1_fits["low"]
+    fit = ModalFit(n_modes=3).fit(freq, H)
+    assert fit.n_modes_ == 3
+    f_sel = np.abs(fit.stabilization_.selected) / (2 * np.pi)
+    assert np.all(np.min(np.abs(f_sel[:, None] / F_N[None, :5] - 1), axis=1) < 0.01)
+
+
+def test_unfitted_estimator_says_so():
+    with pytest.raises(NotFittedError, match="not fitted"):
+        ModalFit().poles_
+    with pytest.raises(NotFittedError, match="not fitted"):
+        ModalFit().predict(np.array([10.0]))
+
+
+def _bad_cases():
+    freq = BANDS["low"][0]
+    H = synthesize(freq, poles_of(F_N[:5], ZETA[:5]), PHI_R[:5], PHI_L[:5])
+    nan = H.copy()
+    nan[10, 1, 2] = np.nan
+    noise = (np.random.default_rng(4).standard_normal(H.shape)
+             + 1j * np.random.default_rng(5).standard_normal(H.shape)) * 1e-7
+    return [
+        ("nan", freq, nan, "NaN"),
+        ("zeros", freq, np.zeros_like(H), "all zeros"),
+        ("non-square", freq, H[:, :, :3], "square"),
+        ("3x3", freq, H[:, :3, :3], "4x4"),
+        ("2-d", freq, H[:, 0, :], r"shape \(n_freq, 4, 4\)"),
+        ("shape-mismatch", freq[:-1], H, "lines but freq has"),
+        ("non-uniform", freq ** 1.01, H, "uniformly spaced"),
+        ("noise-only", freq, noise, "no stable poles found"),
+    ]
+
+
+@pytest.mark.parametrize("name, freq, H, match", _bad_cases(), ids=[c[0] for c in _bad_cases()])
+def test_bad_input_raises_input_error(name, freq, H, match):
+    with pytest.raises(InputError, match=match):
+        ModalFit().fit(freq, H)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"n_modes": 0}, "n_modes"), ({"max_order": 1}, "max_order"),
+    ({"weighting": "snr"}, "weighting"), ({"ref": 4}, "ref")], ids=["n_modes", "max_order",
+                                                                    "weighting", "ref"])
+def test_bad_settings_raise_input_error(kwargs, match):
+    freq = BANDS["low"][0]
+    H = synthesize(freq, poles_of(F_N[:5], ZETA[:5]), PHI_R[:5], PHI_L[:5])
+    with pytest.raises(InputError, match=match):
+        ModalFit(**kwargs).fit(freq, H)
+
+
+def test_bad_coherence_raises_input_error():
+    freq = BANDS["low"][0]
+    H = synthesize(freq, poles_of(F_N[:5], ZETA[:5]), PHI_R[:5], PHI_L[:5])
+    with pytest.raises(InputError, match="coherence"):
+        ModalFit().fit(freq, H, coherence=np.full(H.shape, 1.5))

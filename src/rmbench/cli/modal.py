@@ -1,0 +1,126 @@
+"""``rmbench modal fit`` and ``rmbench modal plot``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rmbench.cli._common import print_json
+from rmbench.errors import InputError
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    p = sub.add_parser("modal", help="MDOF modal fitting of measured FRF matrices")
+    msub = p.add_subparsers(dest="modal_command", metavar="SUBCOMMAND", parser_class=type(p))
+    fit = msub.add_parser("fit", help="fit all 16 FRFs per band with shared poles and left/right eigenvectors")
+    fit.add_argument("data", help="campaign dataset (netCDF) or a directory of UFF58 files")
+    fit.add_argument("--out", default=None, help="modal dataset to write (netCDF)")
+    fit.add_argument("--band", choices=("low", "high", "both"), default="both")
+    fit.add_argument("--modes", type=int, default=None, help="modes per band (default: chosen by the data)")
+    fit.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores; 0: here)")
+    fit.add_argument("--csv", default=None, help="also write the parameters as CSV")
+    fit.add_argument("--uff", default=None, help="also write UFF55 modal files into this directory")
+    fit.add_argument("--json", action="store_true", help="print the modes as JSON (one posture: its modes)")
+    fit.set_defaults(func=cmd_fit)
+
+    plot = msub.add_parser("plot", help="stabilisation diagram and measured vs fitted FRF matrix of one posture")
+    plot.add_argument("data", help="campaign dataset or UFF58 directory")
+    plot.add_argument("--index", type=int, default=0, help="posture position")
+    plot.add_argument("--band", choices=("low", "high"), default="high")
+    plot.add_argument("--out", required=True, help="PNG file (the FRF matrix goes beside it, *_frf.png)")
+    plot.set_defaults(func=cmd_plot)
+    p.set_defaults(func=lambda args: p.print_help() or 2)
+
+
+def _load(path: str):
+    from rmbench.impact import open_campaign
+
+    p = Path(path)
+    if p.is_dir():
+        from rmbench.io import read_uff58
+
+        ds = read_uff58(p)
+        ds.attrs["source_file"] = str(p)
+        return ds
+    ds = open_campaign(p)
+    ds.attrs["source_file"] = str(p)
+    return ds
+
+
+def cmd_fit(args) -> int:
+    from rmbench.impact.dataset import save
+    from rmbench.modal.campaign_fit import fit_campaign
+
+    if args.modes is not None and args.modes < 1:
+        raise InputError(f"--modes must be at least 1, got {args.modes}")
+    ds = _load(args.data)
+    bands = ("low", "high") if args.band == "both" else (args.band,)
+    res = fit_campaign(ds, bands=bands, n_modes=args.modes, workers=args.workers)
+    if args.out:
+        save(res, args.out)
+    if args.csv or args.uff:
+        from rmbench.io import write_modal_csv, write_uff55
+
+        if args.csv:
+            write_modal_csv(res, args.csv)
+        if args.uff:
+            write_uff55(res, args.uff)
+    if args.json:
+        print_json(_as_json(res))
+        return 0
+    n_ok = int(res.fit_ok.sum())
+    print(f"fitted {n_ok} of {res.sizes['posture']} postures, {res.sizes['mode']} tracked modes "
+          f"({', '.join(f'{b}: {int((res.mode_band == b).sum())}' for b in bands)}) in {res.attrs['fit_seconds']:.1f} s")
+    for p in np.flatnonzero(~res.fit_ok.values):
+        print(f"  posture {p} not fitted: {res.fit_reason.values[p]}")
+    if "f_err" in res:
+        print(f"  against ground truth: |f error| p95 {np.nanpercentile(np.abs(res.f_err), 95):.4f}, "
+              f"|zeta error| p95 {np.nanpercentile(np.abs(res.zeta_err), 95):.4f}, "
+              f"MAC phiR p05 {np.nanpercentile(res.mac_phiR, 5):.4f}, phiL p05 {np.nanpercentile(res.mac_phiL, 5):.4f}")
+    if args.out:
+        print(f"wrote {args.out}")
+    return 0
+
+
+def _as_json(res) -> dict:
+    from rmbench.modal.campaign_fit import mode_vectors
+
+    def modes_of(p):
+        out = []
+        for m in range(res.sizes["mode"]):
+            prm = res.modal.values[p, m]
+            if not np.isfinite(prm[0]):
+                continue
+            r, l = mode_vectors(res, p, m)
+            out.append({"f_n": prm[0], "zeta": prm[1], "band": str(res.mode_band.values[m]),
+                        "phiL": {c: [l[i].real, l[i].imag] for i, c in enumerate(("1X", "1Y", "1aX", "1aY"))},
+                        "phiR": {c: [r[i].real, r[i].imag] for i, c in enumerate(("1X", "1Y", "1aX", "1aY"))}})
+        return out
+
+    if res.sizes["posture"] == 1:
+        return {"modes": modes_of(0), "units": {"f_n": "Hz", "zeta": "ratio", "phiR": "s/kg", "phiL": "1"}}
+    return {"postures": [{"index": int(p), "ok": bool(res.fit_ok.values[p]), "modes": modes_of(p)}
+                         for p in range(res.sizes["posture"])]}
+
+
+def cmd_plot(args) -> int:
+    from rmbench.modal import ModalFit
+    from rmbench.modal.plot import plot_fit
+
+    ds = _load(args.data)
+    if not 0 <= args.index < ds.sizes["posture"]:
+        raise InputError(f"--index {args.index} is outside 0..{ds.sizes['posture'] - 1}")
+    sel = ds.band.values == args.band
+    if not sel.any():
+        raise InputError(f"no {args.band}-band lines in {args.data}")
+    freq = ds.freq.values[sel]
+    h = ds.H.values[args.index][sel]
+    coh = ds.coherence.values[args.index][sel] if "coherence" in ds else None
+    fit = ModalFit().fit(freq, h, coherence=coh)
+    out = Path(args.out)
+    plot_fit(fit, freq, h, out, out.with_name(out.stem + "_frf.png"))
+    print(f"wrote {out} and {out.with_name(out.stem + '_frf.png')}")
+    return 0

@@ -1,0 +1,60 @@
+"""Figures of a modal fit: stabilisation diagram and measured vs fitted FRF matrix.
+
+matplotlib is imported only when a figure is drawn.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_fit"]
+
+COORDS = ("1X", "1Y", "1aX", "1aY")
+
+
+def plot_fit(fit, freq, H, stabilization_path, frf_path) -> None:
+    """Write the stabilisation diagram and the measured vs fitted 4x4 receptance of one band.
+
+    Parameters
+    ----------
+    fit : ModalFit
+        A fitted estimator.
+    freq : ndarray, shape (n_freq,), Hz
+    H : ndarray, shape (n_freq, 4, 4), complex, m/N
+        The measured receptance the fit was made on.
+    stabilization_path, frf_path : path-like
+        PNG files to write.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(10, 6))
+    fit.stabilization_.plot(ax, freq=freq, H=H)
+    ax.set_title(f"Stabilisation diagram: {fit.n_modes_} modes at "
+                 f"{', '.join(f'{f:.2f}' for f in fit.f_n_)} Hz")
+    fig.tight_layout()
+    fig.savefig(stabilization_path, dpi=90)
+    plt.close(fig)
+
+    model = fit.predict(freq)
+    fig, axes = plt.subplots(8, 4, figsize=(15, 17), sharex=True)
+    for i, o in enumerate(COORDS):
+        for j, c in enumerate(COORDS):
+            ax_m, ax_p = axes[2 * i, j], axes[2 * i + 1, j]
+            ax_m.semilogy(freq, np.abs(H[:, i, j]), ".", ms=1.5, label="measured")
+            ax_m.semilogy(freq, np.abs(model[:, i, j]), "-", lw=0.8, label="fitted")
+            ax_p.plot(freq, np.degrees(np.angle(H[:, i, j])), ".", ms=1.5)
+            ax_p.plot(freq, np.degrees(np.angle(model[:, i, j])), "-", lw=0.8)
+            ax_m.set_title(f"{o} / {c}  NMSE {100 * fit.nmse_[i, j]:.2f} %", fontsize=8)
+            for ax in (ax_m, ax_p):
+                ax.tick_params(labelsize=6)
+            ax_p.set_ylim(-190, 190)
+    axes[0, 0].legend(fontsize=6)
+    for ax in axes[-1]:
+        ax.set_xlabel("frequency (Hz)", fontsize=8)
+    fig.suptitle("Receptance (m/N) and phase (deg): measured vs MDOF fit")
+    fig.tight_layout()
+    fig.savefig(frf_path, dpi=90)
+    plt.close(fig)
