@@ -19,3 +19,27 @@ def irb_op(irb):
 @pytest.fixture(scope="session")
 def mh180():
     return Robot.load("mh180")
+
+
+@pytest.fixture(scope="session")
+def op():
+    """The MH180 stand-in at its reference posture (the proof-mass suppressor's tests)."""
+    from rmbench.robot.suppressor import reference_point
+
+    return reference_point()
+
+
+@pytest.fixture(scope="session")
+def tangential(op):
+    """The exact single-axis tangential proof-mass plant (all 38 states): the linear prediction."""
+    from rmbench.control import robot_plant
+
+    return robot_plant(op, ("tangential",))
+
+
+@pytest.fixture(scope="session")
+def default_design(op):
+    """The default tangential design: plant reduced to 14 states, controller to 12."""
+    from rmbench.control import design, robot_plant
+
+    return design(robot_plant(op, ("tangential",), order=14))

@@ -3,7 +3,8 @@
 A small time-domain impact campaign (the seed's three validation postures, the seed's test
 design) on the IRB6660 stand-in, with its exact ground truth beside it: mode tables, the dataset,
 plots of measured vs exact FRF matrices, and the MDOF modal fit of the measured FRFs scored
-against the exact modes.
+against the exact modes; then the MH180 stand-in's proof-mass suppressor: an H∞ controller
+designed on its linearisation and run closed loop in MuJoCo against a 20 N sine at its mode.
 """
 
 from __future__ import annotations
@@ -79,4 +80,27 @@ def cmd_demo(args) -> int:
               f"MAC phiR/phiL min {np.nanmin(fit.mac_phiR):.4f}/{np.nanmin(fit.mac_phiL):.4f}")
     save(fit, out / "demo_modal.nc")
     print(f"wrote {out / 'demo_modal.nc'}")
+    _demo_control(out)
     return 0
+
+
+def _demo_control(out: Path) -> None:
+    from rmbench.control import design, excitation_frequencies, reduction_at, robot_plant, sine_sweep
+    from rmbench.control.plot import plot_sensitivity
+    from rmbench.robot.suppressor import reference_point
+
+    op = reference_point()
+    d = design(robot_plant(op, ("tangential",), order=14))
+    f0 = d.plant.mode_hz[0]
+    print(f"\nMH180 stand-in, proof-mass suppressor: tangential mode {f0:.2f} Hz; H-infinity controller "
+          f"order {d.controller.order}, gamma {d.gamma:.2f}")
+    modes = op.linear.modes()
+    zeta = float(modes.zeta[abs(modes.f_n - f0).argmin()])
+    freqs = excitation_frequencies([(f0, zeta)], f0 * 0.8, f0 * 1.2, coarse=f0 * 0.1)
+    runs = {name: sine_sweep(op, k, "tangential", freqs, workers=0)
+            for name, k in (("uncontrolled", None), ("H-infinity", d.controller))}
+    red = reduction_at(runs["uncontrolled"], runs["H-infinity"], "tangential", f0)
+    print(f"  20 N sine on the disturbance coil, closed loop in MuJoCo at {len(freqs)} frequencies: "
+          f"{100 * red:.1f} % reduction at the mode (seed: 75.2 %)")
+    plot_sensitivity(runs, out / "demo_control_sweep.png", title="MH180 stand-in: 20 N sine sweep")
+    print(f"  figure {out / 'demo_control_sweep.png'}")

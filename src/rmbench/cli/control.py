@@ -1,0 +1,217 @@
+"""``rmbench control``: design H∞ proof-mass controllers, run them closed loop, tuning runs.
+
+Joint angles on the command line are in degrees; files and JSON are SI (N, m, m/s², Hz).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rmbench.cli._common import add_robot_options, load_robot, print_json, resolve_posture
+from rmbench.errors import InputError
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    p = sub.add_parser("control", help="H-infinity proof-mass vibration suppression (METHODS.md §8)")
+    csub = p.add_subparsers(dest="control_command", metavar="SUBCOMMAND", parser_class=type(p))
+
+    d = csub.add_parser("design", help="design a controller and save it (npz + JSON metadata)")
+    _robot(d)
+    d.add_argument("--axes", default="tangential", help="comma-separated: tangential, axial, radial")
+    d.add_argument("--mimo", action="store_true", help="one joint design of all axes (default: one SISO loop per axis)")
+    d.add_argument("--modified", action="store_true",
+                   help="take out the controller's resonance/anti-resonance pair at the mode (seed)")
+    d.add_argument("--plant", choices=("exact", "measured"), default="exact",
+                   help="plant from the exact linearisation, or from a simulated shaker FRF measurement (SISO)")
+    d.add_argument("--order", type=int, default=None, help="controller states after balanced truncation "
+                                                          "(default 12 for one axis, 20 for a MIMO pair)")
+    d.add_argument("--set", default=None, metavar="NAME=VALUE,...",
+                   help="weights to change, e.g. k_a=60,zeta_w=0.3 (rmbench.control.Weights)")
+    d.add_argument("--out", required=True, help="controller file (.npz)")
+    d.add_argument("--json", action="store_true")
+    d.set_defaults(func=cmd_design)
+
+    r = csub.add_parser("run", help="run a controller closed loop in MuJoCo (sine sweep or eccentric mass)")
+    r.add_argument("controller", help="controller file from 'rmbench control design'")
+    _robot(r)
+    r.add_argument("--test", choices=("sweep", "eccentric"), default="sweep")
+    r.add_argument("--axis", default=None, help="sweep: the disturbed axis (default the controller's first)")
+    r.add_argument("--amplitude", type=float, default=20.0, help="sweep: sine amplitude, N (default 20)")
+    r.add_argument("--freqs", default=None, metavar="F1,F2,...",
+                   help="excitation frequencies or spindle speeds, Hz (default: 2-20 Hz, dense at the modes)")
+    r.add_argument("--workers", type=int, default=None, help="local dask workers (default: all cores)")
+    r.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
+    r.add_argument("--plot", default=None, metavar="PNG", help="uncontrolled vs controlled sensitivity")
+    r.add_argument("--out", default=None, metavar="NC", help="write both runs as netCDF")
+    r.add_argument("--json", action="store_true")
+    r.set_defaults(func=cmd_run)
+
+    t = csub.add_parser("tune", help="tuning run: weights x postures from a TOML file, in parallel")
+    t.add_argument("config", help="TOML file (see rmbench.control.tune)")
+    t.add_argument("--workers", type=int, default=None)
+    t.add_argument("--scheduler", default=None)
+    t.add_argument("--out", default=None, metavar="NC", help="write the table as netCDF")
+    t.add_argument("--json", action="store_true")
+    t.set_defaults(func=cmd_tune)
+    p.set_defaults(func=lambda args: p.print_help() or 2)
+
+
+def _robot(p):
+    add_robot_options(p)
+    p.set_defaults(robot="mh180")
+
+
+def _operating_point(args):
+    robot = load_robot(args)
+    q = resolve_posture(robot, args)
+    if not isinstance(q, np.ndarray):
+        q = robot.ik(q).q
+    return robot.at(q)
+
+
+def _weights(spec):
+    from rmbench.control import Weights
+
+    if not spec:
+        return Weights()
+    changes = {}
+    for item in spec.split(","):
+        name, _, value = item.partition("=")
+        try:
+            changes[name.strip()] = float(value)
+        except ValueError:
+            raise InputError(f"--set: {item!r} is not NAME=NUMBER") from None
+    return Weights().with_(**changes)
+
+
+def cmd_design(args) -> int:
+    from rmbench.control import Controller, design, measured_plant, robot_plant
+    from rmbench.control.plant import _check_axes
+
+    axes = _check_axes(args.axes)
+    weights = _weights(args.set)
+    op = _operating_point(args)
+    if args.plant == "measured" and (args.mimo and len(axes) > 1):
+        raise InputError("--plant measured identifies one mode per axis; it gives SISO designs only")
+
+    def plant_of(ax):
+        if args.plant == "measured":
+            return measured_plant(op, ax[0])
+        return robot_plant(op, ax, order=14 if len(ax) == 1 else 24)
+
+    if args.mimo or len(axes) == 1:
+        d = design(plant_of(axes), weights, order=args.order or (12 if len(axes) == 1 else 20),
+                   modified=args.modified)
+        ctrl, gammas, modes = d.controller, [d.gamma], list(d.plant.mode_hz)
+    else:
+        parts = [design(plant_of((a,)), weights, order=args.order or 12, modified=args.modified) for a in axes]
+        ctrl = Controller.block_diagonal([p.controller for p in parts])
+        gammas, modes = [p.gamma for p in parts], [p.plant.mode_hz[0] for p in parts]
+    meta = dict(ctrl.meta, robot=args.robot, q_cmd=op.q_cmd.tolist(), structure="MIMO" if args.mimo else "SISO",
+                mode_hz=modes, gamma=gammas if len(gammas) > 1 else gammas[0], plant_source=args.plant)
+    ctrl = Controller(ctrl.axes, ctrl.A, ctrl.B, ctrl.C, ctrl.D, meta)
+    ctrl.save(args.out)
+    summary = {"out": str(args.out), "axes": list(axes), "structure": meta["structure"], "order": ctrl.order,
+               "gamma": gammas, "mode_hz": modes, "modified": args.modified, "plant": args.plant}
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"{meta['structure']} controller for {', '.join(axes)}: order {ctrl.order}, gamma "
+              f"{', '.join(f'{g:.3g}' for g in gammas)}, modes {', '.join(f'{f:.2f}' for f in modes)} Hz")
+        print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_run(args) -> int:
+    from rmbench.control import Controller, eccentric_test, excitation_frequencies, reduction_at, sine_sweep
+    from rmbench.control.experiments import cluster
+
+    ctrl = Controller.load(args.controller)
+    op = _operating_point(args)
+    modes = op.linear.modes()
+    mode_hz = ctrl.meta.get("mode_hz", [])
+    if args.freqs:
+        try:
+            freqs = np.array([float(v) for v in args.freqs.split(",")])
+        except ValueError:
+            raise InputError(f"--freqs must be comma-separated numbers, got {args.freqs!r}") from None
+        if np.any(freqs <= 0):
+            raise InputError("--freqs must be positive")
+    else:
+        near = [(f, float(modes.zeta[np.argmin(np.abs(modes.f_n - f))])) for f in mode_hz]
+        freqs = excitation_frequencies(near, 2.0, 20.0 if args.test == "eccentric" else 30.0)
+    with cluster(args.workers, args.scheduler) as client:
+        if args.test == "sweep":
+            axis = args.axis or ctrl.axes[0]
+            if axis not in ctrl.axes:
+                raise InputError(f"--axis {axis!r}: the controller drives {', '.join(ctrl.axes)}")
+            kw = dict(amplitude=args.amplitude, scheduler=client, workers=0 if client is None else None,
+                      progress=not args.json)
+            open_ = sine_sweep(op, None, axis, freqs, **kw)
+            closed = sine_sweep(op, ctrl, axis, freqs, **kw)
+            axes = [axis]
+        else:
+            kw = dict(scheduler=client, workers=0 if client is None else None, progress=not args.json)
+            open_ = eccentric_test(op, None, freqs, **kw)
+            closed = eccentric_test(op, ctrl, freqs, **kw)
+            axes = [a for a in closed.axis.values if a in ctrl.axes]
+    result = {"test": args.test, "axes": {}, "stroke_used_max": float(np.nanmax(closed.stroke_used)),
+              "force_max": float(np.nanmax(closed.force_max)), "saturated_max": float(np.nanmax(closed.saturated)),
+              "failed_runs": int((~closed.ok.values).sum())}
+    for a in axes:
+        f0 = mode_hz[list(ctrl.axes).index(a)] if mode_hz else float(freqs[np.argmax(np.abs(open_.sensitivity.sel(axis=a)))])
+        result["axes"][a] = {"mode_hz": f0, "reduction": reduction_at(open_, closed, a, f0)}
+    if args.out:
+        import xarray as xr
+
+        both = xr.concat([open_.drop_vars("reason"), closed.drop_vars("reason")], dim="case")
+        both = both.assign_coords(case=["uncontrolled", "controlled"])
+        from rmbench.impact.dataset import save
+
+        save(both, args.out)
+    if args.plot:
+        from rmbench.control.plot import plot_sensitivity
+
+        plot_sensitivity({"uncontrolled": open_, "controlled": closed}, args.plot,
+                         title=f"{args.test}: {', '.join(ctrl.axes)} controller")
+    if args.json:
+        print_json(result)
+    else:
+        for a, r in result["axes"].items():
+            print(f"{a}: reduction {100 * r['reduction']:.1f} % at the {r['mode_hz']:.2f} Hz mode")
+        print(f"stroke used {100 * result['stroke_used_max']:.0f} % of ±stroke, peak force "
+              f"{result['force_max']:.1f} N, failed runs {result['failed_runs']}")
+    return 0
+
+
+def cmd_tune(args) -> int:
+    from rmbench.control.tune import load_tune_config, tune
+
+    cfg = load_tune_config(args.config)
+    ds = tune(cfg, workers=args.workers, scheduler=args.scheduler, progress=not args.json)
+    if args.out:
+        from rmbench.impact.dataset import save
+
+        save(ds.drop_vars("reason"), args.out)
+    rows = []
+    for c in ds.case.values:
+        w = {k: float(ds[k].sel(case=c)) for k in sorted(cfg.weights)}
+        r = ds.sel(case=c)
+        rows.append({"weights": w, "gamma": float(r.gamma), "reason": str(r.reason.values),
+                     "reduction_min": float(np.nanmin(r.reduction.values)) if r.stable.all() else None,
+                     "stable_all": bool(r.stable.all()), "stroke_used_max": float(np.nanmax(r.stroke_used)),
+                     "force_max": float(np.nanmax(r.force_max)),
+                     "amplification_db_max": float(np.nanmax(r.amplification_db))})
+    if args.json:
+        print_json({"cases": rows, "mode_ratios": list(cfg.mode_ratios)})
+        return 0
+    print(f"{len(rows)} cases, postures with the mode at x{', x'.join(str(r) for r in cfg.mode_ratios)}:")
+    print(f"{'case':>4}  {'weights':<32} {'min red.':>8} {'stable':>6} {'amp dB':>7} {'stroke':>7} {'force N':>8}")
+    for i, r in enumerate(rows):
+        w = ",".join(f"{k}={v:g}" for k, v in r["weights"].items()) or "defaults"
+        red = f"{100 * r['reduction_min']:.1f}%" if r["reduction_min"] is not None else "-"
+        print(f"{i:>4}  {w:<32} {red:>8} {str(r['stable_all']):>6} {r['amplification_db_max']:7.2f} "
+              f"{100 * r['stroke_used_max']:6.0f}% {r['force_max']:8.1f}" + (f"  {r['reason']}" if r["reason"] else ""))
+    return 0

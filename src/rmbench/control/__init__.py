@@ -1,0 +1,34 @@
+"""H∞ proof-mass vibration suppression, designed on the robot and run closed loop in MuJoCo.
+
+::
+
+    from rmbench.robot.suppressor import reference_point
+    from rmbench.control import robot_plant, design, sine_sweep, eccentric_test
+
+    op = reference_point()                                    # MH180 stand-in, reference posture
+    plant = robot_plant(op, ("tangential", "axial"), order=24)  # exact linearisation, 2x2 (METHODS §8)
+    d = design(plant)                                         # mixed-sensitivity H∞, MIMO
+    d.controller.save("ctrl.npz")                             # plain npz + JSON, never pickle
+    sweep = sine_sweep(op, d.controller, "tangential", freqs)   # closed loop in MuJoCo
+
+Signals in SI (N, m, m/s²); frequencies in Hz. Sign convention ``u = K y`` (hinfsyn's).
+"""
+
+from rmbench.control.analysis import closed_loop_matrix, is_stable, peak_near, reduction, sensitivity
+from rmbench.control.closed_loop import Hardware, LoopDiverged, LoopRecord, eccentric_force_amplitude, run_loop
+from rmbench.control.controller import CONTROLLER_VERSION, Controller
+from rmbench.control.design import Design, DesignError, design, generalized_plant, modify, robust_design
+from rmbench.control.experiments import (cluster, eccentric_test, reduction_at, settle_time, sine_sweep,
+                                         excitation_frequencies)
+from rmbench.control.identify import ModeFit, fit_mode, measure_accelerance, measured_plant, plant_from_frf
+from rmbench.control.plant import AXES, Plant, ReactionMass, reaction_mass, robot_plant, two_mass_plant
+from rmbench.control.postures import posture_for_mode_ratio
+from rmbench.control.weights import Weights
+
+__all__ = ["AXES", "Plant", "ReactionMass", "reaction_mass", "robot_plant", "two_mass_plant",
+           "ModeFit", "fit_mode", "plant_from_frf", "measure_accelerance", "measured_plant",
+           "Weights", "Design", "DesignError", "design", "generalized_plant", "modify", "robust_design",
+           "Controller", "CONTROLLER_VERSION", "closed_loop_matrix", "is_stable", "sensitivity",
+           "reduction", "peak_near", "Hardware", "LoopRecord", "LoopDiverged", "run_loop",
+           "eccentric_force_amplitude", "sine_sweep", "eccentric_test", "excitation_frequencies",
+           "reduction_at", "settle_time", "cluster", "posture_for_mode_ratio"]

@@ -1,0 +1,282 @@
+"""The controller running closed loop against the simulated robot, in MuJoCo.
+
+Per controller sample (``Hardware.fs``, default 2 kHz) the loop reads the accelerometer (site
+``acc``; AC-coupled: the static reading at equilibrium is removed, then projected on each axis's
+slide direction; white noise and a constant bias added) and the encoders (``pm_<axis>`` slides,
+quantised), steps the discretised controller (Tustin), and after ``delay_samples`` samples sends
+the force to the voice coils through an amplifier (first-order lag, ``amp_bandwidth``) with the
+coil's force limit (the MJCF ``ctrlrange``, static gravity share included). The robot is the full
+nonlinear MuJoCo model at the operating point's equilibrium, integrated by semi-implicit Euler at
+``fs × substeps`` (the MH180 stand-in's fastest mode, 133 Hz, is resolved with ω·dt ≈ 0.4 at
+2 kHz). Constraints are off (no contacts); the stroke is checked instead: a run that leaves
+±stroke is flagged (``stroke_exceeded``), as a real stage would hit its end stops.
+
+Disturbances: the disturbance voice coils ``shaker_<axis>`` (a force history per sample, N; ``d``
+on the robot is minus the coil force), and the spindle turning its eccentric mass at a constant
+speed (position servo ``spindle`` tracking ``2π f t``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from rmbench.control.controller import Controller
+from rmbench.control.plant import AXES, axis_directions
+from rmbench.errors import InputError, RmbenchError
+
+__all__ = ["Hardware", "LoopRecord", "LoopDiverged", "run_loop", "eccentric_force_amplitude"]
+
+
+class LoopDiverged(RmbenchError):
+    """The closed loop went unstable (the controller does not stabilise the robot here)."""
+
+
+@dataclass(frozen=True)
+class Hardware:
+    """Sampling, sensors and actuators of the suppressor's real-time loop.
+
+    Attributes
+    ----------
+    fs : float
+        Controller sample rate, Hz.
+    substeps : int
+        Physics steps per controller sample.
+    acc_noise : float
+        Accelerometer white noise, m/s² rms per sample.
+    acc_bias : float
+        Accelerometer bias, m/s² (every axis).
+    encoder_resolution : float
+        Encoder quantum, m.
+    delay_samples : int
+        Samples between a measurement and the force it produces.
+    amp_bandwidth : float
+        Amplifier (current loop) bandwidth, Hz.
+    """
+
+    fs: float = 2000.0
+    substeps: int = 1
+    acc_noise: float = 2e-3
+    acc_bias: float = 5e-3
+    encoder_resolution: float = 1e-6
+    delay_samples: int = 1
+    amp_bandwidth: float = 1000.0
+
+    def __post_init__(self):
+        if not (self.fs > 0 and self.substeps >= 1 and self.delay_samples >= 0 and self.amp_bandwidth > 0
+                and self.acc_noise >= 0 and self.encoder_resolution >= 0):
+            raise InputError(f"invalid hardware settings: {self}")
+
+
+@dataclass(frozen=True)
+class LoopRecord:
+    """What one closed-loop run recorded, one row per controller sample.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,), s
+    axes : tuple of str
+        Axes the accelerations are recorded along.
+    acc : ndarray, shape (n, n_axes), m/s²
+        True acceleration at the accelerometer along each axis (no sensor noise).
+    pos : ndarray, shape (n, n_ctrl_axes), m
+        Reaction-mass positions of the controlled axes.
+    force : ndarray, shape (n, n_ctrl_axes), N
+        Voice-coil forces applied (dynamic part, static gravity share removed).
+    saturated : float
+        Fraction of samples at the force limit.
+    stroke_used : float
+        Largest |position| / stroke over the run.
+    wall_s : float
+    """
+
+    t: np.ndarray
+    axes: tuple[str, ...]
+    acc: np.ndarray
+    pos: np.ndarray
+    force: np.ndarray
+    saturated: float
+    stroke_used: float
+    wall_s: float
+
+    @property
+    def stroke_exceeded(self) -> bool:
+        return self.stroke_used > 1.0
+
+    @property
+    def realtime_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        return float(self.t[-1] + self.t[1] - self.t[0]) / self.wall_s if self.wall_s > 0 else np.inf
+
+
+def eccentric_force_amplitude(model: mujoco.MjModel, f_spin: float) -> float:
+    """Rotating force of the spindle's eccentric mass at ``f_spin`` Hz, N: ``m e (2π f)²``."""
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "eccentric")
+    if bid < 0:
+        raise InputError("the robot has no spindle eccentric mass (body 'eccentric')")
+    me = model.body_mass[bid] * np.linalg.norm(model.body_pos[bid])
+    return float(me * (2 * np.pi * f_spin) ** 2)
+
+
+def run_loop(op, controller: Controller | None, duration: float, *, hardware: Hardware | None = None,
+             shaker: dict | None = None, spindle_hz: float | None = None, record_axes=("tangential", "axial"),
+             seed: int = 0) -> LoopRecord:
+    """Run the robot for ``duration`` s with the controller in the loop (None: uncontrolled).
+
+    Parameters
+    ----------
+    op : OperatingPoint
+        The robot (with a suppressor) at its equilibrium.
+    controller : Controller or None
+        Continuous-time controller, discretised here at ``hardware.fs``.
+    duration : float
+        Simulated time, s.
+    shaker : dict, optional
+        ``{axis: force}``: the disturbance coil force per controller sample (array of length
+        ``duration·fs``) or a function of time (s → N).
+    spindle_hz : float, optional
+        Spindle speed, rev/s, turning the eccentric mass (None: spindle held still).
+    record_axes : sequence of str
+        Axes along which the acceleration is recorded.
+    seed : int
+        Seed of the sensor noise.
+    """
+    hw = hardware if hardware is not None else Hardware()
+    n = int(round(duration * hw.fs))
+    if n < 2:
+        raise InputError(f"duration {duration!r} s is shorter than two controller samples")
+    m = mujoco.MjModel.from_xml_string(op.robot.xml)
+    m.opt.timestep = 1.0 / (hw.fs * hw.substeps)
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    d = mujoco.MjData(m)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.zeros(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(op.robot.model, op.data, state, spec)
+    mujoco.mj_setState(m, d, state, spec)
+    d.time = 0.0
+    d.ctrl[:] = op.data.ctrl
+    ctrl0 = op.data.ctrl.copy()
+
+    def actuator(name):
+        i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
+        if i < 0:
+            raise InputError(f"the robot has no actuator {name!r}")
+        return i
+
+    def joint(name):
+        j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if j < 0:
+            raise InputError(f"the robot has no joint {name!r}")
+        return j
+
+    record_axes = tuple(record_axes)
+    ctrl_axes = controller.axes if controller is not None else ()
+    for a in record_axes + ctrl_axes:
+        if a not in AXES:
+            raise InputError(f"unknown axis {a!r}; use {', '.join(AXES)}")
+    # accelerometer: site frame reading minus the static one, rotated to the world, on the axes
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "acc")
+    if sid < 0:
+        raise InputError("the robot has no accelerometer sensor 'acc'")
+    adr = m.sensor_adr[sid]
+    mujoco.mj_forward(m, d)
+    site = m.sensor_objid[sid]
+    rot = d.site_xmat[site].reshape(3, 3).copy()
+    r0 = d.sensordata[adr:adr + 3].copy()
+    E_rec = axis_directions(op, record_axes) @ rot  # (n_rec, 3) site frame → axes
+    E_ctl = axis_directions(op, ctrl_axes) @ rot if ctrl_axes else np.zeros((0, 3))
+    vc = np.array([actuator(f"vc_{a}") for a in ctrl_axes], int)
+    pm_adr = np.array([m.jnt_qposadr[joint(f"pm_{a}")] for a in ctrl_axes], int)
+    lo, hi = m.actuator_ctrlrange[vc, 0], m.actuator_ctrlrange[vc, 1]
+    stroke = np.array([max(abs(m.jnt_range[joint(f"pm_{a}")])) for a in ctrl_axes])
+    stroke = np.where(stroke > 0, stroke, np.inf)
+
+    shake_idx, shake_f = [], []
+    for a, f in (shaker or {}).items():
+        shake_idx.append(actuator(f"shaker_{a}"))
+        t = np.arange(n) / hw.fs
+        sig = np.asarray(f(t) if callable(f) else f, float)
+        if sig.shape != (n,):
+            raise InputError(f"shaker force for {a!r} must have {n} samples, got shape {sig.shape}")
+        shake_f.append(sig)
+    shake_idx = np.array(shake_idx, int)
+    shake_f = np.array(shake_f).T if shake_f else np.zeros((n, 0))
+    shake0 = ctrl0[shake_idx]
+
+    if spindle_hz is not None:
+        sp_act, sp_j = actuator("spindle"), joint("spindle")
+        w_sp = 2 * np.pi * float(spindle_hz)
+        d.qvel[m.jnt_dofadr[sp_j]] = w_sp
+        sp0 = d.qpos[m.jnt_qposadr[sp_j]]
+
+    k_ax = len(ctrl_axes)
+    n_rec = len(record_axes)
+    if controller is not None:
+        Ad, Bd, Cd, Dd = controller.discretize(hw.fs)
+        n_k = Ad.shape[0]
+        step_mat = np.block([[Cd, Dd], [Ad, Bd]])  # [u; x+] = step_mat @ [x; y]
+        z = np.zeros(n_k + 2 * k_ax)
+    rng = np.random.default_rng(seed)
+    noise = rng.normal(0.0, hw.acc_noise, (n, k_ax)) + hw.acc_bias
+    res = hw.encoder_resolution
+    inv_res = 1.0 / res if res > 0 else 0.0
+    alpha = 1.0 - np.exp(-2 * np.pi * hw.amp_bandwidth / (hw.fs * hw.substeps))
+    n_delay = hw.delay_samples
+    u_hist = np.zeros((n + n_delay, k_ax))  # u_hist[k + n_delay] computed at sample k
+    E_all = np.vstack([E_rec, E_ctl])
+    c0 = E_all @ r0
+    acc_all = np.empty((n, n_rec + k_ax))
+    pos = np.empty((n, k_ax))
+    force = np.empty((n, k_ax))
+    f_app = np.zeros(k_ax)
+    base = ctrl0[vc]
+    shake_base = shake0
+    sens = d.sensordata
+    qpos = d.qpos
+    ctrl = d.ctrl
+    sat = 0
+    t0 = time.perf_counter()
+    for k in range(n):
+        a = E_all @ sens[adr:adr + 3] - c0
+        acc_all[k] = a
+        p = qpos[pm_adr]
+        pos[k] = p
+        if controller is not None:
+            z[n_k:n_k + k_ax] = a[n_rec:] + noise[k]
+            z[n_k + k_ax:] = np.rint(p * inv_res) * res if res > 0 else p
+            out = step_mat @ z
+            u_hist[k + n_delay] = out[:k_ax]
+            z[:n_k] = out[k_ax:]
+            total = base + u_hist[k]
+            clipped = np.minimum(np.maximum(total, lo), hi)
+            if (clipped != total).any():
+                sat += 1
+            target = clipped - base
+            for _ in range(hw.substeps):
+                f_app += alpha * (target - f_app)
+                ctrl[vc] = base + f_app
+                if len(shake_idx):
+                    ctrl[shake_idx] = shake_base + shake_f[k]
+                if spindle_hz is not None:
+                    ctrl[sp_act] = sp0 + w_sp * d.time
+                mujoco.mj_step(m, d)
+            force[k] = f_app
+        else:
+            for _ in range(hw.substeps):
+                if len(shake_idx):
+                    ctrl[shake_idx] = shake_base + shake_f[k]
+                if spindle_hz is not None:
+                    ctrl[sp_act] = sp0 + w_sp * d.time
+                mujoco.mj_step(m, d)
+        if k % 256 == 0 and (not np.isfinite(d.qacc).all() or (k_ax and np.abs(qpos[pm_adr]).max() > 1.0)):
+            raise LoopDiverged(f"the closed loop diverged at t = {k / hw.fs:.3f} s")
+    if not np.isfinite(acc_all).all():
+        raise LoopDiverged("the closed loop diverged")
+    acc = acc_all[:, :n_rec]
+    wall = time.perf_counter() - t0
+    used = float(np.max(np.abs(pos) / stroke)) if k_ax else 0.0
+    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc, pos, force, sat / n, used, wall)

@@ -1,0 +1,140 @@
+"""A designed controller: state-space matrices, its signals, and a plain file format.
+
+Sign convention: ``u = K y`` (the voice-coil forces are the controller's outputs as they are, no
+minus sign), with ``y = [a_1 … a_n, p_1 … p_n]`` the accelerations (m/s²) and reaction-mass
+positions (m) and ``u`` in N — the convention of ``hinfsyn``.
+
+File format (``.npz``, read with ``allow_pickle=False``): arrays ``A, B, C, D`` (continuous time)
+and ``meta``, a JSON string with ``axes``, ``gamma``, ``weights``, ``plant`` (source, mode_hz,
+posture), ``modified`` and ``rmbench_controller_version``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import control as ct
+import numpy as np
+
+from rmbench.errors import InputError
+
+__all__ = ["Controller", "CONTROLLER_VERSION"]
+
+CONTROLLER_VERSION = 1
+
+
+@dataclass(frozen=True)
+class Controller:
+    """Continuous-time controller ``u = K(s) y`` of a proof-mass suppressor.
+
+    Attributes
+    ----------
+    axes : tuple of str
+    A, B, C, D : ndarray
+        Shapes (n_k, n_k), (n_k, 2n), (n, n_k), (n, 2n).
+    meta : dict
+        Design record (weights, gamma, plant, ...), JSON-serialisable.
+    """
+
+    axes: tuple[str, ...]
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    meta: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        n, k = len(self.axes), self.A.shape[0]
+        shapes = {"A": (k, k), "B": (k, 2 * n), "C": (n, k), "D": (n, 2 * n)}
+        for name, shape in shapes.items():
+            arr = getattr(self, name)
+            if arr.shape != shape:
+                raise InputError(f"controller matrix {name} must have shape {shape} for {n} axes, "
+                                 f"got {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                raise InputError(f"controller matrix {name} has NaN or infinite entries")
+
+    @property
+    def order(self) -> int:
+        return self.A.shape[0]
+
+    def ss(self) -> ct.StateSpace:
+        return ct.ss(self.A, self.B, self.C, self.D,
+                     inputs=[f"acc_{a}" for a in self.axes] + [f"pos_{a}" for a in self.axes],
+                     outputs=[f"u_{a}" for a in self.axes], name="K")
+
+    def frf(self, freq) -> np.ndarray:
+        """Frequency response, shape (n_freq, n, 2n)."""
+        s = 2j * np.pi * np.asarray(freq, float)
+        eye = np.eye(self.order)
+        return np.array([self.C @ np.linalg.solve(si * eye - self.A, self.B) + self.D for si in s])
+
+    def discretize(self, fs: float) -> tuple[np.ndarray, ...]:
+        """Tustin discretisation at ``fs`` Hz: ``(Ad, Bd, Cd, Dd)``."""
+        if not np.isfinite(fs) or fs <= 0:
+            raise InputError(f"controller sample rate must be positive, got {fs!r} Hz")
+        d = ct.sample_system(ct.ss(self.A, self.B, self.C, self.D), 1.0 / fs, method="tustin")
+        return tuple(np.asarray(x, float) for x in (d.A, d.B, d.C, d.D))
+
+    def select(self, axes) -> "Controller":
+        """The part of a controller that reads and drives some axes (for a SISO pair from MIMO parts)."""
+        idx = [self.axes.index(a) for a in axes]
+        n = len(self.axes)
+        cols = idx + [n + i for i in idx]
+        return Controller(tuple(axes), self.A, self.B[:, cols], self.C[idx], self.D[np.ix_(idx, cols)],
+                          dict(self.meta))
+
+    @staticmethod
+    def block_diagonal(parts) -> "Controller":
+        """Independent loops side by side (e.g. two separately designed SISO controllers)."""
+        parts = list(parts)
+        axes = tuple(a for p in parts for a in p.axes)
+        n, k = len(axes), sum(p.order for p in parts)
+        A, B = np.zeros((k, k)), np.zeros((k, 2 * n))
+        C, D = np.zeros((n, k)), np.zeros((n, 2 * n))
+        r = i = 0
+        for p in parts:
+            ni, ki = len(p.axes), p.order
+            A[r:r + ki, r:r + ki] = p.A
+            for j in range(ni):
+                B[r:r + ki, i + j] = p.B[:, j]
+                B[r:r + ki, n + i + j] = p.B[:, ni + j]
+                D[i:i + ni, i + j] = p.D[:, j]
+                D[i:i + ni, n + i + j] = p.D[:, ni + j]
+            C[i:i + ni, r:r + ki] = p.C
+            r, i = r + ki, i + ni
+        return Controller(axes, A, B, C, D, {"parts": [p.meta for p in parts], "structure": "separate loops"})
+
+    # file format -------------------------------------------------------------------------------
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the ``.npz`` file atomically (temporary name, then rename)."""
+        path = Path(path)
+        meta = dict(self.meta, axes=list(self.axes), rmbench_controller_version=CONTROLLER_VERSION)
+        tmp = path.with_name(f".{path.name}.tmp.npz")
+        np.savez(tmp, A=self.A, B=self.B, C=self.C, D=self.D, meta=np.array(json.dumps(meta)))
+        os.replace(tmp, path)
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Controller":
+        """Read a controller file (never unpickles)."""
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                arrays = {k: np.asarray(z[k], float) for k in "ABCD"}
+                meta = json.loads(str(z["meta"]))
+        except FileNotFoundError:
+            raise InputError(f"no controller file {path}") from None
+        except (OSError, ValueError, KeyError) as exc:
+            raise InputError(f"{path} is not an rmbench controller file ({exc})") from None
+        version = meta.get("rmbench_controller_version")
+        if version != CONTROLLER_VERSION:
+            raise InputError(f"{path} is controller format version {version}; this rmbench reads "
+                             f"version {CONTROLLER_VERSION}")
+        axes = meta.get("axes")
+        if not isinstance(axes, list) or not all(isinstance(a, str) for a in axes):
+            raise InputError(f"{path}: 'axes' missing from the controller's metadata")
+        return cls(tuple(axes), **arrays, meta=meta)

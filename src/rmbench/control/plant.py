@@ -1,0 +1,230 @@
+"""Proof-mass plants (METHODS.md §8): the robot with its reaction masses, as a linear system.
+
+A plant maps forces to measurements of a suppressor with ``n`` axes:
+
+    inputs  [d_1 … d_n, u_1 … u_n]    d: disturbance force on the robot along axis i, N
+                                       u: voice-coil force, +u on the reaction mass, −u on the robot, N
+    outputs [a_1 … a_n, p_1 … p_n]    a: robot acceleration at the accelerometer along axis i, m/s²
+                                       p: reaction-mass position relative to the robot (encoder), m
+
+Axis i's direction is its voice-coil slide in the world frame at the operating point, so ``a_i``
+and ``u_i`` act along the same line, as in METHODS.md §8. Three ways to get one:
+
+- :func:`robot_plant`: the robot's exact multi-mode linearisation with the reaction masses (and the
+  shakers' moving masses) attached, so the axes couple through the robot; optionally reduced by
+  balanced truncation;
+- :func:`two_mass_plant`: METHODS.md §8's single-axis model (robot mode M, K, B; reaction mass m, k, b);
+- :func:`measured_plant` (in :mod:`rmbench.control.identify`): the robot's mode identified from a
+  simulated (or real) shaker FRF measurement, then :func:`two_mass_plant`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import control as ct
+import mujoco
+import numpy as np
+
+from rmbench.errors import InputError
+
+__all__ = ["AXES", "Plant", "robot_plant", "two_mass_plant", "ReactionMass", "reaction_mass",
+           "axis_directions"]
+
+AXES = ("tangential", "axial", "radial")
+"""Suppressor axes of the MH180 stand-in: joints ``pm_<axis>``, actuators ``vc_<axis>``."""
+
+
+@dataclass(frozen=True)
+class Plant:
+    """A proof-mass plant in continuous time (SI units; layout in the module docstring).
+
+    Attributes
+    ----------
+    axes : tuple of str
+    A, B, C, D : ndarray
+        State space, shapes (n_x, n_x), (n_x, 2n), (2n, n_x), (2n, 2n).
+    source : str
+        ``"linearisation"``, ``"two-mass"`` or ``"measured"``.
+    mode_hz : tuple of float
+        The robot mode each axis targets (its largest accelerance peak below 40 Hz), Hz.
+    """
+
+    axes: tuple[str, ...]
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    source: str
+    mode_hz: tuple[float, ...]
+    info: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def n_axes(self) -> int:
+        return len(self.axes)
+
+    @property
+    def order(self) -> int:
+        return self.A.shape[0]
+
+    def ss(self) -> ct.StateSpace:
+        """The plant as a python-control state space with named signals."""
+        n = self.n_axes
+        return ct.ss(self.A, self.B, self.C, self.D,
+                     inputs=[f"d_{a}" for a in self.axes] + [f"u_{a}" for a in self.axes],
+                     outputs=[f"acc_{a}" for a in self.axes] + [f"pos_{a}" for a in self.axes],
+                     name=f"plant_{n}axis")
+
+    def frf(self, freq) -> np.ndarray:
+        """Frequency response, shape (n_freq, 2n, 2n): rows outputs, columns inputs (SI)."""
+        s = 2j * np.pi * np.asarray(freq, float)
+        eye = np.eye(self.order)
+        return np.array([self.C @ np.linalg.solve(si * eye - self.A, self.B) + self.D for si in s])
+
+    def select(self, axes) -> "Plant":
+        """The plant restricted to some of its axes (the other inputs off, outputs unread)."""
+        idx = [self.axes.index(a) for a in axes]
+        n = self.n_axes
+        cols = idx + [n + i for i in idx]
+        return Plant(tuple(axes), self.A, self.B[:, cols], self.C[cols], self.D[np.ix_(cols, cols)],
+                     self.source, tuple(self.mode_hz[i] for i in idx), dict(self.info))
+
+
+@dataclass(frozen=True)
+class ReactionMass:
+    """A voice-coil stage as the MJCF declares it: mass kg, centring stiffness N/m, damping N·s/m,
+    stroke ±m, peak force N."""
+
+    mass: float
+    stiffness: float
+    damping: float
+    stroke: float
+    force_peak: float
+
+
+def reaction_mass(model: mujoco.MjModel, axis: str) -> ReactionMass:
+    """The reaction-mass stage ``pm_<axis>`` / ``vc_<axis>`` of a MuJoCo model."""
+    jid = _joint_id(model, f"pm_{axis}")
+    aid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, f"vc_{axis}")
+    if aid < 0:
+        raise InputError(f"the robot has no voice coil 'vc_{axis}'")
+    body = model.jnt_bodyid[jid]
+    return ReactionMass(mass=float(model.body_subtreemass[body]),
+                        stiffness=float(model.jnt_stiffness[jid]),
+                        damping=float(model.dof_damping[model.jnt_dofadr[jid]]),
+                        stroke=float(max(abs(model.jnt_range[jid])) if model.jnt_limited[jid] else np.inf),
+                        force_peak=float(max(abs(model.actuator_ctrlrange[aid]))))
+
+
+def axis_directions(op, axes) -> np.ndarray:
+    """World unit vectors of the axes' voice-coil slides at the operating point, shape (n, 3)."""
+    m, d = op.robot.model, op.data
+    return np.array([d.xaxis[_joint_id(m, f"pm_{a}")] for a in axes])
+
+
+def robot_plant(op, axes=("tangential",), *, order: int | None = None, accelerometer: str = "acc",
+                disturbance: str = "shaker") -> Plant:
+    """The robot's exact linearisation at ``op`` as a proof-mass plant.
+
+    Parameters
+    ----------
+    op : OperatingPoint
+        A robot with a suppressor (joints ``pm_<axis>``, shakers ``sh_<axis>``) at equilibrium.
+    axes : sequence of str
+        Suppressor axes, from :data:`AXES`.
+    order : int, optional
+        Reduce by balanced truncation to this many states (the full model has 2 × n_dof).
+    accelerometer : str
+        Site of the accelerometer.
+    disturbance : {"shaker", "site"}
+        Where ``d`` enters: through the axis's disturbance voice coil (``−f`` on its coil, so that
+        ``d`` is the force on the robot; the shaker test), or as a point force at the
+        accelerometer site.
+
+    Returns
+    -------
+    Plant
+    """
+    axes = _check_axes(axes)
+    m = op.robot.model
+    lin = op.linear
+    e = axis_directions(op, axes)
+    jac = op.point_jacobian(accelerometer)  # (3, n_dof)
+    n_dof = lin.n_dof
+    acc_rows = e @ jac
+    pos_rows = np.array([_unit(n_dof, m.jnt_dofadr[_joint_id(m, f"pm_{a}")]) for a in axes])
+    u_rows = pos_rows
+    if disturbance == "shaker":
+        d_rows = np.array([-_unit(n_dof, m.jnt_dofadr[_joint_id(m, f"sh_{a}")]) for a in axes])
+    elif disturbance == "site":
+        d_rows = acc_rows
+    else:
+        raise InputError(f"disturbance must be 'shaker' or 'site', got {disturbance!r}")
+    inp = np.vstack([d_rows, u_rows])
+    a, b, c_acc, d_acc = lin.state_space(acc_rows, inp, output="acceleration")
+    _, _, c_pos, d_pos = lin.state_space(pos_rows, inp, output="displacement")
+    C = np.vstack([c_acc, c_pos])
+    D = np.vstack([d_acc, d_pos])
+    sys = ct.ss(a, b, C, D)
+    if order is not None and order < a.shape[0]:
+        sys = ct.balred(sys, order, method="matchdc")
+    modes = tuple(_target_mode(sys, i, len(axes)) for i in range(len(axes)))
+    return Plant(axes, np.asarray(sys.A), np.asarray(sys.B), np.asarray(sys.C), np.asarray(sys.D),
+                 "linearisation", modes, {"directions": e.tolist()})
+
+
+def two_mass_plant(M: float, K: float, B: float, rm: ReactionMass, *, axis: str = "tangential",
+                   source: str = "two-mass") -> Plant:
+    """METHODS.md §8: a robot mode (M kg, K N/m, B N·s/m) carrying a reaction mass.
+
+    State ``[x1, x2, x1', x2']`` (robot, reaction mass; absolute, m and m/s). The transfer
+    functions equal Eqs. 10-13: ``G_u = [s² X1/U; (X2 − X1)/U]``, ``G_d = [s² X1/D; (X2 − X1)/D]``.
+    """
+    if min(M, K, rm.mass) <= 0 or min(B, rm.stiffness, rm.damping) < 0:
+        raise InputError(f"two-mass plant needs M, K, m > 0 and B, k, b >= 0; got M={M:g}, K={K:g}, "
+                         f"B={B:g}, m={rm.mass:g}, k={rm.stiffness:g}, b={rm.damping:g}")
+    m, k, b = rm.mass, rm.stiffness, rm.damping
+    A = np.array([[0, 0, 1, 0],
+                  [0, 0, 0, 1],
+                  [-(K + k) / M, k / M, -(B + b) / M, b / M],
+                  [k / m, -k / m, b / m, -b / m]])
+    Bm = np.array([[0, 0], [0, 0], [1 / M, -1 / M], [0, 1 / m]])  # inputs d, u
+    C = np.vstack([A[2], [-1, 1, 0, 0]])
+    D = np.vstack([Bm[2], [0, 0]])
+    f_n = float(np.sqrt(K / M) / (2 * np.pi))
+    return Plant((axis,), A, Bm, C, D, source, (f_n,),
+                 {"M": M, "K": K, "B": B, "m": m, "k": k, "b": b})
+
+
+def _target_mode(sys, i: int, n: int, f_max: float = 40.0) -> float:
+    """Frequency of the largest peak of |a_i/d_i| between 2 Hz and ``f_max``, Hz."""
+    f = np.geomspace(2.0, f_max, 2000)
+    s = 2j * np.pi * f
+    A, B, C, D = (np.asarray(x) for x in (sys.A, sys.B, sys.C, sys.D))
+    eye = np.eye(A.shape[0])
+    g = np.array([C[i] @ np.linalg.solve(si * eye - A, B[:, i]) + D[i, i] for si in s])
+    return float(f[int(np.argmax(np.abs(g)))])
+
+
+def _check_axes(axes) -> tuple[str, ...]:
+    if isinstance(axes, str):
+        axes = tuple(a.strip() for a in axes.split(","))
+    axes = tuple(axes)
+    bad = [a for a in axes if a not in AXES]
+    if bad or not axes or len(set(axes)) != len(axes):
+        raise InputError(f"axes must be distinct names from {', '.join(AXES)}; got {', '.join(axes) or 'none'}")
+    return axes
+
+
+def _joint_id(model, name: str) -> int:
+    jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+    if jid < 0:
+        raise InputError(f"the robot has no joint {name!r} (a proof-mass suppressor is needed: "
+                         "use the mh180 robot)")
+    return jid
+
+
+def _unit(n: int, i: int) -> np.ndarray:
+    v = np.zeros(n)
+    v[i] = 1.0
+    return v
