@@ -96,3 +96,15 @@ def test_measured_plant_finds_the_tangential_damping_within_20_percent(op, measu
 def test_run_loop_with_unknown_shaker_axis_is_input_error(op):
     with pytest.raises(InputError, match="vertical"):
         run_loop(op, None, 0.01, shaker={"vertical": lambda t: 0 * t})
+
+
+def test_a_reaction_mass_driven_past_its_stroke_is_held_by_the_end_stops(op):
+    from rmbench.control import Controller
+
+    # positive position feedback of 5000 N/m outweighs the 270 N/m centring spring: the mass runs away
+    k = Controller(("tangential",), np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((1, 0)), np.array([[0.0, 5000.0]]))
+    rec = run_loop(op, k, 1.0, shaker={"tangential": np.full(2000, 5.0)})
+    assert rec.stroke_exceeded and rec.end_stop > 0
+    # the 1e6 N/m stop: 0.2 mm static under the coil's ≤ 209 N, plus the impact overshoot v·sqrt(m/k)
+    # of a 3 kg mass that 209 N can bring to at most 1.3 m/s over 12.5 mm: ≤ 2.5 mm, 20 % of the stroke
+    assert 1.0 < rec.stroke_used < 1.2

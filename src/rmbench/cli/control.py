@@ -159,7 +159,8 @@ def cmd_run(args) -> int:
             axes = [a for a in closed.axis.values if a in ctrl.axes]
     result = {"test": args.test, "axes": {}, "stroke_used_max": float(np.nanmax(closed.stroke_used)),
               "force_max": float(np.nanmax(closed.force_max)), "saturated_max": float(np.nanmax(closed.saturated)),
-              "failed_runs": int((~closed.ok.values).sum())}
+              "failed_runs": int((~closed.ok.values).sum()),
+              "end_stop_runs": int((closed.end_stop.values > 0).sum())}
     for a in axes:
         f0 = mode_hz[list(ctrl.axes).index(a)] if mode_hz else float(freqs[np.argmax(np.abs(open_.sensitivity.sel(axis=a)))])
         result["axes"][a] = {"mode_hz": f0, "reduction": reduction_at(open_, closed, a, f0)}
@@ -182,7 +183,8 @@ def cmd_run(args) -> int:
         for a, r in result["axes"].items():
             print(f"{a}: reduction {100 * r['reduction']:.1f} % at the {r['mode_hz']:.2f} Hz mode")
         print(f"stroke used {100 * result['stroke_used_max']:.0f} % of ±stroke, peak force "
-              f"{result['force_max']:.1f} N, failed runs {result['failed_runs']}")
+              f"{result['force_max']:.1f} N, runs at an end stop {result['end_stop_runs']}, failed runs "
+              f"{result['failed_runs']}")
     return 0
 
 

@@ -72,7 +72,7 @@ def _sine_task(robot_xml, name, q, ctrl, axis, f, amplitude, settle, periods, hw
     t = rec.t[-n_meas:]
     acc = _steady_amplitude(t, rec.acc[-n_meas:], f)
     # d on the robot is minus the coil force A sin ωt, i.e. the phasor +iA (cosine reference)
-    return {"f": f, "ok": True, "acc": acc / (1j * amplitude), "stroke": rec.stroke_used,
+    return {"f": f, "ok": True, "acc": acc / (1j * amplitude), "stroke": rec.stroke_used, "end_stop": rec.end_stop,
             "force": float(np.abs(rec.force).max(initial=0.0)), "saturated": rec.saturated,
             "rt": rec.realtime_factor, "reason": ""}
 
@@ -88,7 +88,7 @@ def _ecc_task(robot_xml, name, q, ctrl, axes, f, settle, periods, hw, seed):
     acc = _steady_amplitude(t, rec.acc[-n_meas:], f)
     force = eccentric_force_amplitude(op.robot.model, f)
     return {"f": f, "ok": True, "acc": acc / force, "acc_amp": np.abs(acc), "ecc_force": force,
-            "stroke": rec.stroke_used, "force": float(np.abs(rec.force).max(initial=0.0)),
+            "stroke": rec.stroke_used, "end_stop": rec.end_stop, "force": float(np.abs(rec.force).max(initial=0.0)),
             "saturated": rec.saturated, "rt": rec.realtime_factor, "reason": ""}
 
 
@@ -101,8 +101,9 @@ def sine_sweep(op, controller: Controller | None, axis: str, freqs, *, amplitude
     Returns
     -------
     xarray.Dataset
-        ``sensitivity`` (freq) complex, m/s²/N; ``stroke_used``, ``force_max`` (N),
-        ``saturated``, ``ok``, ``reason`` per frequency; attrs ``axis``, ``amplitude``.
+        ``sensitivity`` (freq) complex, m/s²/N; ``stroke_used``, ``end_stop`` (fraction of
+        samples at a stop), ``force_max`` (N), ``saturated``, ``ok``, ``reason`` per frequency;
+        attrs ``axis``, ``amplitude``.
     """
     hw = hardware if hardware is not None else Hardware()
     freqs = np.asarray(freqs, float)
@@ -174,6 +175,7 @@ def _assemble(rows, freqs, axes, var):
     ds = xr.Dataset(
         {var: (("freq", "axis"), sens),
          "stroke_used": ("freq", np.array([r.get("stroke", np.nan) for r in rows])),
+         "end_stop": ("freq", np.array([r.get("end_stop", np.nan) for r in rows])),
          "force_max": ("freq", np.array([r.get("force", np.nan) for r in rows])),
          "saturated": ("freq", np.array([r.get("saturated", np.nan) for r in rows])),
          "realtime_factor": ("freq", np.array([r.get("rt", np.nan) for r in rows])),
