@@ -20,13 +20,13 @@ from rmbench.control.controller import CONTROLLER_VERSION, Controller
 from rmbench.control.design import Design, DesignError, design, generalized_plant, modify, robust_design
 from rmbench.control.experiments import (cluster, eccentric_test, reduction_at, settle_time, sine_sweep,
                                          excitation_frequencies)
-from rmbench.control.identify import ModeFit, fit_mode, measure_accelerance, measured_plant, plant_from_frf
+from rmbench.control.identify import ModeFit, fit_mode, fit_modes, measure_accelerance, measured_plant, plant_from_frf
 from rmbench.control.plant import AXES, Plant, ReactionMass, reaction_mass, robot_plant, two_mass_plant
 from rmbench.control.postures import posture_for_mode_ratio
 from rmbench.control.weights import Weights
 
 __all__ = ["AXES", "Plant", "ReactionMass", "reaction_mass", "robot_plant", "two_mass_plant",
-           "ModeFit", "fit_mode", "plant_from_frf", "measure_accelerance", "measured_plant",
+           "ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "measure_accelerance", "measured_plant",
            "Weights", "Design", "DesignError", "design", "generalized_plant", "modify", "robust_design",
            "Controller", "CONTROLLER_VERSION", "closed_loop_matrix", "is_stable", "sensitivity",
            "reduction", "peak_near", "Hardware", "LoopRecord", "LoopDiverged", "run_loop",

@@ -2,9 +2,11 @@
 
 As in the seed's lab, the plant comes from a measurement: the disturbance voice coil shakes the
 robot (band-limited random force), the accelerometer responds, and the H1 estimate (averaged
-Hann-windowed segments, :mod:`rmbench.impact.estimate`) gives the accelerance ``a/d``. One mode is
-fitted to it near its peak — ``1/H = K − M ω² + i ω B`` is linear in (M, K, B) for the
-receptance ``H = −A/ω²`` — and :func:`~rmbench.control.plant.two_mass_plant` adds the reaction mass.
+Hann-windowed segments, :mod:`rmbench.impact.estimate`) gives the accelerance ``a/d``. The seed
+fitted one mode near its peak — ``1/H = K − M ω² + i ω B`` is linear in (M, K, B) for the
+receptance ``H = −A/ω²``; here every resonance of the band is fitted (jointly, to separate
+overlapping ones) unless ``single_mode`` asks for the seed's model — and
+:func:`~rmbench.control.plant.two_mass_plant` adds the reaction mass.
 The same :func:`plant_from_frf` takes a real robot's measured accelerance.
 """
 
@@ -20,7 +22,7 @@ from rmbench.control.plant import Plant, ReactionMass, reaction_mass, two_mass_p
 from rmbench.errors import InputError
 from rmbench.impact.estimate import SpectralSums, h1
 
-__all__ = ["ModeFit", "fit_mode", "plant_from_frf", "measure_accelerance", "measured_plant"]
+__all__ = ["ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "measure_accelerance", "measured_plant"]
 
 
 @dataclass(frozen=True)
@@ -48,8 +50,84 @@ def fit_mode(freq, accelerance, f_min: float = 2.0, f_max: float = 40.0, *, band
     freq : array_like, shape (n,), Hz
     accelerance : array_like, shape (n,), complex, m/s²/N
     band : float
-        Fit over ``f_peak (1 ± band)``, weighted by |H|² (the peak dominates, neighbours less).
+        Fit over ``f_peak (1 ± band)``, weighted by |H| (the peak dominates, neighbours less).
     """
+    freq, acc, sel = _check_frf(freq, accelerance, f_min, f_max)
+    fp = freq[np.flatnonzero(sel)[np.argmax(np.abs(acc[sel]))]]
+    return _fit_peak(freq, acc, sel, fp, band)
+
+
+def fit_modes(freq, accelerance, f_min: float = 2.0, f_max: float = 40.0, *, prominence: float = 0.01,
+              max_modes: int = 8) -> list[ModeFit]:
+    """Fit every resonance of an accelerance in ``[f_min, f_max]`` Hz together.
+
+    Peaks of |H| with a prominence above ``prominence`` times the largest give one mode each
+    (:func:`fit_mode` around each for a start); then all modes are fitted jointly,
+    ``H ≈ Σ_r 1/(K_r − M_r ω² + i ω B_r)`` on the receptance over the band (least squares in the
+    logarithms of M, K, B, errors relative to |H|), which separates overlapping modes. Sorted by
+    frequency, after a first entry for the modes above the band: a residual mass ``M_res``
+    (receptance ``−1/(M_res ω²)``), returned as a 0.2 Hz mode with ζ = 0.5, which acts as a free
+    mass over the band.
+    """
+    from scipy.optimize import least_squares
+
+    freq, acc, sel = _check_frf(freq, accelerance, f_min, f_max)
+    mag = np.abs(acc[sel])
+    peaks, _ = signal.find_peaks(mag, prominence=prominence * mag.max())
+    if len(peaks) == 0:
+        peaks = np.array([int(np.argmax(mag))])
+    peaks = peaks[np.argsort(mag[peaks])[::-1][:max_modes]]
+    fps = freq[sel][peaks]
+    start = []
+    for fp in fps:
+        try:
+            start.append(_fit_peak(freq, acc, sel, fp, 0.05))
+        except InputError:
+            continue
+    if not start:
+        raise InputError(f"no resonance could be fitted within {f_min:g}-{f_max:g} Hz")
+    w = 2 * np.pi * freq[sel]
+    h = -acc[sel] / w**2
+    scale = np.abs(h)
+    n = len(start)
+
+    def model(p):
+        M, K, B = np.exp(p[:3 * n].reshape(3, -1))
+        modes = np.sum(1 / (K[:, None] - M[:, None] * w**2 + 1j * w * B[:, None]), axis=0)
+        return modes - 1 / (np.exp(p[-1]) * w**2)  # + the modes above the band, as a free mass
+
+    def resid(p):
+        e = (model(p) - h) / scale
+        return np.concatenate([e.real, e.imag])
+
+    m_res0 = 1 / max(abs(acc[sel][-1]), 1e-12)  # accelerance at the top of the band ≈ 1/M_res
+    p0 = np.concatenate([np.log([[m.M for m in start], [m.K for m in start], [m.B for m in start]]).ravel(),
+                         [np.log(10 * m_res0)]])
+    sol = least_squares(resid, p0, method="lm", max_nfev=4000)
+    M, K, B = np.exp(sol.x[:3 * n].reshape(3, -1))
+    fits = sorted((ModeFit(float(a), float(b), float(c)) for a, b, c in zip(M, K, B)), key=lambda m: m.f_n)
+    # the residual mass as a mode far below the band (0.2 Hz, ζ 0.5): a free mass above 1 Hz
+    m_res = float(np.exp(sol.x[-1]))
+    k_res = m_res * (2 * np.pi * 0.2) ** 2
+    return [ModeFit(m_res, k_res, np.sqrt(k_res * m_res))] + fits
+
+
+def plant_from_frf(freq, accelerance, rm: ReactionMass, *, axis: str = "tangential", f_min: float = 2.0,
+                   f_max: float = 40.0, single_mode: bool = False) -> Plant:
+    """METHODS.md §8 plant from a measured accelerance ``a/d`` and the reaction-mass hardware.
+
+    ``single_mode=True`` keeps only the largest resonance (the seed's model); by default every
+    resonance in the band is kept, so the design knows the modes around the one it targets.
+    """
+    modes = [fit_mode(freq, accelerance, f_min, f_max)] if single_mode else fit_modes(freq, accelerance, f_min, f_max)
+    p = two_mass_plant([m.M for m in modes], [m.K for m in modes], [m.B for m in modes], rm, axis=axis,
+                       source="measured")
+    target = int(np.argmin([abs(m.f_n - p.mode_hz[0]) for m in modes]))
+    return Plant(p.axes, p.A, p.B, p.C, p.D, "measured", p.mode_hz,
+                 dict(p.info, zeta=modes[target].zeta, modes_hz=[m.f_n for m in modes]))
+
+
+def _check_frf(freq, accelerance, f_min, f_max):
     freq = np.asarray(freq, float)
     acc = np.asarray(accelerance, complex)
     if freq.shape != acc.shape or freq.ndim != 1:
@@ -59,9 +137,14 @@ def fit_mode(freq, accelerance, f_min: float = 2.0, f_max: float = 40.0, *, band
     sel = (freq >= f_min) & (freq <= f_max) & (freq > 0)
     if np.count_nonzero(sel) < 5:
         raise InputError(f"the FRF has fewer than 5 lines within {f_min:g}-{f_max:g} Hz")
-    i = np.flatnonzero(sel)[np.argmax(np.abs(acc[sel]))]
-    fp = freq[i]
+    return freq, acc, sel
+
+
+def _fit_peak(freq, acc, sel, fp, band) -> ModeFit:
+    """``1/H = K − M ω² + i ω B`` by weighted linear least squares within ``fp (1 ± band)``."""
     near = sel & (np.abs(freq - fp) <= band * fp)
+    if np.count_nonzero(near) < 3:
+        raise InputError(f"too few lines near {fp:.3g} Hz to fit a mode")
     w = 2 * np.pi * freq[near]
     h = -acc[near] / w**2  # receptance
     y = 1 / h
@@ -75,14 +158,6 @@ def fit_mode(freq, accelerance, f_min: float = 2.0, f_max: float = 40.0, *, band
     if M <= 0 or K <= 0 or B <= 0:
         raise InputError(f"no resonance could be fitted near {fp:.3g} Hz (M={M:.3g}, K={K:.3g}, B={B:.3g})")
     return ModeFit(float(M), float(K), float(B))
-
-
-def plant_from_frf(freq, accelerance, rm: ReactionMass, *, axis: str = "tangential", f_min: float = 2.0,
-                   f_max: float = 40.0) -> Plant:
-    """METHODS.md §8 plant from a measured accelerance ``a/d`` and the reaction-mass hardware."""
-    mode = fit_mode(freq, accelerance, f_min, f_max)
-    p = two_mass_plant(mode.M, mode.K, mode.B, rm, axis=axis, source="measured")
-    return Plant(p.axes, p.A, p.B, p.C, p.D, "measured", p.mode_hz, dict(p.info, zeta=mode.zeta))
 
 
 def measure_accelerance(op, axis: str = "tangential", *, duration: float = 64.0, segment: float = 8.0,
@@ -117,7 +192,11 @@ def measure_accelerance(op, axis: str = "tangential", *, duration: float = 64.0,
     return freq[keep], H[keep, 0], coh[keep, 0]
 
 
-def measured_plant(op, axis: str = "tangential", **kwargs) -> Plant:
-    """The plant of one axis from a simulated FRF measurement of the robot's mode (seed's path)."""
+def measured_plant(op, axis: str = "tangential", *, single_mode: bool = False, **kwargs) -> Plant:
+    """The plant of one axis from a simulated FRF measurement (the seed's path).
+
+    ``single_mode=True``: the seed's one-mode model; default: every resonance in 2-40 Hz.
+    ``kwargs`` go to :func:`measure_accelerance`.
+    """
     freq, H, _ = measure_accelerance(op, axis, **kwargs)
-    return plant_from_frf(freq, H, reaction_mass(op.robot.model, axis), axis=axis)
+    return plant_from_frf(freq, H, reaction_mass(op.robot.model, axis), axis=axis, single_mode=single_mode)

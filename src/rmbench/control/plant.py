@@ -173,27 +173,54 @@ def robot_plant(op, axes=("tangential",), *, order: int | None = None, accelerom
                  "linearisation", modes, {"directions": e.tolist()})
 
 
-def two_mass_plant(M: float, K: float, B: float, rm: ReactionMass, *, axis: str = "tangential",
+def two_mass_plant(M, K, B, rm: ReactionMass, *, axis: str = "tangential",
                    source: str = "two-mass") -> Plant:
-    """METHODS.md §8: a robot mode (M kg, K N/m, B N·s/m) carrying a reaction mass.
+    """METHODS.md §8: robot mode(s) (M kg, K N/m, B N·s/m) carrying a reaction mass.
 
-    State ``[x1, x2, x1', x2']`` (robot, reaction mass; absolute, m and m/s). The transfer
-    functions equal Eqs. 10-13: ``G_u = [s² X1/U; (X2 − X1)/U]``, ``G_d = [s² X1/D; (X2 − X1)/D]``.
+    With one mode this is the seed's model, whose transfer functions equal Eqs. 10-13:
+    ``G_u = [s² X1/U; (X2 − X1)/U]``, ``G_d = [s² X1/D; (X2 − X1)/D]``. With several (arrays of
+    equal length) the robot's point receptance is their sum, ``X1 = Σ_r F / (K_r + B_r s + M_r s²)``
+    for the net force ``F`` on the robot at the suppressor: the modes a measured FRF shows around
+    the targeted one.
+
+    State ``[x_1 … x_n, x2, x_1' … x_n', x2']`` (the modal displacements, whose sum is the robot's
+    displacement x1, and the reaction mass's absolute displacement; m and m/s).
     """
-    if min(M, K, rm.mass) <= 0 or min(B, rm.stiffness, rm.damping) < 0:
-        raise InputError(f"two-mass plant needs M, K, m > 0 and B, k, b >= 0; got M={M:g}, K={K:g}, "
-                         f"B={B:g}, m={rm.mass:g}, k={rm.stiffness:g}, b={rm.damping:g}")
+    M, K, B = (np.atleast_1d(np.asarray(v, float)) for v in (M, K, B))
+    if not (M.shape == K.shape == B.shape) or M.ndim != 1:
+        raise InputError("M, K and B must be scalars or 1-D arrays of one length")
+    if np.any(M <= 0) or np.any(K <= 0) or np.any(B < 0) or rm.mass <= 0 or min(rm.stiffness, rm.damping) < 0:
+        raise InputError(f"a two-mass plant needs M, K, m > 0 and B, k, b >= 0; got M={M}, K={K}, B={B}, "
+                         f"m={rm.mass:g}, k={rm.stiffness:g}, b={rm.damping:g}")
     m, k, b = rm.mass, rm.stiffness, rm.damping
-    A = np.array([[0, 0, 1, 0],
-                  [0, 0, 0, 1],
-                  [-(K + k) / M, k / M, -(B + b) / M, b / M],
-                  [k / m, -k / m, b / m, -b / m]])
-    Bm = np.array([[0, 0], [0, 0], [1 / M, -1 / M], [0, 1 / m]])  # inputs d, u
-    C = np.vstack([A[2], [-1, 1, 0, 0]])
-    D = np.vstack([Bm[2], [0, 0]])
-    f_n = float(np.sqrt(K / M) / (2 * np.pi))
-    return Plant((axis,), A, Bm, C, D, source, (f_n,),
-                 {"M": M, "K": K, "B": B, "m": m, "k": k, "b": b})
+    n = len(M)
+    # net force on the robot: F = d − u + k (x2 − Σx_r) + b (x2' − Σx_r')
+    ones = np.ones(n)
+    Fx = np.concatenate([-k * ones, [k]])          # dF/d[x_r, x2]
+    Fv = np.concatenate([-b * ones, [b]])          # dF/d[x_r', x2']
+    acc_x = np.zeros((n + 1, n + 1))
+    acc_v = np.zeros((n + 1, n + 1))
+    acc_in = np.zeros((n + 1, 2))                  # inputs d, u
+    for r in range(n):
+        acc_x[r] = Fx / M[r]
+        acc_x[r, r] -= K[r] / M[r]
+        acc_v[r] = Fv / M[r]
+        acc_v[r, r] -= B[r] / M[r]
+        acc_in[r] = [1 / M[r], -1 / M[r]]
+    acc_x[n] = -Fx / m                            # m x2'' = −k (x2 − x1) − b (x2' − x1') + u
+    acc_v[n] = -Fv / m
+    acc_in[n] = [0, 1 / m]
+    A = np.block([[np.zeros((n + 1, n + 1)), np.eye(n + 1)], [acc_x, acc_v]])
+    Bm = np.vstack([np.zeros((n + 1, 2)), acc_in])
+    sel = np.concatenate([ones, [0]])               # x1 = Σ x_r
+    C = np.vstack([sel @ A[n + 1:], np.concatenate([-ones, [1], np.zeros(n + 1)])])
+    D = np.vstack([sel @ Bm[n + 1:], [0, 0]])
+    f_n = np.sqrt(K / M) / (2 * np.pi)
+    target = int(np.argmax(1 / (B * np.sqrt(K / M))))  # the largest accelerance peak, 1/(2ζ M) = 1/(B ω)
+    info = {"M": M.tolist(), "K": K.tolist(), "B": B.tolist(), "m": m, "k": k, "b": b}
+    if n == 1:
+        info.update(M=float(M[0]), K=float(K[0]), B=float(B[0]))
+    return Plant((axis,), A, Bm, C, D, source, (float(f_n[target]),), info)
 
 
 def _target_mode(sys, i: int, n: int, f_max: float = 40.0) -> float:

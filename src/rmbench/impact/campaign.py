@@ -10,9 +10,7 @@ one dataset (``OUT``) and the parts are removed.
 from __future__ import annotations
 
 import functools
-import json
 import os
-import shutil
 import time
 import traceback
 from dataclasses import dataclass

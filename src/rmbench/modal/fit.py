@@ -21,7 +21,7 @@ from scipy.special import fdtrc
 from rmbench.errors import InputError, RmbenchError
 from rmbench.modal import mdof
 from rmbench.modal.plscf import plscf
-from rmbench.modal.stabilization import StabilityCriteria, Stabilization, stabilize
+from rmbench.modal.stabilization import StabilityCriteria, stabilize
 
 __all__ = ["ModalFit", "ModalFitWarning", "NotFittedError", "PARAM_NAMES"]
 
