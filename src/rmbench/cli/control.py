@@ -88,9 +88,9 @@ def _weights(spec):
 
 def cmd_design(args) -> int:
     from rmbench.control import Controller, design, measured_plant, robot_plant
-    from rmbench.control.plant import _check_axes
+    from rmbench.control.plant import parse_axes
 
-    axes = _check_axes(args.axes)
+    axes = parse_axes(args.axes)
     weights = _weights(args.set)
     op = _operating_point(args)
     if args.plant == "measured" and (args.mimo and len(axes) > 1):

@@ -29,7 +29,7 @@ import numpy as np
 from rmbench.errors import InputError
 
 __all__ = ["AXES", "Plant", "robot_plant", "two_mass_plant", "ReactionMass", "reaction_mass",
-           "axis_directions"]
+           "axis_directions", "parse_axes"]
 
 AXES = ("tangential", "axial", "radial")
 """Suppressor axes of the MH180 stand-in: joints ``pm_<axis>``, actuators ``vc_<axis>``."""
@@ -145,7 +145,7 @@ def robot_plant(op, axes=("tangential",), *, order: int | None = None, accelerom
     -------
     Plant
     """
-    axes = _check_axes(axes)
+    axes = parse_axes(axes)
     m = op.robot.model
     lin = op.linear
     e = axis_directions(op, axes)
@@ -233,7 +233,8 @@ def _target_mode(sys, i: int, n: int, f_max: float = 40.0) -> float:
     return float(f[int(np.argmax(np.abs(g)))])
 
 
-def _check_axes(axes) -> tuple[str, ...]:
+def parse_axes(axes) -> tuple[str, ...]:
+    """Axis names from a sequence or a comma-separated string, checked against :data:`AXES`."""
     if isinstance(axes, str):
         axes = tuple(a.strip() for a in axes.split(","))
     axes = tuple(axes)
