@@ -61,6 +61,18 @@ def _window(fs, f, settle, periods):
     return settle + n_meas / fs, n_meas
 
 
+def _steady_runs(task, before, after, op, controller, freqs, settle, periods, hardware, seed, workers,
+                 scheduler, progress, what):
+    """One steady-state run per frequency: ``task(xml, name, q, ctrl, *before, f, *after, settle,
+    periods, hw, seed)``; returns the frequencies and the runs' result rows, in order."""
+    hw = hardware if hardware is not None else Hardware()
+    freqs = np.asarray(freqs, float)
+    settle = _default_settle(op) if settle is None else settle
+    tasks = [(task, (op.robot.xml, op.robot.name, op.q_cmd, controller, *before, float(f), *after, settle,
+                     periods, hw, seed + i)) for i, f in enumerate(freqs)]
+    return freqs, _run(tasks, workers, scheduler, progress, what)
+
+
 def _sine_task(robot_xml, name, q, ctrl, axis, f, amplitude, settle, periods, hw, seed):
     op = _operating_point(robot_xml, name, q)
     duration, n_meas = _window(hw.fs, f, settle, periods)
@@ -105,12 +117,8 @@ def sine_sweep(op, controller: Controller | None, axis: str, freqs, *, amplitude
         samples at a stop), ``force_max`` (N), ``saturated``, ``ok``, ``reason`` per frequency;
         attrs ``axis``, ``amplitude``.
     """
-    hw = hardware if hardware is not None else Hardware()
-    freqs = np.asarray(freqs, float)
-    settle = _default_settle(op) if settle is None else settle
-    tasks = [(_sine_task, (op.robot.xml, op.robot.name, op.q_cmd, controller, axis, float(f), amplitude,
-                           settle, periods, hw, seed + i)) for i, f in enumerate(freqs)]
-    rows = _run(tasks, workers, scheduler, progress, "sweep")
+    freqs, rows = _steady_runs(_sine_task, (axis,), (amplitude,), op, controller, freqs, settle, periods,
+                               hardware, seed, workers, scheduler, progress, "sweep")
     ds = _assemble(rows, freqs, (axis,), "sensitivity")
     ds.attrs.update(test="sine sweep", axis=axis, amplitude=amplitude, controlled=int(controller is not None))
     return ds
@@ -130,12 +138,8 @@ def eccentric_test(op, controller: Controller | None, speeds, *, axes=("tangenti
         (freq, axis) amplitude, m/s²; ``ecc_force`` (freq) N; per-run ``stroke_used``,
         ``force_max``, ``saturated``, ``ok``, ``reason``.
     """
-    hw = hardware if hardware is not None else Hardware()
-    speeds = np.asarray(speeds, float)
-    settle = _default_settle(op) if settle is None else settle
-    tasks = [(_ecc_task, (op.robot.xml, op.robot.name, op.q_cmd, controller, tuple(axes), float(f),
-                          settle, periods, hw, seed + i)) for i, f in enumerate(speeds)]
-    rows = _run(tasks, workers, scheduler, progress, "eccentric")
+    speeds, rows = _steady_runs(_ecc_task, (tuple(axes),), (), op, controller, speeds, settle, periods,
+                                hardware, seed, workers, scheduler, progress, "eccentric")
     ds = _assemble(rows, speeds, tuple(axes), "sensitivity")
     ds["acceleration"] = (("freq", "axis"), np.array([r.get("acc_amp", np.full(len(axes), np.nan)) for r in rows]))
     ds["ecc_force"] = ("freq", np.array([r.get("ecc_force", np.nan) for r in rows]))
