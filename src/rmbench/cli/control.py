@@ -26,7 +26,7 @@ def register(sub) -> None:
     d.add_argument("--plant", choices=("exact", "measured"), default="exact",
                    help="plant from the exact linearisation, or from a simulated shaker FRF measurement (SISO)")
     d.add_argument("--order", type=int, default=None, help="controller states after balanced truncation "
-                                                          "(default 12 for one axis, 20 for a MIMO pair)")
+                                                          "(default 12, plus 8 per further axis of a MIMO design)")
     d.add_argument("--set", default=None, metavar="NAME=VALUE,...",
                    help="weights to change, e.g. k_a=60,zeta_w=0.3 (rmbench.control.Weights)")
     d.add_argument("--out", required=True, help="controller file (.npz)")
@@ -99,10 +99,10 @@ def cmd_design(args) -> int:
     def plant_of(ax):
         if args.plant == "measured":
             return measured_plant(op, ax[0])
-        return robot_plant(op, ax, order=14 if len(ax) == 1 else 24)
+        return robot_plant(op, ax, order=14 + 10 * (len(ax) - 1))
 
     if args.mimo or len(axes) == 1:
-        d = design(plant_of(axes), weights, order=args.order or (12 if len(axes) == 1 else 20),
+        d = design(plant_of(axes), weights, order=args.order or 12 + 8 * (len(axes) - 1),
                    modified=args.modified)
         ctrl, gammas, modes = d.controller, [d.gamma], list(d.plant.mode_hz)
     else:
