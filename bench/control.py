@@ -138,7 +138,7 @@ def main():
                                ("MIMO", d_mimo.controller))}
         t_ecc = time.perf_counter() - t0
         print(f"\n2. Eccentric mass (m e = 0.01 kg m), {len(speeds)} speeds 2-20 Hz ({t_ecc:.0f} s)")
-        print(f"  {'controller':<18} {'tangential':>10} {'axial':>8} {'amp >2f_a dB (t/a)':>19} {'stroke':>7} "
+        print(f"  {'controller':<18} {'tangential':>10} {'axial':>8} {'amp >1.5f_a dB (t/a)':>19} {'stroke':>7} "
               f"{'force N':>8} {'runs at an end stop':>19}")
         ecc_red = {}
         for name, ds in ecc.items():
