@@ -43,3 +43,16 @@ def default_design(op):
     from rmbench.control import design, robot_plant
 
     return design(robot_plant(op, ("tangential",), order=14))
+
+
+@pytest.fixture
+def cli(capsys):
+    """Run ``rmbench ARGV...`` in-process: returns (exit code, stdout, stderr)."""
+    from rmbench.cli import main
+
+    def run(*argv):
+        code = main([str(a) for a in argv])
+        cap = capsys.readouterr()
+        return code, cap.out, cap.err
+
+    return run

@@ -7,15 +7,9 @@ import pytest
 from rmbench.cli import main
 
 
-def _run(capsys, *argv):
-    code = main(list(argv))
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def test_model_info_json(capsys):
-    code, out, _ = _run(capsys, "model", "info", "--robot", "irb6660", "--tool", "dummy",
-                        "--posture", "1800,-200,0", "--json")
+def test_model_info_json(cli):
+    code, out, _ = cli("model", "info", "--robot", "irb6660", "--tool", "dummy",
+                       "--posture", "1800,-200,0", "--json")
     assert code == 0
     data = json.loads(out)
     assert len(data["q_cmd"]) == 6
@@ -25,18 +19,18 @@ def test_model_info_json(capsys):
     assert mode["phiL"]["1aY"][0] == pytest.approx(1.0)
 
 
-def test_model_info_table(capsys):
-    code, out, _ = _run(capsys, "model", "info", "--posture", "1800,200,60", "--band", "high")
+def test_model_info_table(cli):
+    code, out, _ = cli("model", "info", "--posture", "1800,200,60", "--band", "high")
     assert code == 0
     assert "high band" in out and "f_n Hz" in out
 
 
-def test_model_variant_writes_a_loadable_file(capsys, tmp_path):
+def test_model_variant_writes_a_loadable_file(cli, tmp_path):
     path = tmp_path / "v.xml"
-    code, out, _ = _run(capsys, "model", "variant", "--robot", "irb6660", "--set", "j2_flex.stiffness*=0.8",
-                        "--out", str(path))
+    code, out, _ = cli("model", "variant", "--robot", "irb6660", "--set", "j2_flex.stiffness*=0.8",
+                       "--out", str(path))
     assert code == 0 and path.is_file()
-    code, out, _ = _run(capsys, "model", "info", "--robot", str(path), "--json")
+    code, out, _ = cli("model", "info", "--robot", str(path), "--json")
     assert code == 0 and json.loads(out)["tool"] == "dummy"
 
 
@@ -56,9 +50,9 @@ def _malformed(tmp_path):
     (["model", "info", "--robot", "missing/robot.xml"], "not found"),
 ], ids=["unknown-robot", "unknown-tool", "unreachable", "bad-posture", "unknown-site", "malformed-mjcf",
         "missing-file"])
-def test_bad_input_gives_one_line_and_exit_2(capsys, tmp_path, argv, message):
+def test_bad_input_gives_one_line_and_exit_2(cli, tmp_path, argv, message):
     argv = [_malformed(tmp_path) if a == "MALFORMED" else a for a in argv]
-    code, out, err = _run(capsys, *argv)
+    code, out, err = cli(*argv)
     assert code == 2
     assert message in err
     assert len(err.strip().splitlines()) == 1

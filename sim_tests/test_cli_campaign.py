@@ -4,7 +4,6 @@ import json
 
 import pytest
 
-from rmbench.cli import main
 
 TINY = """
 seed = 3
@@ -15,12 +14,6 @@ postures = [[1800, -200, 0], [1800, 200, 60]]
 """
 
 
-def _run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
-
-
 @pytest.fixture
 def tiny(tmp_path):
     path = tmp_path / "tiny.toml"
@@ -28,20 +21,20 @@ def tiny(tmp_path):
     return path
 
 
-def test_dry_run_lists_postures_and_estimates(capsys, tiny):
-    code, out, _ = _run(capsys, "campaign", "run", tiny, "--dry-run", "--method", "time", "--json")
+def test_dry_run_lists_postures_and_estimates(cli, tiny):
+    code, out, _ = cli("campaign", "run", tiny, "--dry-run", "--method", "time", "--json")
     est = json.loads(out)
     assert code == 0 and est["n_postures"] == 2
     assert est["steps_total"] > 0 and est["estimated_core_seconds"] > 0
 
 
-def test_run_export_import_plot(capsys, tiny, tmp_path):
+def test_run_export_import_plot(cli, tiny, tmp_path):
     data = tmp_path / "tiny.nc"
-    code, out, _ = _run(capsys, "campaign", "run", tiny, "--out", data, "--workers", 0, "--no-progress", "--json")
+    code, out, _ = cli("campaign", "run", tiny, "--out", data, "--workers", 0, "--no-progress", "--json")
     assert code == 0 and json.loads(out)["ok"] == 2
-    code, _, _ = _run(capsys, "campaign", "export", data, "--uff", tmp_path / "uff", "--binary")
+    code, _, _ = cli("campaign", "export", data, "--uff", tmp_path / "uff", "--binary")
     assert code == 0
-    code, _, _ = _run(capsys, "campaign", "import", tmp_path / "uff", "--out", tmp_path / "back.nc")
+    code, _, _ = cli("campaign", "import", tmp_path / "uff", "--out", tmp_path / "back.nc")
     assert code == 0
     from rmbench.impact import open_campaign
     import numpy as np
@@ -49,7 +42,7 @@ def test_run_export_import_plot(capsys, tiny, tmp_path):
     a, b = open_campaign(data), open_campaign(tmp_path / "back.nc")
     np.testing.assert_array_equal(a.H.values, b.H.values)  # binary UFF58b is exact
     assert "H_exact" not in b  # an imported test has no ground truth
-    code, _, _ = _run(capsys, "campaign", "plot", data, "--posture", "1800,200,60", "--out", tmp_path / "f.png")
+    code, _, _ = cli("campaign", "plot", data, "--posture", "1800,200,60", "--out", tmp_path / "f.png")
     assert code == 0 and (tmp_path / "f.png").stat().st_size > 10_000
 
 
@@ -58,15 +51,15 @@ def test_run_export_import_plot(capsys, tiny, tmp_path):
     (["campaign", "plot", "missing.nc", "--index", "0", "--out", "f.png"], "dataset not found"),
     (["campaign", "import", "no_such_dir", "--out", "x.nc"], ""),
 ], ids=["missing-config", "missing-dataset", "missing-uff-dir"])
-def test_bad_input_is_one_line_and_exit_2(capsys, argv, message):
-    code, _, err = _run(capsys, *argv)
+def test_bad_input_is_one_line_and_exit_2(cli, argv, message):
+    code, _, err = cli(*argv)
     assert code == 2 and message in err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-def test_bad_config_fails_before_anything_runs(capsys, tmp_path):
+def test_bad_config_fails_before_anything_runs(cli, tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[hits]\naverages = 0\n")
-    code, _, err = _run(capsys, "campaign", "run", bad, "--out", tmp_path / "x.nc")
+    code, _, err = cli("campaign", "run", bad, "--out", tmp_path / "x.nc")
     assert code == 2 and "hits.averages" in err
     assert not (tmp_path / "x.nc").exists() and not (tmp_path / "x.nc.parts").exists()

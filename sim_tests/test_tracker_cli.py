@@ -9,12 +9,6 @@ from rmbench.cli import main
 SMALL = 'robot = "mh180"\nseed = 2\nn_identification = 40\nn_validation = 6\nrepeats = 2\n'
 
 
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
 @pytest.fixture(scope="module")
 def campaign_csv(tmp_path_factory):
     folder = tmp_path_factory.mktemp("tracker")
@@ -28,22 +22,22 @@ def test_tracker_run_writes_repeated_readings(campaign_csv):
     assert lines[0].startswith("location,q_j1,") and len(lines) == 1 + 6 * 2
 
 
-def test_invalidate_readings_prints_one_json_object(capsys, campaign_csv):
-    code, out, _ = run(capsys, "invalidate", "readings", campaign_csv, "--eta", "0.375", "--json")
+def test_invalidate_readings_prints_one_json_object(cli, campaign_csv):
+    code, out, _ = cli("invalidate", "readings", campaign_csv, "--eta", "0.375", "--json")
     data = json.loads(out)
     assert code == 0 and data["n_measurements"] == 12 and data["verdict"] in ("rejected", "not rejected")
 
 
-def test_invalidate_run_reports_verdict_and_measurements(capsys):
-    code, out, _ = run(capsys, "invalidate", "run", "--eta", "0.375", "--alpha", "0.9",
+def test_invalidate_run_reports_verdict_and_measurements(cli):
+    code, out, _ = cli("invalidate", "run", "--eta", "0.375", "--alpha", "0.9",
                        "--max-per-location", "10", "--json")
     data = json.loads(out)
     assert code == 0 and data["n_measurements"] >= data["n_explored"] > 0
     assert data["units"] == "m" and data["eta"] == pytest.approx(0.375e-3)
 
 
-def test_invalidate_benchmark_prints_table1_beside_the_seed(capsys):
-    code, out, _ = run(capsys, "invalidate", "benchmark", "--seeds", "1")
+def test_invalidate_benchmark_prints_table1_beside_the_seed(cli):
+    code, out, _ = cli("invalidate", "benchmark", "--seeds", "1")
     assert code == 0 and "Model Invalidation" in out and "/ 1.06" in out
 
 
@@ -60,7 +54,7 @@ def test_invalidate_benchmark_prints_table1_beside_the_seed(capsys):
     (["tracker", "run", "BADTOML", "--out", "x.csv"], "not valid TOML"),
 ], ids=["alpha", "eta", "missing-column", "nan", "repeatability", "missing-file", "config-key",
         "bad-toml"])
-def test_bad_input_gives_one_line_and_exit_2(capsys, tmp_path, campaign_csv, argv, message):
+def test_bad_input_gives_one_line_and_exit_2(cli, tmp_path, campaign_csv, argv, message):
     rows = [r.split(",") for r in campaign_csv.read_text().splitlines() if not r.startswith("#")]
     nan = [r[:] for r in rows]
     nan[1][rows[0].index("x")] = "nan"
@@ -76,5 +70,5 @@ def test_bad_input_gives_one_line_and_exit_2(capsys, tmp_path, campaign_csv, arg
             path.write_text(texts[a] if a in texts else "\n".join(",".join(r) for r in files[a]))
             a = path
         args.append(a)
-    code, _, err = run(capsys, *args)
+    code, _, err = cli(*args)
     assert code == 2 and message in err and err.count("\n") == 1

@@ -73,35 +73,38 @@ def _steady_runs(task, before, after, op, controller, freqs, settle, periods, ha
     return freqs, _run(tasks, workers, scheduler, progress, what)
 
 
-def _sine_task(robot_xml, name, q, ctrl, axis, f, amplitude, settle, periods, hw, seed):
+def _steady_run(robot_xml, name, q, ctrl, f, settle, periods, hw, seed, **loop):
+    """One closed-loop run to steady state at ``f`` Hz: the operating point, the record and the
+    complex amplitude of the recorded accelerations at ``f``; or a failure row if it diverged."""
     op = _operating_point(robot_xml, name, q)
     duration, n_meas = _window(hw.fs, f, settle, periods)
     try:
-        rec = run_loop(op, ctrl, duration, hardware=hw, seed=seed, record_axes=(axis,),
-                       shaker={axis: lambda t: amplitude * np.sin(2 * np.pi * f * t)})
+        rec = run_loop(op, ctrl, duration, hardware=hw, seed=seed, **loop)
     except LoopDiverged as err:
-        return {"f": f, "ok": False, "reason": str(err)}
-    t = rec.t[-n_meas:]
-    acc = _steady_amplitude(t, rec.acc[-n_meas:], f)
-    # d on the robot is minus the coil force A sin ωt, i.e. the phasor +iA (cosine reference)
-    return {"f": f, "ok": True, "acc": acc / (1j * amplitude), "stroke": rec.stroke_used, "end_stop": rec.end_stop,
-            "force": float(np.abs(rec.force).max(initial=0.0)), "saturated": rec.saturated,
-            "rt": rec.realtime_factor, "reason": ""}
+        return op, None, {"f": f, "ok": False, "reason": str(err)}
+    acc = _steady_amplitude(rec.t[-n_meas:], rec.acc[-n_meas:], f)
+    row = {"f": f, "ok": True, "reason": "", "stroke": rec.stroke_used, "end_stop": rec.end_stop,
+           "force": float(np.abs(rec.force).max(initial=0.0)), "saturated": rec.saturated,
+           "rt": rec.realtime_factor}
+    return op, acc, row
+
+
+def _sine_task(robot_xml, name, q, ctrl, axis, f, amplitude, settle, periods, hw, seed):
+    _, acc, row = _steady_run(robot_xml, name, q, ctrl, f, settle, periods, hw, seed, record_axes=(axis,),
+                              shaker={axis: lambda t: amplitude * np.sin(2 * np.pi * f * t)})
+    if acc is not None:
+        # d on the robot is minus the coil force A sin ωt, i.e. the phasor +iA (cosine reference)
+        row["acc"] = acc / (1j * amplitude)
+    return row
 
 
 def _ecc_task(robot_xml, name, q, ctrl, axes, f, settle, periods, hw, seed):
-    op = _operating_point(robot_xml, name, q)
-    duration, n_meas = _window(hw.fs, f, settle, periods)
-    try:
-        rec = run_loop(op, ctrl, duration, hardware=hw, seed=seed, record_axes=axes, spindle_hz=f)
-    except LoopDiverged as err:
-        return {"f": f, "ok": False, "reason": str(err)}
-    t = rec.t[-n_meas:]
-    acc = _steady_amplitude(t, rec.acc[-n_meas:], f)
-    force = eccentric_force_amplitude(op.robot.model, f)
-    return {"f": f, "ok": True, "acc": acc / force, "acc_amp": np.abs(acc), "ecc_force": force,
-            "stroke": rec.stroke_used, "end_stop": rec.end_stop, "force": float(np.abs(rec.force).max(initial=0.0)),
-            "saturated": rec.saturated, "rt": rec.realtime_factor, "reason": ""}
+    op, acc, row = _steady_run(robot_xml, name, q, ctrl, f, settle, periods, hw, seed, record_axes=axes,
+                               spindle_hz=f)
+    if acc is not None:
+        force = eccentric_force_amplitude(op.robot.model, f)
+        row.update(acc=acc / force, acc_amp=np.abs(acc), ecc_force=force)
+    return row
 
 
 def sine_sweep(op, controller: Controller | None, axis: str, freqs, *, amplitude: float = 20.0,
