@@ -99,6 +99,18 @@ def test_3d_test_takes_vector_errors_and_per_axis_sigma():
     assert res.dim == 3 and res.rejected  # |e| = 0.224 > 0.2 by 8 σ_x-scaled units
 
 
+def test_eta_at_the_largest_reading_is_never_rejected():
+    # Every location mean lies inside the ball of radius max |reading|, so every Z is 0 and P* = 0:
+    # the smallest η not rejected can never exceed the Largest Error of the same readings.
+    # That bounds how far the method can see beyond the measured configurations.
+    rng = np.random.default_rng(3)
+    loc = np.arange(30.0)
+    readings = {k: list(rng.normal(0.0, 1e-4, (10, 3)) + rng.normal(0.0, 2e-4, 3)) for k in range(30)}
+    largest = max(np.linalg.norm(r) for v in readings.values() for r in v)
+    res = invalidate(scripted(readings), loc, 1e-5, eta=largest, alpha=0.9, max_per_location=10)
+    assert not res.rejected and res.p_star == 0.0
+
+
 def test_correct_hook_reexpresses_all_measurements():
     res = invalidate(lambda q: np.array([5.0, 0.0, 0.0]), np.arange(4.0), 0.01, 1.0, 0.9, 3,
                      correct=lambda idx, raw: raw - np.array([5.0, 0.0, 0.0]))

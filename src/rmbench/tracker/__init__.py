@@ -24,7 +24,7 @@ from rmbench.tracker.readings import ReadingsJudgement, judge_readings, register
 from rmbench.tracker.registration import FrameRefit, kabsch
 from rmbench.tracker.rejection import p_star, rejection_statistic
 from rmbench.tracker.repeatability import iso9283_rp, joint_sigma_for_rp
-from rmbench.tracker.robot_test import RobotTest, robot_test, true_maximum
+from rmbench.tracker.robot_test import RobotTest, robot_test, true_maximum, workspace_errors
 from rmbench.tracker.sampling import quasi_random_order, sobol_points
 from rmbench.tracker.simulator import ErrorDistribution, HiddenErrors, TrackerSimulator, TrackerSpec
 
@@ -37,6 +37,6 @@ __all__ = [
     "SerialChain", "TrackerSimulator", "TrackerSpec", "ErrorDistribution", "HiddenErrors",
     "GeometricCalibration", "CalibratedModel", "kabsch", "FrameRefit",
     "CampaignConfig", "TrackerCampaign", "MH180_JOINT_BOX", "robot_test", "RobotTest",
-    "true_maximum", "judge_readings", "register_readings", "ReadingsJudgement",
+    "true_maximum", "workspace_errors", "judge_readings", "register_readings", "ReadingsJudgement",
     "iso9283_rp", "joint_sigma_for_rp", "sobol_points", "quasi_random_order",
 ]

@@ -19,7 +19,7 @@ from rmbench.tracker.campaign import CampaignConfig, TrackerCampaign
 from rmbench.tracker.invalidation import InvalidationResult, invalidate
 from rmbench.tracker.sampling import sobol_points
 
-__all__ = ["RobotTest", "robot_test", "true_maximum"]
+__all__ = ["RobotTest", "robot_test", "true_maximum", "workspace_errors"]
 
 
 @dataclass(frozen=True)
@@ -134,12 +134,22 @@ def robot_test(config: CampaignConfig = CampaignConfig(), *, eta: float = 0.375e
                   "n_validation": len(q)})
 
 
-def true_maximum(campaign: TrackerCampaign, n: int = 100_000, *, chunk: int = 20_000) -> float:
-    """Noise-free maximum error magnitude of the model over ``n`` quasi-random configurations (m)."""
+def workspace_errors(campaign: TrackerCampaign, n: int = 100_000, *,
+                     chunk: int = 20_000) -> np.ndarray:
+    """Noise-free error magnitude of the model at ``n`` quasi-random configurations, shape (n,), m.
+
+    The configurations are a scrambled Sobol sequence over the campaign's joint box (the same box
+    the identification and validation configurations come from).
+    """
     c = campaign.config
     q = sobol_points(n, c.joint_lower, c.joint_upper, campaign.rng(0))
-    return float(max(np.max(np.linalg.norm(campaign.true_error(q[k:k + chunk]), axis=1))
-                     for k in range(0, n, chunk)))
+    return np.concatenate([np.linalg.norm(campaign.true_error(q[k:k + chunk]), axis=1)
+                           for k in range(0, n, chunk)])
+
+
+def true_maximum(campaign: TrackerCampaign, n: int = 100_000, *, chunk: int = 20_000) -> float:
+    """Noise-free maximum error magnitude of the model over ``n`` quasi-random configurations (m)."""
+    return float(workspace_errors(campaign, n, chunk=chunk).max())
 
 
 def _replaying(measure):
