@@ -64,3 +64,10 @@ def test_unknown_option_is_a_usage_error(capsys):
         main(["model", "info", "--frobnicate"])
     assert exc.value.code == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("command", ["model", "campaign", "modal", "tracker", "invalidate", "control"])
+def test_command_without_subcommand_prints_its_help_and_exits_2(cli, command):
+    code, out, _ = cli(command)
+    assert code == 2
+    assert out.startswith(f"usage: rmbench {command} ") and "SUBCOMMAND" in out

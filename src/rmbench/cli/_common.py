@@ -9,7 +9,17 @@ import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["add_robot_options", "load_robot", "resolve_posture", "print_json"]
+__all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json"]
+
+
+def command_group(sub, name: str, help: str):
+    """Add the command ``name`` with its own subcommands; returns their argparse subparsers.
+
+    Given without a subcommand, the command prints its help and exits with 2.
+    """
+    p = sub.add_parser(name, help=help)
+    p.set_defaults(func=lambda args: p.print_help() or 2)
+    return p.add_subparsers(dest=f"{name}_command", metavar="SUBCOMMAND", parser_class=type(p))
 
 
 def add_robot_options(p, *, posture: bool = True) -> None:

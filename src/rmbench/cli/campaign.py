@@ -4,15 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rmbench.cli._common import print_json
+from rmbench.cli._common import command_group, print_json
 from rmbench.errors import InputError
 
 __all__ = ["register"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("campaign", help="virtual impact campaigns: FRF matrices across postures")
-    csub = p.add_subparsers(dest="campaign_command", metavar="SUBCOMMAND", parser_class=type(p))
+    csub = command_group(sub, "campaign", "virtual impact campaigns: FRF matrices across postures")
     run = csub.add_parser("run", help="run a campaign from a TOML config (resumable)")
     run.add_argument("config", help="TOML file, or a bundled config name (seed_full, demo)")
     run.add_argument("--out", required=False, help="dataset file to write (netCDF)")
@@ -46,7 +45,6 @@ def register(sub) -> None:
     plot.add_argument("--band", choices=("low", "high"), default=None)
     plot.add_argument("--out", required=True, help="PNG file")
     plot.set_defaults(func=cmd_plot)
-    p.set_defaults(func=lambda args: p.print_help() or 2)
 
 
 def cmd_run(args) -> int:

@@ -7,15 +7,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from rmbench.cli._common import add_robot_options, load_robot, print_json, resolve_posture
+from rmbench.cli._common import add_robot_options, command_group, load_robot, print_json, resolve_posture
 from rmbench.errors import InputError
 
 __all__ = ["register"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("control", help="H-infinity proof-mass vibration suppression (METHODS.md §8)")
-    csub = p.add_subparsers(dest="control_command", metavar="SUBCOMMAND", parser_class=type(p))
+    csub = command_group(sub, "control", "H-infinity proof-mass vibration suppression (METHODS.md §8)")
 
     d = csub.add_parser("design", help="design a controller and save it (npz + JSON metadata)")
     _robot(d)
@@ -55,7 +54,6 @@ def register(sub) -> None:
     t.add_argument("--out", default=None, metavar="NC", help="write the table as netCDF")
     t.add_argument("--json", action="store_true")
     t.set_defaults(func=cmd_tune)
-    p.set_defaults(func=lambda args: p.print_help() or 2)
 
 
 def _robot(p):

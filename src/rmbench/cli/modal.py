@@ -6,15 +6,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rmbench.cli._common import print_json
+from rmbench.cli._common import command_group, print_json
 from rmbench.errors import InputError
 
 __all__ = ["register"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("modal", help="MDOF modal fitting of measured FRF matrices")
-    msub = p.add_subparsers(dest="modal_command", metavar="SUBCOMMAND", parser_class=type(p))
+    msub = command_group(sub, "modal", "MDOF modal fitting of measured FRF matrices")
     fit = msub.add_parser("fit", help="fit all 16 FRFs per band with shared poles and left/right eigenvectors")
     fit.add_argument("data", help="campaign dataset (netCDF) or a directory of UFF58 files")
     fit.add_argument("--out", default=None, help="modal dataset to write (netCDF)")
@@ -32,7 +31,6 @@ def register(sub) -> None:
     plot.add_argument("--band", choices=("low", "high"), default="high")
     plot.add_argument("--out", required=True, help="PNG file (the FRF matrix goes beside it, *_frf.png)")
     plot.set_defaults(func=cmd_plot)
-    p.set_defaults(func=lambda args: p.print_help() or 2)
 
 
 def _load(path: str):

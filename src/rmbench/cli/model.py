@@ -5,16 +5,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-
-from rmbench.cli._common import add_robot_options, load_robot, print_json, resolve_posture
+from rmbench.cli._common import add_robot_options, command_group, load_robot, print_json, resolve_posture
 from rmbench.errors import InputError
 
 __all__ = ["register"]
 
 
 def register(sub) -> None:
-    p = sub.add_parser("model", help="robot models: exact modes, variants")
-    msub = p.add_subparsers(dest="model_command", metavar="SUBCOMMAND", parser_class=type(p))
+    msub = command_group(sub, "model", "robot models: exact modes, variants")
     info = msub.add_parser("info", help="exact mode table of a robot at a posture")
     add_robot_options(info)
     info.add_argument("--band", choices=("low", "high", "both"), default="both")
@@ -31,7 +29,6 @@ def register(sub) -> None:
                      help="mount on a compliant foundation: lateral N/m, tilt N m/rad")
     var.add_argument("--out", required=True, help="MJCF file to write")
     var.set_defaults(func=cmd_variant)
-    p.set_defaults(func=lambda args: p.print_help() or 2)
 
 
 def cmd_info(args) -> int:

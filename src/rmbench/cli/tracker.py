@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from rmbench.cli._common import print_json
+from rmbench.cli._common import command_group, print_json
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -21,17 +21,14 @@ MM = 1e-3
 
 def register(sub) -> None:
     """Register the ``tracker`` and ``invalidate`` commands on the argparse subparsers ``sub``."""
-    p = sub.add_parser("tracker", help="simulated laser-tracker campaigns")
-    tsub = p.add_subparsers(dest="tracker_command", metavar="SUBCOMMAND", parser_class=type(p))
+    tsub = command_group(sub, "tracker", "simulated laser-tracker campaigns")
     run = tsub.add_parser("run", help="simulate a tracker campaign and write its readings as CSV")
     run.add_argument("config", help="campaign TOML file (SI units; see rmbench.tracker.CampaignConfig)")
     run.add_argument("--out", required=True, help="CSV file for the readings")
     run.add_argument("--json", action="store_true", help="print a JSON summary")
     run.set_defaults(func=cmd_tracker_run)
-    p.set_defaults(func=lambda args: p.print_help() or 2)
 
-    inv = sub.add_parser("invalidate", help="model invalidation (METHODS.md §7)")
-    isub = inv.add_subparsers(dest="invalidate_command", metavar="SUBCOMMAND", parser_class=type(inv))
+    isub = command_group(sub, "invalidate", "model invalidation (METHODS.md §7)")
     r = isub.add_parser("run", help="sequential invalidation test against the simulated tracker")
     r.add_argument("--robot", default="mh180", help="bundled robot name or MJCF path (default mh180)")
     r.add_argument("--config", default=None, help="campaign TOML (overrides the defaults; --robot "
@@ -60,7 +57,6 @@ def register(sub) -> None:
     b.add_argument("--seeds", type=int, default=5, help="number of seeds averaged (default 5)")
     b.add_argument("--json", action="store_true", help="print JSON instead of a table")
     b.set_defaults(func=cmd_invalidate_benchmark)
-    inv.set_defaults(func=lambda args: inv.print_help() or 2)
 
 
 def _add_test_options(p, *, cap_default: int | None = 10) -> None:
