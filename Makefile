@@ -29,6 +29,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/control.py | tee bench/results/control.txt
 	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
 	$(BIN)/python bench/modal_vs_sdypy.py | tee bench/results/modal_vs_sdypy.txt
+	$(BIN)/python bench/modal_robustness.py | tee bench/results/modal_robustness.txt
 
 clean:
 	rm -rf $(VENV) rmbench_demo

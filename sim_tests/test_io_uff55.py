@@ -165,6 +165,25 @@ def test_modal_csv(tmp_path, with_std):
                                           ds["modal_std"].values[p, m])
 
 
+def test_modal_csv_carries_the_fit_verdict(tmp_path):
+    """Issue 12: where the dataset has them, each row says whether its band's fit at that posture
+    is ok and whether the mode is uncertain."""
+    ds = modal_dataset()
+    fit_ok = np.array([[True, False], [False, False], [True, True]])
+    uncertain = np.zeros((3, 4), bool)
+    uncertain[0, 3] = True
+    ds["fit_ok"] = (("posture", "fit_band"), fit_ok)
+    ds = ds.assign_coords(fit_band=["low", "high"])
+    ds["mode_uncertain"] = (("posture", "mode"), uncertain)
+    path = write_modal_csv(ds, tmp_path / "modes.csv")
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert list(rows[0])[-2:] == ["fit_ok", "uncertain"]
+    got = {(int(r["posture"]), int(r["mode"])): (r["fit_ok"], r["uncertain"]) for r in rows}
+    assert got[(0, 0)] == ("true", "false") and got[(0, 2)] == ("false", "false")
+    assert got[(0, 3)] == ("false", "true") and got[(2, 3)] == ("true", "false")
+
+
 def test_param_order_does_not_matter(tmp_path):
     ds = modal_dataset()
     shuffled = ds.isel(param=np.random.default_rng(1).permutation(16)).transpose("param", "mode", "posture")

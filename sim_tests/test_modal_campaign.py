@@ -36,6 +36,20 @@ def test_every_posture_is_fitted_with_modes_in_both_bands(fitted):
     assert fitted.modal.dims == ("posture", "mode", "param") and fitted.sizes["param"] == 16
 
 
+def test_the_verdict_is_stored_per_band_and_the_evidence_per_mode(fitted):
+    """Issue 12: fit_ok, fit_reason and fit_notes per (posture, band); the evidence of each
+    fitted mode per (posture, mode), NaN or False where the mode was not fitted."""
+    assert fitted.fit_ok.dims == fitted.fit_reason.dims == ("posture", "fit_band")
+    assert list(fitted.fit_band.values) == ["low", "high"]
+    assert all(r == "" for r in fitted.fit_reason.values.ravel())
+    found = np.isfinite(fitted.modal.values[..., 0])
+    assert fitted.mode_uncertain.dims == ("posture", "mode")
+    assert not fitted.mode_uncertain.values.any()
+    assert np.all(np.isfinite(fitted.mode_delta_bic.values[found]))
+    assert np.all(fitted.mode_share.values[found] > 0)
+    assert np.all(np.isnan(fitted.mode_share.values[~found]))
+
+
 def test_fitted_modes_match_the_ground_truth(fitted):
     # the issue's campaign targets: frequency 0.5 %, damping 10 %, MAC 0.98 (here on 3 postures
     # of the linear path, whose noise is the same sensors' noise)
@@ -62,7 +76,10 @@ def test_cli_fit_json_of_one_posture(capsys, campaign, tmp_path):
     code = main(["modal", "fit", str(one), "--json", "--workers", "0"])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and len(out["modes"]) >= 9
-    assert set(out["modes"][0]) >= {"f_n", "zeta", "phiL", "phiR"}
+    assert set(out["modes"][0]) >= {"f_n", "zeta", "phiL", "phiR", "uncertain", "delta_bic"}
+    assert out["fit_ok"] is True
+    assert set(out["bands"]) == {"low", "high"}
+    assert out["bands"]["low"]["fit_ok"] is True and out["bands"]["low"]["fit_reason"] == ""
 
 
 def test_cli_fit_rejects_a_missing_dataset(capsys):
@@ -154,8 +171,8 @@ def test_a_posture_that_cannot_be_fitted_is_reported_and_the_others_still_fit(ca
     ds = open_campaign(campaign).load()
     ds["H"].values[1] = 0.0  # a posture whose FRFs are all zeros
     res = fit_campaign(ds, workers=0)
-    assert list(res.fit_ok.values) == [True, False, True]
-    assert "all zeros" in str(res.fit_reason.values[1])
+    assert list(res.fit_ok.all("fit_band").values) == [True, False, True]
+    assert all("all zeros" in str(r) for r in res.fit_reason.values[1])
     assert np.isfinite(res.modal.values[[0, 2], :, 0]).sum() >= 18
 
 

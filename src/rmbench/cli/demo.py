@@ -68,12 +68,16 @@ def cmd_demo(args) -> int:
     from rmbench.impact.dataset import save
     from rmbench.modal.campaign_fit import fit_campaign
 
-    print("\nMDOF modal fit of the campaign (automatic: pLSCF, stabilisation, all 16 FRFs per band)")
+    print("\nMDOF modal fit of the campaign (automatic: pLSCF, stabilisation, model order by the "
+          "information criterion, all 16 FRFs per band)")
     fit = fit_campaign(ds, workers=args.workers)
     for i in range(fit.sizes["posture"]):
         found = np.isfinite(fit.modal.values[i, :, 0])
+        verdict = ("fit ok" if fit.fit_ok.values[i].all() else "needs a look: " + "; ".join(
+            f"{b} band: {r}" for b, r in zip(fit.fit_band.values, fit.fit_reason.values[i]) if r))
         print(f"  posture {i}: " + ", ".join(
-            f"{f:.2f} Hz ({100 * z:.1f} %)" for f, z in fit.modal.values[i, found, :2]))
+            f"{f:.2f} Hz ({100 * z:.1f} %)" for f, z in fit.modal.values[i, found, :2])
+            + f" [{verdict}]")
     if "f_err" in fit:
         print(f"  against ground truth: |f error| max {np.nanmax(np.abs(fit.f_err)):.2e}, "
               f"|zeta error| max {np.nanmax(np.abs(fit.zeta_err)):.3f}, "

@@ -69,11 +69,14 @@ def cmd_fit(args) -> int:
     if args.json:
         print_json(_as_json(res))
         return 0
-    n_ok = int(res.fit_ok.sum())
-    print(f"fitted {n_ok} of {res.sizes['posture']} postures, {res.sizes['mode']} tracked modes "
-          f"({', '.join(f'{b}: {int((res.mode_band == b).sum())}' for b in bands)}) in {res.attrs['fit_seconds']:.1f} s")
-    for p in np.flatnonzero(~res.fit_ok.values):
-        print(f"  posture {p} not fitted: {res.fit_reason.values[p]}")
+    ok = res.fit_ok.values
+    print(f"fitted {res.sizes['posture']} postures x {res.sizes['fit_band']} bands, "
+          f"{res.sizes['mode']} tracked modes "
+          f"({', '.join(f'{b}: {int((res.mode_band == b).sum())}' for b in bands)}) in "
+          f"{res.attrs['fit_seconds']:.1f} s; {int(ok.sum())} of {ok.size} band fits ok")
+    for p, bi in np.argwhere(~ok):
+        print(f"  posture {p}, {res.fit_band.values[bi]} band needs a look: "
+              f"{res.fit_reason.values[p, bi]}")
     if "f_err" in res:
         print(f"  against ground truth: |f error| p95 {np.nanpercentile(np.abs(res.f_err), 95):.4f}, "
               f"|zeta error| p95 {np.nanpercentile(np.abs(res.zeta_err), 95):.4f}, "
@@ -94,18 +97,35 @@ def _as_json(res) -> dict:
                 continue
             r, l = mode_vectors(res, p, m)
             out.append({"f_n": prm[0], "zeta": prm[1], "band": str(res.mode_band.values[m]),
+                        "f_n_std": res.modal_std.values[p, m, 0],
+                        "zeta_std": res.modal_std.values[p, m, 1],
+                        "uncertain": bool(res.mode_uncertain.values[p, m]),
+                        "delta_bic": res.mode_delta_bic.values[p, m],
+                        "share": res.mode_share.values[p, m],
+                        "stable_orders": int(res.mode_stable_orders.values[p, m]),
                         "phiL": {c: [l[i].real, l[i].imag] for i, c in enumerate(("1X", "1Y", "1aX", "1aY"))},
                         "phiR": {c: [r[i].real, r[i].imag] for i, c in enumerate(("1X", "1Y", "1aX", "1aY"))}})
         return out
 
+    def bands_of(p):
+        return {str(b): {"fit_ok": bool(res.fit_ok.values[p, i]),
+                         "fit_reason": str(res.fit_reason.values[p, i]),
+                         "notes": [n for n in str(res.fit_notes.values[p, i]).split("; ") if n]}
+                for i, b in enumerate(res.fit_band.values)}
+
+    units = {"f_n": "Hz", "zeta": "ratio", "phiR": "s/kg", "phiL": "1"}
     if res.sizes["posture"] == 1:
-        return {"modes": modes_of(0), "units": {"f_n": "Hz", "zeta": "ratio", "phiR": "s/kg", "phiL": "1"}}
-    return {"postures": [{"index": int(p), "ok": bool(res.fit_ok.values[p]), "modes": modes_of(p)}
-                         for p in range(res.sizes["posture"])]}
+        return {"fit_ok": bool(res.fit_ok.values[0].all()), "bands": bands_of(0),
+                "modes": modes_of(0), "units": units}
+    return {"postures": [{"index": int(p), "fit_ok": bool(res.fit_ok.values[p].all()),
+                          "bands": bands_of(p), "modes": modes_of(p)}
+                         for p in range(res.sizes["posture"])], "units": units}
 
 
 def cmd_plot(args) -> int:
-    from rmbench.modal import ModalFit
+    import warnings
+
+    from rmbench.modal import ModalFit, ModalFitWarning
     from rmbench.modal.plot import plot_fit
 
     ds = _load(args.data)
@@ -117,8 +137,15 @@ def cmd_plot(args) -> int:
     freq = ds.freq.values[sel]
     h = ds.H.values[args.index][sel]
     coh = ds.coherence.values[args.index][sel] if "coherence" in ds else None
-    fit = ModalFit().fit(freq, h, coherence=coh)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ModalFitWarning)   # the verdict is printed below
+        fit = ModalFit().fit(freq, h, coherence=coh)
     out = Path(args.out)
     plot_fit(fit, freq, h, out, out.with_name(out.stem + "_frf.png"))
+    print(f"{fit.n_modes_} modes at {', '.join(f'{f:.2f}' for f in fit.f_n_)} Hz; "
+          + ("fit ok" if fit.fit_ok_ else f"needs a look: {fit.fit_reason_}"))
+    for note in fit.quality_.notes:
+        if note not in fit.fit_reason_:
+            print(f"  note: {note}")
     print(f"wrote {out} and {out.with_name(out.stem + '_frf.png')}")
     return 0

@@ -85,6 +85,8 @@ class _ModalTable:
     band: np.ndarray  # (n_mode,), str
     phi_l_1ay: np.ndarray  # (n_posture, n_mode) complex: φL at 1aY (1 unless renormalised)
     ref: np.ndarray  # (n_mode,), str: the φL element fixed to 1
+    fit_ok: np.ndarray | None = None  # (n_posture, n_mode) bool: the verdict of the mode's band
+    uncertain: np.ndarray | None = None  # (n_posture, n_mode) bool
 
 
 def write_uff55(ds: xr.Dataset, directory: str | os.PathLike) -> list[Path]:
@@ -158,7 +160,9 @@ def write_modal_csv(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     zeta, φL dimensionless, φR in s/kg) and, when ``ds`` has ``modal_std``, their standard
     deviations as ``<param>_std``; then ``phiL_ref`` (the φL element fixed to 1 for the mode,
     1aY unless METHODS.md §2's fallback moved it) and ``phiL_1aY_re``/``_im`` (φL at 1aY, 1 + 0i
-    unless renormalised). Rows cover the postures whose ``ok`` is true, every mode of
+    unless renormalised); where the dataset has them, ``fit_ok`` (``true``/``false``: the
+    verdict on the fit of the mode's band at that posture) and ``uncertain`` (the mode's
+    standard errors do not support the accuracy asked of it). Rows cover the postures whose ``ok`` is true, every mode of
     each; a mode not identified at a posture has ``nan`` values. Numbers are written with
     Python's shortest round-trip representation, so they read back exactly. The file is written
     under a temporary name and renamed.
@@ -185,8 +189,10 @@ def write_modal_csv(ds: xr.Dataset, path: str | os.PathLike) -> Path:
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     std_columns = [f"{name}_std" for name in _PARAMS] if table.std is not None else []
+    verdict = [c for c, v in (("fit_ok", table.fit_ok), ("uncertain", table.uncertain))
+               if v is not None]
     writer.writerow(["posture", "x_mm", "y_mm", "theta_deg", "mode", "band", *_PARAMS, *std_columns,
-                     "phiL_ref", "phiL_1aY_re", "phiL_1aY_im"])
+                     "phiL_ref", "phiL_1aY_re", "phiL_1aY_im", *verdict])
     for p in np.flatnonzero(table.ok):
         posture = [int(p), repr(float(table.x[p]) * 1000.0), repr(float(table.y[p]) * 1000.0),
                    repr(math.degrees(table.theta[p]))]
@@ -194,8 +200,10 @@ def write_modal_csv(ds: xr.Dataset, path: str | os.PathLike) -> Path:
             values = table.modal[p, m] if table.std is None else np.concatenate(
                 [table.modal[p, m], table.std[p, m]])
             a = table.phi_l_1ay[p, m]
+            flags = [str(bool(v[p, m])).lower() for v in (table.fit_ok, table.uncertain)
+                     if v is not None]
             writer.writerow([*posture, m, table.band[m], *(repr(float(v)) for v in values),
-                             table.ref[m], repr(float(a.real)), repr(float(a.imag))])
+                             table.ref[m], repr(float(a.real)), repr(float(a.imag)), *flags])
     path = Path(path)
     _write_atomic(path, out.getvalue().encode("utf-8"))
     return path
@@ -220,8 +228,19 @@ def _modal_table(ds, who: str) -> _ModalTable:
                  if "phiL_1aY" in ds.data_vars else np.ones(modal.shape[:2], complex))
     ref = (np.asarray(ds["phiL_ref"].values, dtype=str) if "phiL_ref" in ds.coords
            else np.array(["1aY"] * modal.shape[1]))
-    return _ModalTable(modal=modal, std=std, x=x, y=y, theta=theta, ok=ok, band=_mode_bands(ds),
-                       phi_l_1ay=phi_l_1ay, ref=ref)
+    band = _mode_bands(ds)
+    fit_ok = uncertain = None
+    if "fit_ok" in ds.data_vars and set(ds["fit_ok"].dims) == {"posture", "fit_band"}:
+        verdict = ds["fit_ok"].transpose("posture", "fit_band")
+        labels = [str(b) for b in ds["fit_band"].values]
+        fit_ok = np.ones(modal.shape[:2], bool)
+        for m, b in enumerate(band):
+            if b in labels:
+                fit_ok[:, m] = np.asarray(verdict.values[:, labels.index(b)], dtype=bool)
+    if "mode_uncertain" in ds.data_vars and set(ds["mode_uncertain"].dims) == {"posture", "mode"}:
+        uncertain = np.asarray(ds["mode_uncertain"].transpose("posture", "mode").values, dtype=bool)
+    return _ModalTable(modal=modal, std=std, x=x, y=y, theta=theta, ok=ok, band=band,
+                       phi_l_1ay=phi_l_1ay, ref=ref, fit_ok=fit_ok, uncertain=uncertain)
 
 
 def _check_labels(ds: xr.Dataset) -> None:

@@ -26,6 +26,7 @@ __all__ = ["fit_posture", "fit_campaign", "truth_errors", "truth_scores", "renor
            "mode_vectors"]
 
 COORDS = ("1X", "1Y", "1aX", "1aY")
+_EVIDENCE = ("uncertain", "delta_bic", "share", "n_orders")   # per-mode evidence, in that order
 
 
 def fit_posture(freq: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, *,
@@ -37,8 +38,11 @@ def fit_posture(freq: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, *
     Returns
     -------
     dict
-        ``ok``, ``reason``, and for a success ``params`` (n_modes, 16), ``std`` (n_modes, 16),
-        ``phi_r``, ``phi_l`` (n_modes, 4) complex, ``nmse`` (4, 4), ``seconds``.
+        ``ok`` (the fit ran), ``fit_ok`` (it ran and needs no look), ``reason`` (why not, one
+        line; "" when ``fit_ok``), ``notes`` (tuple of str), ``seconds``; for a fit that ran,
+        ``params`` (n_modes, 16), ``std`` (n_modes, 16), ``phi_r``, ``phi_l`` (n_modes, 4)
+        complex, ``nmse`` (4, 4) and the per-mode evidence ``uncertain``, ``delta_bic``,
+        ``share``, ``n_orders`` (n_modes,).
     """
     from rmbench.modal import ModalFit
 
@@ -47,10 +51,15 @@ def fit_posture(freq: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, *
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             fit = ModalFit(n_modes=n_modes, **settings).fit(freq, H, coherence=coherence)
-        return {"ok": True, "reason": "", "params": fit.params_, "std": fit.std_, "phi_r": fit.phi_r_,
-                "phi_l": fit.phi_l_, "nmse": fit.nmse_, "seconds": time.perf_counter() - t0}
     except Exception as err:  # one failed posture must not stop the campaign
-        return {"ok": False, "reason": f"{type(err).__name__}: {err}", "seconds": time.perf_counter() - t0}
+        return {"ok": False, "fit_ok": False, "reason": f"{type(err).__name__}: {err}", "notes": (),
+                "seconds": time.perf_counter() - t0}
+    ev = fit.quality_.evidence
+    return {"ok": True, "fit_ok": fit.fit_ok_, "reason": fit.fit_reason_,
+            "notes": fit.quality_.notes, "params": fit.params_, "std": fit.std_,
+            "phi_r": fit.phi_r_, "phi_l": fit.phi_l_, "nmse": fit.nmse_,
+            "uncertain": ev.uncertain, "delta_bic": ev.delta_bic, "share": ev.share,
+            "n_orders": ev.n_orders, "seconds": time.perf_counter() - t0}
 
 
 def _task(args):
@@ -77,9 +86,14 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     Returns
     -------
     xarray.Dataset
-        ``modal`` (posture, mode, param), ``modal_std``, ``nmse`` (posture, band, out, inp),
-        ``fit_ok``/``fit_reason``, and where ``ds`` has ground truth the errors ``f_err``,
-        ``zeta_err``, ``mac_phiR``, ``mac_phiL`` (posture, mode).
+        ``modal`` (posture, mode, param), ``modal_std``, ``nmse`` (posture, fit_band, out,
+        inp); the verdict of each band's fit ``fit_ok``, ``fit_reason`` (one line naming what is
+        wrong and where, "" when ok) and ``fit_notes`` (posture, fit_band); the evidence of each
+        fitted mode ``mode_uncertain`` (its standard errors do not support the accuracy asked),
+        ``mode_delta_bic`` (the information criterion's case for it), ``mode_share`` (its share
+        of the band's fitted energy), ``mode_stable_orders`` (stable pLSCF orders of its cluster,
+        0 when the residual scan found it) on (posture, mode); and where ``ds`` has ground truth
+        the errors ``f_err``, ``zeta_err``, ``mac_phiR``, ``mac_phiL`` (posture, mode).
     """
     _check_dataset(ds)
     present = [b for b in bands if np.any(ds.band.values == b)]
@@ -109,45 +123,60 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
 
     positions = (posture_positions(ds.x.values, ds.y.values, ds.theta.values)
                  if all(c in ds.coords for c in ("x", "y", "theta")) else None)
-    blocks, std_blocks, band_of_mode, fit_ok, reasons = [], [], [], np.ones(n_post, bool), [""] * n_post
+    blocks, std_blocks, ev_blocks, band_of_mode = [], [], [], []
+    fit_ok = np.zeros((n_post, len(present)), bool)
+    reasons = np.full((n_post, len(present)), "", dtype=object)
+    notes = np.full((n_post, len(present)), "", dtype=object)
     nmse = np.full((n_post, len(present), 4, 4), np.nan)
     for bi, b in enumerate(present):
-        tables, stds = [], []
+        tables, stds, evs = [], [], []
         for p in range(n_post):
             r = by_key.get((b, p))
             if r is None or not r["ok"]:
                 tables.append(None)
                 stds.append(None)
-                fit_ok[p] = False
-                if r is not None:
-                    reasons[p] = f"{b} band: {r['reason']}"
-                elif not ok_in[p]:
-                    reasons[p] = "posture not measured"
+                evs.append(None)
+                reasons[p, bi] = r["reason"] if r is not None else "posture not measured"
                 continue
             prm = r["params"]
             tables.append(ModeTable(band=b, f_n=prm[:, 0], zeta=prm[:, 1], phi_r=r["phi_r"],
                                     phi_l=r["phi_l"], peak=np.zeros(len(prm))))
             stds.append(r["std"])
+            evs.append(np.column_stack([r[k] for k in _EVIDENCE]).astype(float))
             nmse[p, bi] = r["nmse"]
+            fit_ok[p, bi] = r["fit_ok"]
+            reasons[p, bi] = r["reason"]
+            notes[p, bi] = "; ".join(r["notes"])
         tracked, order = _track(tables, positions)
         std = np.full_like(tracked, np.nan)
-        for p, (s, o) in enumerate(zip(stds, order)):
-            if s is not None:
+        ev = np.full(tracked.shape[:2] + (len(_EVIDENCE),), np.nan)
+        for p, (sd, e, o) in enumerate(zip(stds, evs, order)):
+            if sd is not None:
                 for i, j in enumerate(o):
                     if j >= 0:
-                        std[p, i] = s[j]
+                        std[p, i] = sd[j]
+                        ev[p, i] = e[j]
         blocks.append(tracked)
         std_blocks.append(std)
+        ev_blocks.append(ev)
         band_of_mode += [b] * tracked.shape[1]
     modal = np.concatenate(blocks, axis=1)
     modal_std = np.concatenate(std_blocks, axis=1)
+    evidence = np.concatenate(ev_blocks, axis=1)
     modal, modal_std, phi_l_1ay, refs = renormalise_phi_l(modal, modal_std)
+    pm = ("posture", "mode")
     out = xr.Dataset(
         {"modal": (("posture", "mode", "param"), modal),
          "modal_std": (("posture", "mode", "param"), modal_std),
-         "phiL_1aY": (("posture", "mode"), phi_l_1ay),
+         "phiL_1aY": (pm, phi_l_1ay),
          "nmse": (("posture", "fit_band", "out", "inp"), nmse),
-         "fit_ok": ("posture", fit_ok), "fit_reason": ("posture", np.array(reasons, dtype=str))},
+         "fit_ok": (("posture", "fit_band"), fit_ok),
+         "fit_reason": (("posture", "fit_band"), reasons.astype(str)),
+         "fit_notes": (("posture", "fit_band"), notes.astype(str)),
+         "mode_uncertain": (pm, evidence[..., 0] > 0.5),
+         "mode_delta_bic": (pm, evidence[..., 1]),
+         "mode_share": (pm, evidence[..., 2]),
+         "mode_stable_orders": (pm, evidence[..., 3])},
         coords={"posture": ds.posture.values, "mode": np.arange(modal.shape[1]),
                 "mode_band": ("mode", np.array(band_of_mode, dtype=str)),
                 "phiL_ref": ("mode", np.array(refs, dtype=str)), "param": list(PARAMS),

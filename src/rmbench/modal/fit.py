@@ -4,10 +4,13 @@ Three steps, no human in the loop:
 
 1. pLSCF poles at orders ``1..max_order``, a stabilisation diagram and automatic selection of the
    stable pole clusters (:mod:`rmbench.modal.plscf`, :mod:`rmbench.modal.stabilization`);
-2. LSFD residues for those poles, split into ``φR φL^T`` by a rank-one SVD (initial values);
-3. a nonlinear least-squares fit of all 16 FRFs together with shared poles, per-mode φR and φL
-   (general non-symmetric case, ``φL[ref] = 1``) and optional residual terms, with an analytic
-   Jacobian; standard errors from ``σ² (JᵀJ)⁻¹``.
+2. a nonlinear least-squares fit of all 16 FRFs together with shared poles, per-mode φR and φL
+   (general non-symmetric case, ``φL[ref] = 1``) and optional residual terms, by variable
+   projection from LSFD starting values, inside a model-order selection that merges, adds and
+   removes poles by the information criterion (:mod:`rmbench.modal._select`);
+3. standard errors from ``σ² (JᵀJ)⁻¹`` of the full problem, per-mode evidence and the band's
+   verdict (:mod:`rmbench.modal.quality`): a failed fit says so (``fit_ok_``, ``fit_reason_``,
+   a :class:`ModalFitWarning` naming the modes).
 
 Vocabulary: ``freq`` in Hz, ``omega`` and poles in rad/s, receptance in m/N, φR in s/kg.
 """
@@ -16,11 +19,13 @@ import warnings
 from typing import Literal
 
 import numpy as np
-from scipy.special import fdtrc
 
 from rmbench.errors import InputError, RmbenchError
 from rmbench.modal import mdof
+from rmbench.modal._select import SelectionSettings, select_modes
+from rmbench.modal._varpro import Problem
 from rmbench.modal.plscf import plscf
+from rmbench.modal.quality import QualityCriteria, assess
 from rmbench.modal.stabilization import StabilityCriteria, stabilize
 
 __all__ = ["ModalFit", "ModalFitWarning", "NotFittedError", "PARAM_NAMES"]
@@ -35,7 +40,6 @@ _PHI_L_IDX = (0, 2, 1)      # coordinate index of the φL entries of PARAM_NAMES
 _PHI_R_IDX = (0, 2, 1, 3)   # coordinate index of the φR entries
 _COHERENCE_CAP = 0.99       # weight w² = γ²/(1 − γ²) is capped at 99
 _REF_WARN = 0.05            # warn when |φL[ref]| < 5 % of the mode's largest |φL|
-_SCAN_GRID = 120            # frequencies of the missing-mode scan across the band
 
 
 class NotFittedError(RmbenchError, AttributeError):
@@ -52,11 +56,13 @@ class ModalFit:
     Parameters
     ----------
     n_modes : int, optional
-        Number of modes; ``None`` lets the stabilisation diagram decide (every cluster of stable
-        poles present in at least 20 % of the orders). Given, the ``n_modes`` largest clusters.
+        Number of modes; ``None`` lets the data decide (stabilisation diagram, then poles merged,
+        added and removed by the information criterion). Given, exactly ``n_modes`` modes: the
+        largest stabilisation clusters, then poles added or removed to reach the count.
     max_order : int
-        Highest pLSCF polynomial order (each order has ``4 * order`` poles; 30 gives up to 60
-        conjugate pairs, far more than a band holds, and the eigenvalue cost grows as order⁴).
+        Highest pLSCF polynomial order (each order has ``4 * order`` poles; 20 gives up to 40
+        conjugate pairs, more than a band holds; the eigenvalue cost of the diagram grows as
+        order⁴, and the selection adds what the diagram misses).
     weighting : {"coherence", "magnitude", "uniform"}
         Weight of each FRF line in the nonlinear fit. ``"magnitude"``: each FRF divided by its RMS
         magnitude over the band, so that weak cross FRFs count as much as strong direct ones
@@ -72,12 +78,13 @@ class ModalFit:
     criteria : StabilityCriteria, optional
         Tolerances of the stabilisation diagram.
     max_iter : int
-        Largest number of Levenberg–Marquardt iterations of the nonlinear fit.
+        Largest number of Levenberg–Marquardt iterations of each nonlinear fit.
     max_added : int
-        Most modes the greedy step may add to those of the stabilisation diagram (modes that
-        pLSCF merges, e.g. two heavily damped modes 2 % apart, are split by the nonlinear fit:
-        a mode is added while it lowers the weighted cost significantly, F-test at
-        ``p < 1e-6``, and stays physical and distinct).
+        Most poles the residual scan may add to those of the stabilisation diagram (modes that
+        pLSCF misses or merges, e.g. two heavily damped modes 2 % apart). When more seem to be
+        needed the fit is flagged.
+    quality : QualityCriteria, optional
+        The accuracy a mode's standard errors must support for the fit to be ``fit_ok_``.
 
     Attributes
     ----------
@@ -100,17 +107,30 @@ class ModalFit:
         ``Σ|H_model − H|² / Σ|H|²`` of each FRF over the band (a fraction, not %).
     residual_ : dict
         ``{"lower": (4, 4) complex 1/kg, "upper": (4, 4) complex m/N}``; empty without residuals.
+    outside_ : dict
+        Out-of-band poles the model needed for the tails of modes just outside the band:
+        ``{"poles": (k,) complex rad/s, "phi_r": (k, 4) s/kg, "phi_l": (k, 4)}`` (k may be 0).
+        Part of :meth:`predict`, not modes of the band.
     stabilization_ : Stabilization
         The stabilisation diagram and the selected poles.
     n_modes_ : int
     cost_ : float
         Half the weighted sum of squared errors at the solution.
+    fit_ok_ : bool
+        False when the fit should not be trusted without a look (:mod:`rmbench.modal.quality`).
+    fit_reason_ : str
+        One line naming what is wrong and where ("" when ``fit_ok_``).
+    quality_ : FitQuality
+        The verdict with per-mode evidence (stable orders, share of the reconstruction, the
+        information criterion's case for each mode, standard errors) and notes on merged or
+        dropped poles.
     """
 
-    def __init__(self, n_modes: int | None = None, max_order: int = 30,
+    def __init__(self, n_modes: int | None = None, max_order: int = 20,
                  weighting: Literal["coherence", "magnitude", "uniform"] = "coherence",
                  residuals: bool = True, *, ref=3, criteria: StabilityCriteria | None = None,
-                 max_iter: int = 100, max_added: int = 4):
+                 max_iter: int = 100, max_added: int = 12,
+                 quality: QualityCriteria | None = None):
         self.n_modes = n_modes
         self.max_order = max_order
         self.weighting = weighting
@@ -119,6 +139,7 @@ class ModalFit:
         self.criteria = criteria
         self.max_iter = max_iter
         self.max_added = max_added
+        self.quality = quality
 
     def __getattr__(self, name):
         # only reached when normal lookup fails: a learned attribute before fit
@@ -142,12 +163,13 @@ class ModalFit:
         Returns
         -------
         ModalFit
-            ``self``, fitted.
+            ``self``, fitted. A fit that ran but should not be trusted has ``fit_ok_`` False and
+            warns (:class:`ModalFitWarning`).
 
         Raises
         ------
         InputError
-            Malformed input, or no stable poles in the band.
+            Malformed input, or no modes in the band.
         """
         self._check_settings()
         freq, H, coherence = _check_data(freq, H, coherence)
@@ -157,25 +179,43 @@ class ModalFit:
         w_out = np.sqrt(np.mean(W**2, axis=2))  # (n_freq, 4) per-output weight for pLSCF
         stab = stabilize(plscf(freq, H, orders, weights=w_out), (freq[0], freq[-1]),
                          criteria=crit, n_modes=self.n_modes)
-        if len(stab.selected) == 0:
-            raise InputError(f"no stable poles found in the band {freq[0]:g}-{freq[-1]:g} Hz "
-                             f"(pLSCF orders 1-{self.max_order}): no modes to fit")
-        if self.n_modes is not None and len(stab.selected) < self.n_modes:
-            warnings.warn(f"asked for {self.n_modes} modes, the stabilisation diagram has "
-                          f"{len(stab.selected)} clusters; fitting those", ModalFitWarning,
-                          stacklevel=2)
         omega = 2 * np.pi * freq
         ws = float(np.mean(omega))
         hs = float(np.max(np.abs(H)))
-        scaled = (omega / ws, H / hs, W)
-        sol = self._solve(freq, H, scaled, stab.selected, ws, hs)
-        sol = self._extend(freq, H, scaled, sol, ws, hs)
-        n, refs = sol["n"], sol["refs"]
-        if not sol["converged"]:
-            warnings.warn("modal fit did not converge within max_iter iterations",
-                          ModalFitWarning, stacklevel=2)
-        lam, phi_r, phi_l, lower, upper = mdof._unpack(sol["x"], n, refs, self.residuals)
-        cov = _covariance(sol["J"], sol["r"])
+        problem = Problem(omega / ws, H / hs, W, self.residuals)
+        settings = SelectionSettings(zeta_max=crit.zeta_max, max_added=self.max_added,
+                                     max_iter=self.max_iter)
+        sel = select_modes(problem, freq, ws, stab.selected, stab.weak, n_modes=self.n_modes,
+                           settings=settings)
+        sol = sel.sol
+        if sol is None or not sel.in_band.any():
+            raise InputError(f"no modes found in the band {freq[0]:g}-{freq[-1]:g} Hz: "
+                             f"{len(stab.selected)} stable poles in pLSCF orders "
+                             f"1-{self.max_order}, and no pole lowers the information criterion "
+                             "of the fit")
+        n_band = int(sel.in_band.sum())
+        if self.n_modes is not None and n_band < self.n_modes:
+            warnings.warn(f"asked for {self.n_modes} modes, the data gave {n_band}; fitting "
+                          "those", ModalFitWarning, stacklevel=2)
+        # the fit normalised each φL on its largest element (best conditioned), which is also
+        # where the eigenvector's standard errors are judged; the parameters are reported with
+        # the user's normalisation, φR rescaled so that the model is unchanged
+        args = (problem.omega, problem.H, problem.W, sol.n)
+        x = mdof._pack(sol.lam, sol.phi_r, sol.phi_l, sol.lower, sol.upper, sol.refs,
+                       self.residuals)
+        r = mdof._residual(x, *args, sol.refs, self.residuals)
+        mac_loss = _mac_loss(_covariance(mdof._jacobian(x, *args, sol.refs, self.residuals), r),
+                             sol)
+        refs = np.full(sol.n, int(self.ref) if np.ndim(self.ref) == 0 else 3)
+        if np.ndim(self.ref) == 1:
+            refs[sel.in_band] = self._refs(n_band)
+        piv = sol.phi_l[np.arange(sol.n), refs]
+        piv = np.where(np.abs(piv) > 0, piv, 1.0)
+        phi_l, phi_r = sol.phi_l / piv[:, None], sol.phi_r * piv[:, None]
+        phi_l[np.arange(sol.n), refs] = 1.0  # exactly, not to rounding
+        x = mdof._pack(sol.lam, phi_r, phi_l, sol.lower, sol.upper, refs, self.residuals)
+        cov = _covariance(mdof._jacobian(x, *args, refs, self.residuals), r)
+        lam = sol.lam
 
         # back to SI; one pole per pair with Im > 0, sorted by frequency
         flip = lam.imag < 0
@@ -184,26 +224,40 @@ class ModalFit:
         phi_l = np.where(flip[:, None], phi_l.conj(), phi_l)
         params, std = _params(lam, phi_r, phi_l, cov, refs, flip, ws, hs)
         order = np.argsort(np.abs(lam))
-        self.poles_ = lam[order]
+        band = order[sel.in_band[order]]
+        outside = order[~sel.in_band[order]]
+        self.poles_ = lam[band]
         self.f_n_ = np.abs(self.poles_) / (2 * np.pi)
         self.zeta_ = -self.poles_.real / np.abs(self.poles_)
-        self.phi_r_, self.phi_l_ = phi_r[order], phi_l[order]
-        self.refs_ = refs[order]
+        self.phi_r_, self.phi_l_ = phi_r[band], phi_l[band]
+        self.refs_ = refs[band]
         self.ref_ = self.ref
-        self.params_, self.std_ = params[order], std[order]
-        self.residual_ = ({"lower": lower * hs * ws**2, "upper": upper * hs}
+        self.params_, self.std_ = params[band], std[band]
+        self.residual_ = ({"lower": sol.lower * hs * ws**2, "upper": sol.upper * hs}
                           if self.residuals else {})
+        self.outside_ = {"poles": lam[outside], "phi_r": phi_r[outside], "phi_l": phi_l[outside]}
         self.stabilization_ = stab
-        self.n_modes_ = n
-        self.cost_ = sol["cost"]
-        err = np.sum(np.abs(self.predict(freq) - H) ** 2, axis=0)
+        self.n_modes_ = n_band
+        self.cost_ = 0.5 * float(r @ r)
+        model = self.predict(freq)
+        err = np.sum(np.abs(model - H) ** 2, axis=0)
         self.nmse_ = err / np.sum(np.abs(H) ** 2, axis=0)
-        self._warn_outside(freq)
+        self.quality_ = assess(
+            sel, sel.delta_bic[band], self.std_, self.params_, mac_loss[band],
+            _stable_orders(stab, self.poles_), _shares(freq, self, W),
+            _residual_correlation(W * (model - H)), sol.converged,
+            self.quality if self.quality is not None else QualityCriteria(),
+            (freq[0], freq[-1]), self.outside_["poles"])
+        self.fit_ok_ = self.quality_.ok
+        self.fit_reason_ = self.quality_.reason
+        if not self.fit_ok_:
+            warnings.warn(f"modal fit of {freq[0]:g}-{freq[-1]:g} Hz needs a look: "
+                          f"{self.fit_reason_}", ModalFitWarning, stacklevel=2)
         self._warn_ref()
         return self
 
     def predict(self, freq) -> np.ndarray:
-        """Model receptance including the residual terms.
+        """Model receptance including the out-of-band poles and the residual terms.
 
         Parameters
         ----------
@@ -220,50 +274,15 @@ class ModalFit:
             raise InputError(f"freq must be a 1-D array of positive finite Hz values, got shape "
                              f"{freq.shape}")
         H = mdof.synthesize(freq, poles, self.phi_r_, self.phi_l_)
+        if len(self.outside_["poles"]):
+            H = H + mdof.synthesize(freq, self.outside_["poles"], self.outside_["phi_r"],
+                                    self.outside_["phi_l"])
         if self.residual_:
             omega = 2 * np.pi * freq
             H = H - self.residual_["lower"] / omega[:, None, None] ** 2 + self.residual_["upper"]
         return H
 
     # -- helpers ----------------------------------------------------------------------------
-    def _solve(self, freq, H, scaled, poles, ws, hs, max_iter=None):
-        """LSFD start and Levenberg–Marquardt fit for the given initial poles (rad/s)."""
-        n = len(poles)
-        refs = self._refs(n)
-        res, lower, upper = mdof.lsfd(freq, H, poles, residuals=self.residuals)
-        phi_r0, phi_l0 = _split_residues(res, refs)
-        x0 = mdof._pack(poles / ws, phi_r0 / (hs * ws), phi_l0, lower / (hs * ws**2),
-                        upper / hs, refs, self.residuals)
-        args = scaled + (n, refs, self.residuals)
-        x, r, J, ok = mdof.levenberg_marquardt(mdof._residual, mdof._jacobian, x0, args,
-                                               max_iter=max_iter or self.max_iter)
-        return {"x": x, "r": r, "J": J, "converged": ok, "n": n, "refs": refs,
-                "cost": 0.5 * float(r @ r), "poles": (x[0::16][:n] + 1j * x[1::16][:n]) * ws}
-
-    def _extend(self, freq, H, scaled, sol, ws, hs):
-        """Add modes one at a time while the cost drops significantly (F-test)."""
-        target = self.n_modes
-        for _ in range(self.max_added if target is None else max(target - sol["n"], 0)):
-            if target is not None and sol["n"] >= target:
-                break
-            if isinstance(self.ref, (list, tuple, np.ndarray)) and np.ndim(self.ref) == 1:
-                break  # one ref per mode: the count is fixed by the caller
-            lam = sol["poles"]
-            cand, p_lin = _scan_missing(freq, H, scaled[2], lam, self.residuals)
-            if target is None and p_lin > 1e-6:
-                break  # no candidate explains a significant part of the error, even linearly
-            if target is None and _at_edge(cand, freq):
-                break  # the error is the tail of an out-of-band mode, which the residuals model
-            best = self._solve(freq, H, scaled, np.append(lam, cand), ws, hs)
-            m = len(best["r"])
-            dof = m - len(best["x"])
-            F = (sol["cost"] - best["cost"]) / 16 / (best["cost"] / dof)
-            p = fdtrc(16, dof, F) if F > 0 else 1.0
-            if target is None and (p > 1e-6 or not _physical_distinct(best["poles"], freq)):
-                break
-            sol = best
-        return sol
-
     def _check_settings(self):
         if self.n_modes is not None and (not isinstance(self.n_modes, (int, np.integer))
                                          or self.n_modes < 1):
@@ -286,12 +305,6 @@ class ModalFit:
             raise InputError(f"ref has {len(ref)} entries but {n} modes were found; give one "
                              "int, or fix n_modes")
         return ref.astype(int)
-
-    def _warn_outside(self, freq):
-        out = (self.f_n_ < freq[0]) | (self.f_n_ > freq[-1]) | (self.zeta_ <= 0)
-        if np.any(out):
-            warnings.warn(f"fitted modes at {np.round(self.f_n_[out], 3).tolist()} Hz left the "
-                          "band or have zeta <= 0", ModalFitWarning, stacklevel=3)
 
     def _warn_ref(self):
         big = np.abs(self.phi_l_).max(axis=1)
@@ -355,20 +368,6 @@ def _weights(H, coherence, weighting):
     return W
 
 
-def _split_residues(res, refs):
-    """Rank-one split ``R_r ≈ φR φL^T`` with ``φL[ref] = 1`` (SVD)."""
-    n = len(res)
-    phi_r = np.empty((n, res.shape[1]), complex)
-    phi_l = np.empty((n, res.shape[2]), complex)
-    for r in range(n):
-        U, s, Vh = np.linalg.svd(res[r])
-        v = Vh[0]
-        piv = v[refs[r]] if abs(v[refs[r]]) > 1e-6 * np.abs(v).max() else np.abs(v).max()
-        phi_l[r] = v / piv
-        phi_r[r] = s[0] * U[:, 0] * piv
-    return phi_r, phi_l
-
-
 def _covariance(J, r):
     """``σ² (JᵀJ)⁻¹`` with ``σ²`` the residual variance (pseudo-inverse, column-scaled eigh).
 
@@ -422,65 +421,52 @@ def _params(lam, phi_r, phi_l, cov, refs, flip, ws, hs):
     return params, std
 
 
-def _scan_missing(freq, H, W, lam, residuals, n_grid=_SCAN_GRID, zetas=(0.005, 0.015, 0.04, 0.1)):
-    """The pole on a (frequency, damping) grid whose LSFD column pair best explains the error.
+def _mac_loss(cov, sol):
+    """``1 − MAC`` that the standard errors of φR and of φL allow, the larger, per mode.
 
-    Returns the candidate pole (rad/s) and the p-value of its F-test (linear model, 32 extra
-    parameters: one complex residue per FRF).
-
-    With the current poles fixed, the data are projected off their LSFD basis; each candidate's
-    two real basis columns are projected the same way, and the candidate whose columns capture
-    the most of the remaining (per-FRF weighted) error wins. Linear algebra only, no refit.
+    For a small error ``δ`` of a vector ``φ``, ``1 − MAC ≈ |δ⊥|² / |φ|²``; its mean is at most
+    ``Σ var / |φ|²``, taken in the fit's own normalisation (φL's largest element fixed), where it
+    does not carry the uncertainty of a scale that MAC ignores.
     """
-    omega = 2 * np.pi * freq
-    level = W.mean(axis=0).ravel()  # per-FRF weights (the pointwise coherence part is ignored)
-
-    def basis(poles):
-        g = 1 / (1j * omega[:, None] - poles)
-        gc = 1 / (1j * omega[:, None] - poles.conj())
-        return g + gc, 1j * (g - gc)
-
-    cols = list(basis(lam))
-    if residuals:
-        cols.append(mdof.residual_basis(omega))
-    A = np.concatenate(cols, axis=1)
-    A = np.concatenate([A.real, A.imag])
-    Q, _ = np.linalg.qr(A / np.linalg.norm(A, axis=0))
-    b = H.reshape(len(freq), -1) * level
-    b = np.concatenate([b.real, b.imag])
-    r0 = b - Q @ (Q.T @ b)
-    f = np.linspace(freq[0], freq[-1], n_grid + 2)[1:-1]
-    z = np.asarray(zetas)
-    wn = 2 * np.pi * np.repeat(f, len(z))
-    zz = np.tile(z, len(f))
-    cand = -zz * wn + 1j * wn * np.sqrt(1 - zz**2)
-    c1, c2 = basis(cand)
-    C = np.stack([np.concatenate([c1.real, c1.imag]), np.concatenate([c2.real, c2.imag])], -1)
-    C = C - np.einsum("nk,kcj->ncj", Q, np.einsum("nk,ncj->kcj", Q, C))  # (2 n_f, n_cand, 2)
-    G = np.einsum("ncj,nci->cji", C, C)               # (n_cand, 2, 2)
-    P = np.einsum("ncj,ne->cje", C, r0)              # (n_cand, 2, n_entries)
-    sol = np.linalg.solve(G + 1e-300, P)
-    gain = np.einsum("cje,cje->c", P, sol)
-    best = int(np.argmax(gain))
-    n_e = b.shape[1]
-    dof = b.size - n_e * (Q.shape[1] + 2)
-    rest = float(np.sum(r0**2)) - gain[best]
-    F = (gain[best] / (2 * n_e)) / (rest / dof) if rest > 0 else np.inf
-    return cand[best], float(fdtrc(2 * n_e, dof, F))
+    var = np.diag(cov)
+    out = np.empty(sol.n)
+    for r in range(sol.n):
+        b = mdof.N_PER_MODE * r
+        v_r = var[b + 2:b + 10].sum()
+        v_l = var[b + 10:b + 16].sum()
+        out[r] = max(v_r / np.sum(np.abs(sol.phi_r[r]) ** 2),
+                     v_l / np.sum(np.abs(sol.phi_l[r]) ** 2))
+    return out
 
 
-def _at_edge(pole, freq, n_grid=_SCAN_GRID) -> bool:
-    """Whether a scanned candidate pole lies on the first or last frequency of the scan grid."""
-    step = (freq[-1] - freq[0]) / (n_grid + 1)
-    f = abs(pole) / (2 * np.pi)
-    return bool(min(f - freq[0], freq[-1] - f) < 1.5 * step)
+def _stable_orders(stab, poles):
+    """Stable orders of the stabilisation cluster each fitted pole came from (0 for none).
+
+    A fitted pole belongs to the selected cluster whose median pole is within 1 % of it.
+    """
+    out = np.zeros(len(poles), int)
+    for r, lam in enumerate(poles):
+        if len(stab.selected):
+            d = np.abs(stab.selected - lam) / np.abs(lam)
+            i = int(np.argmin(d))
+            if d[i] < 0.01:
+                out[r] = stab.n_orders[i]
+    return out
 
 
-def _physical_distinct(lam, freq, zeta_max=0.3, min_distance=0.005):
-    """All poles inside the band with ``0 < ζ < zeta_max`` and no two within ``min_distance``."""
-    lam = np.where(lam.imag < 0, lam.conj(), lam)
-    f, z = np.abs(lam) / (2 * np.pi), -lam.real / np.abs(lam)
-    if np.any((f < freq[0]) | (f > freq[-1]) | (z <= 0) | (z >= zeta_max)):
-        return False
-    d = np.abs(lam[:, None] - lam[None, :]) / np.abs(lam)[:, None]
-    return bool(np.all(d[np.triu_indices(len(lam), 1)] > min_distance))
+def _shares(freq, fit, W):
+    """Each mode's share of the weighted energy of the fitted modes in the band."""
+    total = mdof.synthesize(freq, fit.poles_, fit.phi_r_, fit.phi_l_)
+    e_total = float(np.sum(np.abs(W * total) ** 2))
+    out = np.empty(len(fit.poles_))
+    for r in range(len(out)):
+        h = mdof.synthesize(freq, fit.poles_[r:r + 1], fit.phi_r_[r:r + 1], fit.phi_l_[r:r + 1])
+        out[r] = float(np.sum(np.abs(W * h) ** 2)) / e_total if e_total > 0 else 0.0
+    return out
+
+
+def _residual_correlation(e):
+    """Mean over FRFs of the lag-1 autocorrelation of the residual ``e`` (n_freq, 4, 4)."""
+    num = np.real(np.sum(e[:-1].conj() * e[1:], axis=0))
+    den = np.sum(np.abs(e) ** 2, axis=0)
+    return float(np.mean(num / np.where(den > 0, den, 1.0)))

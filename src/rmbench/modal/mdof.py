@@ -157,42 +157,60 @@ def _jacobian(x, omega, Hs, W, n_modes, ref, residuals):
     _, (lam, phi_r, phi_l, g, gc) = _model(x, omega, n_modes, ref, residuals)
     n_f = len(omega)
     n_out, n_in = phi_r.shape[1], phi_l.shape[1]
-    eye_o, eye_i = np.eye(n_out), np.eye(n_in)
-    blocks = []
+    J = np.zeros((n_f, n_out, n_in, len(x)), complex)
     for r in range(n_modes):
-        a, b, gr, gcr = phi_r[r], phi_l[r], g[:, r], gc[:, r]
+        b0 = N_PER_MODE * r
+        a, b, gr, gcr = phi_r[r], phi_l[r], g[:, r, None, None], gc[:, r, None, None]
         Q = np.outer(a, b)
-        d_sigma = Q * (gr**2)[:, None, None] + Q.conj() * (gcr**2)[:, None, None]
-        d_omega = 1j * (Q * (gr**2)[:, None, None] - Q.conj() * (gcr**2)[:, None, None])
-        # ∂H_jk/∂Re a_j' = δ_jj' (b_k g + conj(b_k) gc); ∂/∂Im a_j' = δ_jj' i (b_k g − conj(b_k) gc)
-        cb = b * gr[:, None] + b.conj() * gcr[:, None]            # (n_f, n_in)
-        cbi = 1j * (b * gr[:, None] - b.conj() * gcr[:, None])
-        d_ar = eye_o[None, :, None, :] * cb[:, None, :, None]     # (n_f, j, k, j')
-        d_ai = eye_o[None, :, None, :] * cbi[:, None, :, None]
-        free = np.arange(n_in) != ref[r]
-        ca = a * gr[:, None] + a.conj() * gcr[:, None]            # (n_f, n_out)
-        cai = 1j * (a * gr[:, None] - a.conj() * gcr[:, None])
-        d_br = (eye_i[None, None, :, free] * ca[:, :, None, None])  # (n_f, j, k, k')
-        d_bi = (eye_i[None, None, :, free] * cai[:, :, None, None])
-        blocks += [d_sigma[..., None], d_omega[..., None], d_ar, d_ai, d_br, d_bi]
+        J[..., b0] = Q * gr**2 + Q.conj() * gcr**2
+        J[..., b0 + 1] = 1j * (Q * gr**2 - Q.conj() * gcr**2)
+        # ∂H_jk/∂Re a_j = b_k g + conj(b_k) gc; ∂/∂Im a_j = i (b_k g − conj(b_k) gc)
+        cb = b * gr[:, 0] + b.conj() * gcr[:, 0]                  # (n_f, n_in)
+        cbi = 1j * (b * gr[:, 0] - b.conj() * gcr[:, 0])
+        for j in range(n_out):
+            J[:, j, :, b0 + 2 + j] = cb
+            J[:, j, :, b0 + 2 + n_out + j] = cbi
+        ca = a * gr[:, 0] + a.conj() * gcr[:, 0]                  # (n_f, n_out)
+        cai = 1j * (a * gr[:, 0] - a.conj() * gcr[:, 0])
+        free = [k for k in range(n_in) if k != ref[r]]
+        for q, k in enumerate(free):
+            J[:, :, k, b0 + 2 + 2 * n_out + q] = ca
+            J[:, :, k, b0 + 2 + 2 * n_out + len(free) + q] = cai
     if residuals:
         n_e = n_out * n_in
-        eye_e = np.eye(n_e).reshape(n_out, n_in, n_e)
-        inv = (-1.0 / omega**2)[:, None, None, None]
-        blocks += [inv * eye_e, 1j * inv * eye_e, np.broadcast_to(eye_e, (n_f,) + eye_e.shape),
-                   np.broadcast_to(1j * eye_e, (n_f,) + eye_e.shape)]
-    J = np.concatenate(blocks, axis=-1) * W[..., None]
+        b0 = N_PER_MODE * n_modes
+        inv = -1.0 / omega**2
+        for e in range(n_e):
+            j, k = divmod(e, n_in)
+            J[:, j, k, b0 + e] = inv
+            J[:, j, k, b0 + n_e + e] = 1j * inv
+            J[:, j, k, b0 + 2 * n_e + e] = 1.0
+            J[:, j, k, b0 + 3 * n_e + e] = 1j
+    J *= W[..., None]
     J = J.reshape(-1, J.shape[-1])
     return np.concatenate([J.real, J.imag])
 
 
-def levenberg_marquardt(fun, jac, x0, args=(), *, max_iter=100, xtol=1e-8, chi2_tol=1e-3):
+def levenberg_marquardt(fun, jac, x0, args=(), *, max_iter=100, xtol=1e-8, chi2_tol=1e-3,
+                        watch=None, step_tol=0.01, stop=None):
     """Levenberg–Marquardt on the normal equations (Marquardt scaling, Nielsen damping update).
 
     Faster than MINPACK here because ``JᵀJ`` goes through BLAS. Stops when a step lowers (or is
     predicted to lower) χ² = cost / σ² by less than ``chi2_tol``, σ² = 2 cost / (m − n) being the
     residual variance — the parameters then move by a negligible fraction of their standard
     errors — or when the step is below ``xtol`` relative to ``x``.
+
+    Parameters
+    ----------
+    jac : callable
+        ``jac(x, *args)`` returns the Jacobian, or the pair ``(JᵀJ, Jᵀr)`` of the normal
+        equations (then the returned ``J`` is None).
+    watch : array_like of int, optional
+        Parameters whose convergence decides: once an accepted step moves each of them by less
+        than ``step_tol`` of its standard error, the fit has converged even if poorly determined
+        other parameters (out-of-band poles) still creep along a flat valley.
+    stop : callable, optional
+        ``stop(cost) -> bool`` after each accepted step; True ends the fit there (not converged).
 
     Returns
     -------
@@ -205,10 +223,10 @@ def levenberg_marquardt(fun, jac, x0, args=(), *, max_iter=100, xtol=1e-8, chi2_
     """
     x = np.asarray(x0, float).copy()
     r = fun(x, *args)
-    J = jac(x, *args)
+    J, A, g = _normal(jac(x, *args), r)
     cost = 0.5 * float(r @ r)
-    A, g = J.T @ J, J.T @ r
     mu, nu = 1e-3, 2.0
+    dof = max(len(r) - len(x), 1)
     for _ in range(max_iter):
         D = np.maximum(np.diag(A), 1e-12 * float(np.max(np.diag(A))))
         try:
@@ -217,7 +235,7 @@ def levenberg_marquardt(fun, jac, x0, args=(), *, max_iter=100, xtol=1e-8, chi2_
             mu, nu = mu * nu, nu * 2
             continue
         pred = -(g @ dx) - 0.5 * dx @ (A @ dx)
-        tol = 0.5 * chi2_tol * 2 * cost / max(len(r) - len(x), 1)
+        tol = 0.5 * chi2_tol * 2 * cost / dof
         if pred <= tol or np.linalg.norm(dx) <= xtol * (np.linalg.norm(x) + xtol):
             return x, r, J, True
         x_new = x + dx
@@ -227,12 +245,32 @@ def levenberg_marquardt(fun, jac, x0, args=(), *, max_iter=100, xtol=1e-8, chi2_
         if rho > 0:
             flat = cost - cost_new <= tol
             x, r, cost = x_new, r_new, cost_new
-            J = jac(x, *args)
-            A, g = J.T @ J, J.T @ r
+            J, A, g = _normal(jac(x, *args), r)
             mu *= max(1 / 3, 1 - (2 * rho - 1) ** 3)
             nu = 2.0
-            if flat:
+            if flat or (watch is not None and _settled(A, dx, watch, 2 * cost / dof, step_tol)):
                 return x, r, J, True
+            if stop is not None and stop(cost):
+                return x, r, J, False
         else:
             mu, nu = mu * nu, nu * 2
     return x, r, J, False
+
+
+def _normal(out, r):
+    """``(J, JᵀJ, Jᵀr)`` from a Jacobian or from a ``(JᵀJ, Jᵀr)`` pair (``J`` None)."""
+    if isinstance(out, tuple):
+        return None, out[0], out[1]
+    return out, out.T @ out, out.T @ r
+
+
+def _settled(A, dx, watch, sigma2, step_tol) -> bool:
+    """Whether the last step moved every watched parameter by < ``step_tol`` standard errors."""
+    watch = np.asarray(watch, int)
+    if len(watch) == 0:
+        return True
+    try:
+        var = sigma2 * np.diag(np.linalg.inv(A))[watch]
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.all(np.abs(dx[watch]) < step_tol * np.sqrt(np.maximum(var, 1e-300))))

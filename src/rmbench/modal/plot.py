@@ -32,8 +32,14 @@ def plot_fit(fit, freq, H, stabilization_path, frf_path) -> None:
 
     fig, ax = plt.subplots(figsize=(10, 6))
     fit.stabilization_.plot(ax, freq=freq, H=H)
+    # the fitted modes: the diagram's clusters after the information criterion merged, added or
+    # removed poles
+    for i, f in enumerate(fit.f_n_):
+        ax.axvline(f, color="C2", ls="--", lw=1.0, label="fitted mode" if i == 0 else None)
+    ax.legend(loc="upper left", fontsize="small")
+    verdict = "fit ok" if fit.fit_ok_ else "needs a look"
     ax.set_title(f"Stabilisation diagram: {fit.n_modes_} modes at "
-                 f"{', '.join(f'{f:.2f}' for f in fit.f_n_)} Hz")
+                 f"{', '.join(f'{f:.2f}' for f in fit.f_n_)} Hz ({verdict})")
     fig.tight_layout()
     fig.savefig(stabilization_path, dpi=90)
     plt.close(fig)

@@ -70,6 +70,11 @@ class Stabilization:
         The selected poles (cluster medians), sorted by frequency.
     participation : ndarray, shape (n_modes, n_in), complex
         Participation vector of each selected pole (of the cluster member nearest the median).
+    n_orders : ndarray, shape (n_modes,), int
+        Number of model orders with a stable pole in each selected cluster.
+    weak : ndarray, shape (n_weak,), complex, rad/s
+        Medians of the clusters stable at 3 or more orders but too few to be selected, strongest
+        first: candidates the fit may still need.
     """
 
     order: np.ndarray
@@ -78,6 +83,8 @@ class Stabilization:
     cluster: np.ndarray
     selected: np.ndarray
     participation: np.ndarray
+    n_orders: np.ndarray = None
+    weak: np.ndarray = None
 
     def __post_init__(self):
         n = len(self.order)
@@ -86,6 +93,12 @@ class Stabilization:
                 raise ValueError(f"{name} must have one entry per pole ({n})")
         if len(self.participation) != len(self.selected):
             raise ValueError("participation must have one row per selected pole")
+        if self.n_orders is None:
+            object.__setattr__(self, "n_orders", np.zeros(len(self.selected), int))
+        if self.weak is None:
+            object.__setattr__(self, "weak", np.zeros(0, complex))
+        if len(self.n_orders) != len(self.selected):
+            raise ValueError("n_orders must have one entry per selected pole")
 
     @property
     def freq(self) -> np.ndarray:
@@ -180,17 +193,17 @@ def stabilize(results: list[PolyMaxOrder], f_band: tuple[float, float], *,
     part = np.concatenate(parts) if parts else np.zeros((0, n_in), complex)
     stable = np.concatenate(stable) if stable else np.zeros(0, bool)
     cluster = np.full(len(pole), -1)
-    selected, sel_part = _select(order, pole, part, stable, cluster, len(results), criteria,
-                                 n_modes)
+    selected, sel_part, n_ord, weak = _select(order, pole, part, stable, cluster, len(results),
+                                              criteria, n_modes)
     return Stabilization(order=order, pole=pole, stable=stable, cluster=cluster,
-                         selected=selected, participation=sel_part)
+                         selected=selected, participation=sel_part, n_orders=n_ord, weak=weak)
 
 
 def _select(order, pole, part, stable, cluster, n_orders, criteria, n_modes):
     """Cluster the stable poles and fill ``cluster`` in place; return the selected poles."""
     idx = np.flatnonzero(stable)
     n_in = part.shape[1]
-    empty = np.zeros(0, complex), np.zeros((0, n_in), complex)
+    empty = np.zeros(0, complex), np.zeros((0, n_in), complex), np.zeros(0, int), np.zeros(0, complex)
     if len(idx) == 0:
         return empty
     if len(idx) == 1:
@@ -212,19 +225,26 @@ def _select(order, pole, part, stable, cluster, n_orders, criteria, n_modes):
         chosen = [ids[i] for i in rank if n_ord[i] >= need]
     else:
         chosen = [ids[i] for i in rank[:n_modes]]
-    reps, rep_part = [], []
+    weak = [_median(pole[idx[labels == ids[i]]]) for i in rank
+            if n_ord[i] >= 3 and ids[i] not in chosen]
+    reps, rep_part, counts = [], [], []
     for c in chosen:
         members = idx[labels == c]
-        med = np.median(pole[members].real) + 1j * np.median(pole[members].imag)
+        med = _median(pole[members])
         reps.append(med)
         rep_part.append(part[members[np.argmin(np.abs(pole[members] - med))]])
+        counts.append(n_ord[list(ids).index(c)])
     if not reps:
-        return empty
+        return empty[:3] + (np.array(weak, complex),)
     reps, rep_part = np.array(reps), np.array(rep_part)
     by_freq = np.argsort(np.abs(reps))
     for new, k in enumerate(by_freq):
         cluster[idx[labels == chosen[k]]] = new
-    return reps[by_freq], rep_part[by_freq]
+    return reps[by_freq], rep_part[by_freq], np.array(counts)[by_freq], np.array(weak, complex)
+
+
+def _median(poles):
+    return np.median(poles.real) + 1j * np.median(poles.imag)
 
 
 def _mac_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
