@@ -34,6 +34,18 @@ def test_model_variant_writes_a_loadable_file(cli, tmp_path):
     assert code == 0 and json.loads(out)["tool"] == "dummy"
 
 
+def test_model_variant_load_stiffness_and_servo_options(cli, tmp_path):
+    path = tmp_path / "v.xml"
+    code, _, _ = cli("model", "variant", "--robot", "irb6660", "--load-stiffness", "j2_flex:0.2,j3_flex:0.1",
+                     "--set", "a2.kp*=0.8", "--out", str(path))
+    assert code == 0
+    from rmbench.robot import Robot
+
+    robot = Robot.load(path)
+    assert robot.load_stiffness == {"j2_flex": 0.2, "j3_flex": 0.1}
+    assert robot.model.actuator("a2").gainprm[0] == pytest.approx(0.8 * 8e7)
+
+
 def _malformed(tmp_path):
     path = tmp_path / "bad.xml"
     path.write_text("<mujoco><worldbody><body><joint type='hinge'/></body></mujoco>")
@@ -46,10 +58,13 @@ def _malformed(tmp_path):
     (["model", "info", "--posture", "3500,0,0"], "unreachable"),
     (["model", "info", "--posture", "18OO,0"], "posture must be numbers"),
     (["model", "variant", "--set", "nosite.pos=0,0,1", "--out", "x.xml"], "no joint, body or site named 'nosite'"),
+    (["model", "variant", "--set", "a9.kp*=2", "--out", "x.xml"], "no actuator named 'a9'"),
+    (["model", "variant", "--load-stiffness", "j9:0.2", "--out", "x.xml"], "no joint 'j9'"),
+    (["model", "variant", "--load-stiffness", "j2_flex=0.2", "--out", "x.xml"], "must be JOINT:ALPHA"),
     (["model", "info", "--robot", "MALFORMED"], "malformed MJCF"),
     (["model", "info", "--robot", "missing/robot.xml"], "not found"),
-], ids=["unknown-robot", "unknown-tool", "unreachable", "bad-posture", "unknown-site", "malformed-mjcf",
-        "missing-file"])
+], ids=["unknown-robot", "unknown-tool", "unreachable", "bad-posture", "unknown-site", "unknown-actuator",
+        "load-stiffness-unknown-joint", "load-stiffness-malformed", "malformed-mjcf", "missing-file"])
 def test_bad_input_gives_one_line_and_exit_2(cli, tmp_path, argv, message):
     argv = [_malformed(tmp_path) if a == "MALFORMED" else a for a in argv]
     code, out, err = cli(*argv)

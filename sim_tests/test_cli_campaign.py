@@ -46,13 +46,29 @@ def test_run_export_import_plot(cli, tiny, tmp_path):
     assert code == 0 and (tmp_path / "f.png").stat().st_size > 10_000
 
 
+def test_run_commands_a_variant_file_with_the_nominal_robot(cli, tiny, tmp_path):
+    from rmbench.impact import open_campaign
+    from rmbench.robot import Robot
+    from rmbench.robot.variant import make_variant
+
+    variant = tmp_path / "soft.xml"  # a saved variant carries its tool, the config's "dummy"
+    variant.write_text(make_variant(Robot.load("irb6660", tool="dummy"), ["j2_flex.stiffness*=0.8"]))
+    data = tmp_path / "soft.nc"
+    code, out, _ = cli("campaign", "run", tiny, "--robot", variant, "--commands-from", "irb6660",
+                       "--out", data, "--workers", 0, "--no-progress", "--json")
+    assert code == 0 and json.loads(out)["ok"] == 2
+    ds = open_campaign(data)
+    assert ds.attrs["robot"] == str(variant) and ds.attrs["commands_from"] == "irb6660"
+
+
 @pytest.mark.parametrize("argv, message", [
     (["campaign", "run", "missing.toml", "--out", "x.nc"], "config file not found"),
+    (["campaign", "run", "TINY", "--commands-from", "kuka", "--out", "x.nc"], "unknown robot 'kuka'"),
     (["campaign", "plot", "missing.nc", "--index", "0", "--out", "f.png"], "dataset not found"),
     (["campaign", "import", "no_such_dir", "--out", "x.nc"], ""),
-], ids=["missing-config", "missing-dataset", "missing-uff-dir"])
-def test_bad_input_is_one_line_and_exit_2(cli, argv, message):
-    code, _, err = cli(*argv)
+], ids=["missing-config", "unknown-nominal-robot", "missing-dataset", "missing-uff-dir"])
+def test_bad_input_is_one_line_and_exit_2(cli, tiny, argv, message):
+    code, _, err = cli(*[tiny if a == "TINY" else a for a in argv])
     assert code == 2 and message in err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
 

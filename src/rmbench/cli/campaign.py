@@ -19,6 +19,9 @@ def register(sub) -> None:
     run.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
     run.add_argument("--method", choices=("time", "linear"), default=None, help="override the config's method")
     run.add_argument("--robot", default=None, help="override the config's robot (name or MJCF path)")
+    run.add_argument("--commands-from", default=None, metavar="NOMINAL",
+                     help="command each posture with the rigid-body IK of this nominal robot (name or MJCF "
+                          "path), as a real controller would, then settle the robot under test there")
     run.add_argument("--dry-run", action="store_true", help="validate and estimate, run nothing")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--json", action="store_true", help="print a JSON summary")
@@ -58,6 +61,8 @@ def cmd_run(args) -> int:
         overrides["method"] = args.method
     if args.robot:
         overrides["robot_name"] = args.robot
+    if args.commands_from:
+        overrides["robot_commands_from"] = args.commands_from
     if overrides:
         cfg = cfg.with_overrides(**overrides)
     if args.workers is not None and args.workers < 0:

@@ -22,11 +22,14 @@ def register(sub) -> None:
     var = msub.add_parser("variant", help="derive a robot variant by editing its specification")
     add_robot_options(var, posture=False)
     var.add_argument("--set", dest="edits", action="append", default=[], metavar="EDIT",
-                     help="TARGET.FIELD(=|*=|+=)VALUE, e.g. j2_flex.stiffness*=0.8 (repeatable)")
+                     help="TARGET.FIELD(=|*=|+=)VALUE, e.g. j2_flex.stiffness*=0.8 or a2.kp*=0.8 (repeatable)")
     var.add_argument("--add-mass", action="append", default=[], metavar="WHERE:KG[:DX,DY,DZ]",
                      help="point mass (kg) at a site or body, offset in m (repeatable)")
     var.add_argument("--compliant-base", default=None, metavar="K_LAT,K_TILT",
                      help="mount on a compliant foundation: lateral N/m, tilt N m/rad")
+    var.add_argument("--load-stiffness", action="append", default=[], metavar="JOINT:ALPHA",
+                     help="joint stiffness grows with its gravity deflection: k0 (1 + ALPHA |defl| / 1 mrad), "
+                          "e.g. j2_flex:0.2 (repeatable, or comma-separated)")
     var.add_argument("--out", required=True, help="MJCF file to write")
     var.set_defaults(func=cmd_variant)
 
@@ -66,6 +69,7 @@ def cmd_info(args) -> int:
 
 
 def cmd_variant(args) -> int:
+    from rmbench.robot.load_stiffness import parse_load_stiffness
     from rmbench.robot.variant import make_variant
 
     robot = load_robot(args)
@@ -90,15 +94,17 @@ def cmd_variant(args) -> int:
             raise InputError(f"--compliant-base must be K_LAT,K_TILT, got {args.compliant_base!r}") from None
         if len(base) != 2:
             raise InputError(f"--compliant-base must be K_LAT,K_TILT, got {args.compliant_base!r}")
-    if not (args.edits or masses or base):
-        raise InputError("nothing to change: give --set, --add-mass or --compliant-base")
-    xml = make_variant(robot, args.edits, masses=masses, compliant_base=base)
+    load = parse_load_stiffness(" ".join(args.load_stiffness), source="--load-stiffness")
+    if not (args.edits or masses or base or load):
+        raise InputError("nothing to change: give --set, --add-mass, --compliant-base or --load-stiffness")
+    xml = make_variant(robot, args.edits, masses=masses, compliant_base=base, load_stiffness=load)
     out = Path(args.out)
     tmp = out.with_name(out.name + ".part")
     tmp.write_text(xml)
     tmp.replace(out)  # never leave a half-written model behind
     print(f"wrote {out} ({len(args.edits)} edits, {len(masses)} masses"
-          f"{', compliant base' if base else ''}); use it with --robot {out}")
+          f"{', compliant base' if base else ''}{', load-dependent stiffness' if load else ''}); "
+          f"use it with --robot {out}")
     return 0
 
 

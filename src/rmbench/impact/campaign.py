@@ -22,7 +22,7 @@ from rmbench.errors import InputError, RmbenchError
 from rmbench.impact.config import CampaignConfig
 from rmbench.impact.measure import band_lines, exact_band, measure_band
 from rmbench.impact.sensors import COORDS, sensor_set
-from rmbench.robot import Posture, Robot, seed_grid, validation_postures
+from rmbench.robot import OperatingPoint, Posture, Robot, seed_grid, validation_postures
 from rmbench.robot.model import Band
 from rmbench.robot.variant import condensed, with_tool_masses
 
@@ -52,17 +52,52 @@ class Campaign:
         The configuration text (kept in the dataset).
     robot : Robot
         The bare robot.
+    nominal : Robot or None
+        The robot whose rigid-body inverse kinematics commands the postures
+        (``[robot] commands_from``); None when the robot commands itself.
     """
 
     config: CampaignConfig
     toml: str
     robot: Robot
+    nominal: Robot | None = None
 
     @classmethod
     def build(cls, config: CampaignConfig, toml: str = "") -> "Campaign":
+        """Load the robot (and the nominal robot that commands it, if any).
+
+        Raises
+        ------
+        ModelError
+            For an unknown robot or tool, or a malformed MJCF.
+        InputError
+            If the nominal robot does not command the same arm joints as the robot under test.
+        """
         r = config.robot
         robot = Robot.load(r.name, tool=r.tool, spindle_rpm=r.spindle_rpm)
-        return cls(config, toml, robot)
+        nominal = None
+        if r.commands_from is not None:
+            nominal = Robot.load(r.commands_from, tool=r.tool if r.tool is not None else robot.tool)
+            if nominal.arm_joints != robot.arm_joints:
+                raise InputError(f"commands_from robot {nominal.name!r} commands joints "
+                                 f"{' '.join(nominal.arm_joints)}, the robot under test {' '.join(robot.arm_joints)}")
+        return cls(config, toml, robot, nominal)
+
+    def operating_point(self, posture: Posture) -> OperatingPoint:
+        """The bare robot commanded to a posture and settled there under gravity.
+
+        The joint commands come from the rigid-body inverse kinematics of :attr:`nominal` when
+        set (what a real controller that only knows its nominal model sends; the robot under
+        test may then miss the posture by its kinematic errors), else of the robot itself.
+
+        Raises
+        ------
+        UnreachablePosture
+            If the commanding robot cannot reach the posture.
+        """
+        if self.nominal is None:
+            return self.robot.at(posture)
+        return self.robot.at(self.nominal.ik(posture).q)
 
     @functools.cached_property
     def bands(self) -> dict[str, Band]:
@@ -122,7 +157,7 @@ def run_posture(campaign: Campaign, index: int, posture: Posture) -> dict:
            "steps": 0, "overloads": 0, "seconds": 0.0}
     t0 = time.perf_counter()
     try:
-        op_bare = campaign.robot.at(posture)
+        op_bare = campaign.operating_point(posture)
         out["q_cmd"] = op_bare.q_cmd
         for name, bcfg in cfg.bands.items():
             band = campaign.bands[name]
@@ -253,7 +288,7 @@ def dry_run(cfg: CampaignConfig) -> dict:
     campaign = Campaign.build(cfg)
     postures = postures_of(cfg)
     est = {"postures": [p.label() for p in postures], "n_postures": len(postures), "bands": {}}
-    op = campaign.robot.at(postures[0])
+    op = campaign.operating_point(postures[0])
     total_s = 0.0
     for name, b in cfg.bands.items():
         tested = campaign.tested_robots[name]

@@ -9,8 +9,9 @@ Example (see ``configs/seed_full.toml``)::
     seed = 7
     method = "time"
     [robot]
-    name = "irb6660"
+    name = "irb6660"              # or a variant's MJCF path
     tool = "dummy"
+    # commands_from = "irb6660"   # command the variant with the nominal robot's IK
     [grid]
     kind = "seed"                 # seed | validation | product | list
     [hits]
@@ -41,11 +42,20 @@ class _Strict(BaseModel):
 
 
 class RobotConfig(_Strict):
-    """The robot under test."""
+    """The robot under test.
+
+    ``name`` is a bundled robot or an MJCF path (e.g. a saved variant carrying its tool; then
+    ``tool`` names that tool or is left out). ``commands_from``, when set, is the nominal robot
+    (bundled name or MJCF path, with the campaign's tool) whose rigid-body inverse kinematics
+    gives each posture's joint commands, as a real controller that only knows its nominal model
+    would; the robot under test is then settled at those commands. Unset, the robot's own
+    inverse kinematics commands it.
+    """
 
     name: str = "irb6660"
     tool: str | None = "dummy"
     spindle_rpm: float = 0.0
+    commands_from: str | None = None
 
 
 class GridConfig(_Strict):
@@ -196,14 +206,21 @@ class CampaignConfig(_Strict):
         return hashlib.sha256(self.model_dump_json().encode()).hexdigest()[:16]
 
     def with_overrides(self, **changes) -> "CampaignConfig":
-        """A copy with top-level fields replaced (e.g. ``method``), validated again."""
+        """A copy with fields replaced, validated again.
+
+        Top-level fields by name (``method="linear"``), fields of ``[robot]`` prefixed with
+        ``robot_`` (``robot_name="variant.xml"``, ``robot_commands_from="irb6660"``).
+        """
         data = self.model_dump()
         for key, value in changes.items():
-            if key == "robot_name":
-                data["robot"]["name"] = value
+            if key.startswith("robot_"):
+                data["robot"][key.removeprefix("robot_")] = value
             else:
                 data[key] = value
-        return CampaignConfig.model_validate(data)
+        try:
+            return CampaignConfig.model_validate(data)
+        except ValidationError as err:
+            return _raise(_first_error("override", err))
 
 
 def parse_config(text: str, *, source: str = "config") -> CampaignConfig:
@@ -215,12 +232,7 @@ def parse_config(text: str, *, source: str = "config") -> CampaignConfig:
     try:
         return CampaignConfig.model_validate(raw)
     except ValidationError as err:
-        first = err.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "(top level)"
-        msg = first["msg"].removeprefix("Value error, ")
-        if first["type"] == "extra_forbidden":
-            msg = "unknown key"
-        return _raise(f"{source}: {where}: {msg}")
+        return _raise(_first_error(source, err))
 
 
 def load_config(path: str | Path) -> CampaignConfig:
@@ -236,6 +248,16 @@ def load_config(path: str | Path) -> CampaignConfig:
 def bundled_configs() -> dict[str, Path]:
     """The example configs shipped with rmbench."""
     return {p.stem: p for p in sorted((Path(__file__).parent / "configs").glob("*.toml"))}
+
+
+def _first_error(source: str, err: ValidationError) -> str:
+    """One line naming the first invalid key and what is wrong with it."""
+    first = err.errors()[0]
+    where = ".".join(str(p) for p in first["loc"]) or "(top level)"
+    msg = first["msg"].removeprefix("Value error, ")
+    if first["type"] == "extra_forbidden":
+        msg = "unknown key"
+    return f"{source}: {where}: {msg}"
 
 
 def _raise(msg):

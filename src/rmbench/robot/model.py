@@ -20,6 +20,8 @@ from rmbench.errors import ModelError, RmbenchError, UnreachablePosture
 from rmbench.robot.catalog import resolve_robot, resolve_tool
 from rmbench.robot.kinematics import IKSolution, Kinematics
 from rmbench.robot.linear import LinearModel, equilibrium, linearize
+from rmbench.robot.load_stiffness import (LOAD_STIFFNESS, check_load_stiffness, parse_load_stiffness,
+                                          posture_stiffness, stiffened_spec)
 from rmbench.robot.modes import ModeTable, mode_table
 from rmbench.robot.posture import Posture, rz
 from rmbench.robot.spec import custom_numeric, custom_text, graft_tool, load_spec, spec_to_xml
@@ -72,6 +74,9 @@ class Robot:
     bands : dict of str to Band
     spindle_rpm : float
         Spindle speed at the operating point (0: at rest, reciprocal dynamics).
+    load_stiffness : dict of str to float
+        α of each passive joint whose stiffness grows with its gravity load
+        (:mod:`rmbench.robot.load_stiffness`); empty for a robot of constant stiffness.
     """
 
     def __init__(self, xml: str, *, name: str, tool: str | None, spindle_rpm: float = 0.0,
@@ -105,6 +110,11 @@ class Robot:
         self._held = np.array(sorted({int(self.model.jnt_dofadr[self.model.actuator_trnid[a, 0]])
                                       for a in range(self.model.nu)
                                       if self.model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT}))
+        try:
+            self.load_stiffness = parse_load_stiffness(custom_text(self._spec, LOAD_STIFFNESS))
+            check_load_stiffness(self.model, self.load_stiffness)
+        except ModelError as err:
+            raise ModelError(f"robot {name!r}: {err}") from None
         self._kin = None
 
     @classmethod
@@ -119,6 +129,7 @@ class Robot:
         tool : str or Path, optional
             Bundled tool name (``"dummy"``, ``"endmill"``) or a tool MJCF path. By default the
             robot's own tool if its file carries one, else its declared default tool, if any.
+            Naming the tool a file already carries (a saved variant) keeps that tool.
         spindle_rpm : float
             Spindle speed, rev/min; non-zero adds the rotor's gyroscopic coupling.
         """
@@ -128,10 +139,13 @@ class Robot:
         tool_name = custom_text(spec, "rmbench_tool")
         if tool is None and not has_tool:
             tool = custom_text(spec, "rmbench_default_tool")
-        if tool is not None:
+        if has_tool and tool is not None and _tool_name(tool) != tool_name:
+            raise ModelError(f"{path} already carries the tool {tool_name!r}; ask for that tool or none, "
+                             f"not {str(tool)!r}")
+        if tool is not None and not has_tool:
             tool_path = resolve_tool(tool)
             graft_tool(spec, load_spec(tool_path))
-            tool_name = Path(tool).stem if str(tool).endswith(".xml") else str(tool)
+            tool_name = _tool_name(tool)
             _set_custom_text(spec, "rmbench_tool", tool_name)
         name = path.stem if str(robot).endswith(".xml") or "/" in str(robot) else str(robot)
         return cls(spec_to_xml(spec), name=name, tool=tool_name, spindle_rpm=spindle_rpm, spec=spec)
@@ -187,6 +201,12 @@ class Robot:
     def at(self, posture: Posture | np.ndarray) -> "OperatingPoint":
         """Operating point: IK, deflected static equilibrium and exact linearisation.
 
+        For a robot with load-dependent joint stiffness (:attr:`load_stiffness`) the operating
+        point's robot is a per-posture copy (same name, tool and spindle speed) whose joints
+        have the secant stiffness of this posture's gravity load, settled again with it; its
+        model, equilibrium, linearisation and :attr:`xml` (from which time-domain simulations
+        are built) all agree.
+
         Parameters
         ----------
         posture : Posture or ndarray of shape (n_arm,)
@@ -201,7 +221,29 @@ class Robot:
                 raise RmbenchError(f"joint command must have {len(self.arm_joints)} values, got {q_cmd.shape}")
             sol, posture = None, None
         data = self.settle(q_cmd)
-        return OperatingPoint(self, posture, q_cmd, sol, data, linearize(self.model, data))
+        robot = self
+        if self.load_stiffness:
+            robot = self.stiffened(posture_stiffness(self.model, data, self.load_stiffness))
+            data = robot.settle(q_cmd)
+        return OperatingPoint(robot, posture, q_cmd, sol, data, linearize(robot.model, data))
+
+    def stiffened(self, stiffness: dict[str, float]) -> "Robot":
+        """The robot with the given joint stiffnesses and no load-dependent stiffness left.
+
+        Parameters
+        ----------
+        stiffness : dict of str to float
+            Linear stiffness per joint, N·m/rad (hinge) or N/m (slide).
+
+        Returns
+        -------
+        Robot
+            Same name, tool and spindle speed. The MJCF writer keeps 6 significant digits, so
+            the stiffness is rounded to those.
+        """
+        spec = stiffened_spec(self.spec, stiffness)
+        return Robot(spec_to_xml(spec), name=self.name, tool=self.tool, spindle_rpm=self.spindle_rpm,
+                     spec=spec)
 
     def settle(self, q_cmd: np.ndarray) -> mujoco.MjData:
         """MjData at the deflected static equilibrium under the arm command ``q_cmd`` (rad)."""
@@ -308,6 +350,10 @@ def tool_point(model: mujoco.MjModel, data: mujoco.MjData, site: int, s_up: floa
     while s_up > 0 and body > 0 and (data.xpos[body] - data.site_xpos[site]) @ axis < s_up - 1e-12:
         body = int(model.body_parentid[body])
     return point, body
+
+
+def _tool_name(tool: str | Path) -> str:
+    return Path(tool).stem if str(tool).endswith(".xml") else str(tool)
 
 
 def _set_custom_text(spec: mujoco.MjSpec, name: str, value: str) -> None:

@@ -9,7 +9,14 @@ Edit syntax (CLI ``--set``), ``TARGET.FIELD OP VALUE`` with OP one of ``=``, ``*
   ``tool_contact_*.stiffness*=2`` changes the tool-holder contact; shell-style wildcards match
   several joints);
 - bodies: ``mass`` (``flange.mass+=5``), ``pos`` (``x,y,z`` in m);
-- sites: ``pos`` (m) and ``euler`` (``rx,ry,rz`` in degrees, applied after the current orientation).
+- sites: ``pos`` (m) and ``euler`` (``rx,ry,rz`` in degrees, applied after the current orientation);
+- position actuators (servos): ``kp`` (N·m/rad or N/m) and ``kv`` (N·m·s/rad or N·s/m)
+  (``a2.kp*=0.8``, ``a*.kv*=1.5``). A MuJoCo position actuator has ``gainprm[0] = kp``,
+  ``biasprm[1] = −kp`` and ``biasprm[2] = −kv``; both kp entries change together. Every
+  actuator a pattern matches must be a position actuator.
+
+Load-dependent joint stiffness (:mod:`rmbench.robot.load_stiffness`) is set with
+``make_variant(robot, load_stiffness={"j2_flex": 0.2})``.
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ import mujoco
 import numpy as np
 
 from rmbench.errors import InputError, ModelError
+from rmbench.robot.load_stiffness import check_load_stiffness, set_load_stiffness
 from rmbench.robot.spec import copy_body
 
 __all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant",
@@ -31,6 +39,7 @@ _EDIT = re.compile(r"^(?P<target>[\w*?\[\]-]+)\.(?P<field>\w+)\s*(?P<op>\*=|\+=|
 _JOINT_FIELDS = {"stiffness", "damping", "armature", "springref"}
 _BODY_FIELDS = {"mass", "pos"}
 _SITE_FIELDS = {"pos", "euler"}
+_ACTUATOR_FIELDS = {"kp", "kv"}
 
 
 @dataclass(frozen=True)
@@ -61,8 +70,21 @@ def parse_edit(text: str) -> Edit:
 
 
 def apply_edit(spec: mujoco.MjSpec, edit: Edit) -> int:
-    """Apply an edit to every matching joint, body or site; returns how many elements changed."""
+    """Apply an edit to every matching joint, body, site or actuator; returns how many changed.
+
+    Raises
+    ------
+    InputError
+        For an unknown field, a name that matches nothing, a value of the wrong length, a value
+        that leaves a field out of its range, or a servo edit of an actuator that is not a
+        position actuator.
+    """
     count = 0
+    if edit.field in _ACTUATOR_FIELDS:
+        for actuator in spec.actuators:
+            if fnmatch.fnmatchcase(actuator.name, edit.target):
+                _edit_servo(actuator, edit)
+                count += 1
     if edit.field in _JOINT_FIELDS:
         for joint in spec.joints:
             if fnmatch.fnmatchcase(joint.name, edit.target):
@@ -85,9 +107,12 @@ def apply_edit(spec: mujoco.MjSpec, edit: Edit) -> int:
                 else:
                     _edit_vector(body, edit, "pos")
                 count += 1
-    if edit.field not in _JOINT_FIELDS | _BODY_FIELDS | _SITE_FIELDS:
+    if edit.field not in _JOINT_FIELDS | _BODY_FIELDS | _SITE_FIELDS | _ACTUATOR_FIELDS:
         raise InputError(f"edit {edit}: unknown field {edit.field!r}; joints take "
-                         f"{sorted(_JOINT_FIELDS)}, bodies {sorted(_BODY_FIELDS)}, sites {sorted(_SITE_FIELDS)}")
+                         f"{sorted(_JOINT_FIELDS)}, bodies {sorted(_BODY_FIELDS)}, sites {sorted(_SITE_FIELDS)}, "
+                         f"actuators {sorted(_ACTUATOR_FIELDS)}")
+    if count == 0 and edit.field in _ACTUATOR_FIELDS:
+        raise InputError(f"edit {edit}: no actuator named {edit.target!r}")
     if count == 0:
         raise InputError(f"edit {edit}: no joint, body or site named {edit.target!r} has field {edit.field!r}")
     return count
@@ -152,14 +177,26 @@ def add_compliant_base(spec: mujoco.MjSpec, k_lateral: float, k_tilt: float, *,
     spec.delete(arm)
 
 
-def make_variant(robot, edits=(), *, masses=(), compliant_base=None) -> str:
+def make_variant(robot, edits=(), *, masses=(), compliant_base=None, load_stiffness=None) -> str:
     """MJCF text of a variant of ``robot`` (a :class:`~rmbench.robot.Robot`).
+
+    The variant keeps the robot's load-dependent stiffness coefficients, if any.
 
     Parameters
     ----------
     edits : sequence of str or Edit
     masses : sequence of (where, mass_kg, offset_m)
     compliant_base : (k_lateral N/m, k_tilt N·m/rad) or None
+    load_stiffness : mapping of str to float, optional
+        α ≥ 0 per passive joint (:mod:`rmbench.robot.load_stiffness`), added to or replacing
+        the robot's own coefficients; α = 0 makes a joint's stiffness constant again.
+
+    Raises
+    ------
+    InputError
+        For a bad edit, mass or base, or a variant that does not compile.
+    ModelError
+        For a load-stiffness coefficient of an unknown or actuated joint, or a negative α.
     """
     from rmbench.robot.spec import spec_to_xml
 
@@ -175,10 +212,16 @@ def make_variant(robot, edits=(), *, masses=(), compliant_base=None) -> str:
     if compliant_base is not None:
         add_compliant_base(spec, *compliant_base)
         log.append(f"compliant base {compliant_base}")
+    if load_stiffness:
+        coeffs = {**robot.load_stiffness, **load_stiffness}
+        set_load_stiffness(spec, {name: alpha for name, alpha in coeffs.items() if alpha != 0})
+        log.append("load stiffness " + " ".join(f"{n}:{a:g}" for n, a in load_stiffness.items()))
     try:
-        spec.compile()
+        model = spec.compile()
     except ValueError as err:
         raise InputError(f"the variant does not compile: {str(err).splitlines()[0]}") from None
+    if load_stiffness:
+        check_load_stiffness(model, load_stiffness)
     previous = next((t.data for t in spec.texts if t.name == "rmbench_variant"), "")
     note = "; ".join(([previous] if previous else []) + log)
     for t in spec.texts:
@@ -228,6 +271,35 @@ def _edit_joint(joint, edit: Edit) -> None:
         setattr(joint, edit.field, new)
 
 
+def _edit_servo(actuator, edit: Edit) -> None:
+    if len(edit.value) != 1:
+        raise InputError(f"edit {edit}: servo fields take one number")
+    gain = np.array(actuator.gainprm, float)
+    bias = np.array(actuator.biasprm, float)
+    if not _is_position_servo(actuator, gain, bias):
+        raise InputError(f"edit {edit}: actuator {actuator.name!r} is not a position actuator "
+                         "(kp and kv edit position servos)")
+    if edit.field == "kp":
+        kp = _combine(gain[0], edit)
+        if not kp > 0:
+            raise InputError(f"edit {edit}: kp of {actuator.name!r} must stay positive")
+        gain[0], bias[1] = kp, -kp
+    else:
+        kv = _combine(-bias[2], edit)
+        if kv < 0:
+            raise InputError(f"edit {edit}: kv of {actuator.name!r} must stay non-negative")
+        bias[2] = -kv
+    actuator.gainprm = gain
+    actuator.biasprm = bias
+
+
+def _is_position_servo(actuator, gain: np.ndarray, bias: np.ndarray) -> bool:
+    """MuJoCo's ``<position>``: fixed gain kp, affine bias ``−kp·length − kv·velocity``."""
+    return (actuator.gaintype == mujoco.mjtGain.mjGAIN_FIXED and actuator.biastype == mujoco.mjtBias.mjBIAS_AFFINE
+            and actuator.dyntype != mujoco.mjtDyn.mjDYN_INTEGRATOR
+            and gain[0] > 0 and bias[0] == 0 and bias[1] == -gain[0])
+
+
 def _edit_vector(element, edit: Edit, field: str) -> None:
     if len(edit.value) != 3:
         raise InputError(f"edit {edit}: {field} takes three numbers x,y,z")
@@ -258,7 +330,8 @@ def condensed(robot, prefixes=("spindle_", "tool_")):
 
     For long simulations: stiff freedoms (the spindle, holder and tool: 0.8-60 kHz) bound the
     stable time step, while well below their modes they act as static springs, whose compliance
-    the caller adds back. Returns a :class:`~rmbench.robot.Robot` of the same name and tool.
+    the caller adds back. Returns a :class:`~rmbench.robot.Robot` of the same name and tool,
+    which keeps the load-dependent stiffness of the joints it keeps.
     """
     from rmbench.robot.model import Robot
     from rmbench.robot.spec import spec_to_xml
@@ -266,6 +339,7 @@ def condensed(robot, prefixes=("spindle_", "tool_")):
     spec = robot.spec
     doomed = [j for j in spec.joints if j.name.startswith(prefixes)]
     names = {j.name for j in doomed}
+    set_load_stiffness(spec, {j: a for j, a in robot.load_stiffness.items() if j not in names})
     for act in list(spec.actuators):
         if act.target in names:
             spec.delete(act)
@@ -283,6 +357,11 @@ def with_tool_masses(robot, masses):
     ----------
     masses : sequence of (s_up, mass)
         Distance up the tool axis from the tip (m) and mass (kg) of each point mass.
+
+    Returns
+    -------
+    Robot
+        Same name, tool and spindle speed, and the robot's load-dependent stiffness, if any.
     """
     from rmbench.robot.model import Robot, tool_point
     from rmbench.robot.spec import spec_to_xml
