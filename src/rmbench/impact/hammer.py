@@ -76,3 +76,4 @@ def pulse(hit: Hit, t: np.ndarray) -> np.ndarray:
     if hit.second_delay is not None:
         f += half_sine_mean(hit.second_delay, hit.second_ratio * hit.peak)
     return f
+

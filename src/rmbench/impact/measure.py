@@ -155,6 +155,8 @@ def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gai
         rows_full = hammer_rows(op_full, coords, band.s_1a, hits[a]) if flex is not None else None
         for k in range(len(coords)):
             j = a * len(coords) + k
+            # each step holds the force's mean over the step: what the simulator applies and,
+            # box-filtered, what the load cell records for the step's midpoint
             forces[j] = pulse(hits[a][k], t)
             qfrc[j] = forces[j][:, None] * rows_sim[k][None, :]
             if flex is not None:
@@ -165,7 +167,10 @@ def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gai
     overloads = 0
     for j in range(len(forces)):
         k = j % len(coords)
-        disp = (states[j] - q0) @ read_sim.T + forces[j][:, None] * static[j][None, :]
+        # the states are those at the end of each step; the force sample stands for the step's
+        # midpoint, so the response is read there too (read at the end, it ran ω dt/2 ahead):
+        # cubic interpolation between the states at the step's start and end
+        disp = (_midpoints(states[j], q0) - q0) @ read_sim.T + forces[j][:, None] * static[j][None, :]
         if accel:
             resp = _second_derivative(disp, dt)
             if sensors.highpass > 0:
@@ -236,6 +241,17 @@ def _condensation(op_sim, op_full, sensors):
     kept = set(op_sim.linear.dof_names)
     flex = np.array([i for i, n in enumerate(op_full.linear.dof_names) if n not in kept])
     return flex, sensors.reading_rows(op_full)
+
+
+def _midpoints(ends: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """Values at the midpoints of the steps from those at their ends, shape like ``ends``.
+
+    Four-point (cubic) interpolation, error of order (ω dt)⁴: the value at ``t_k + dt/2`` is
+    ``(−y(t_{k−1}) + 9 y(t_k) + 9 y(t_{k+1}) − y(t_{k+2})) / 16``, with the structure at ``rest``
+    up to ``t_0`` and the last value held past the end.
+    """
+    y = np.vstack([rest[None], rest[None], ends, ends[-1:]])   # y(t_{-1}), y(t_0), y(t_1) ...
+    return (-y[:-3] + 9 * y[1:-2] + 9 * y[2:-1] - y[3:]) / 16
 
 
 def _second_derivative(y: np.ndarray, dt: float) -> np.ndarray:
