@@ -20,7 +20,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rmbench.cli import campaign, control, demo, modal, model, tracker
+    from rmbench.cli import campaign, control, demo, gap, modal, model, tracker
 
     parser = _Parser(prog="rmbench", description="Virtual test bench for robotic machining dynamics.")
     parser.add_argument("--version", action="version", version=f"rmbench {__version__}")
@@ -31,6 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
     modal.register(sub)
     tracker.register(sub)
     control.register(sub)
+    gap.register(sub)
     demo.register(sub)
     return parser
 

@@ -22,7 +22,7 @@ from scipy import linalg
 
 from rmbench.errors import RmbenchError
 
-__all__ = ["LinearModel", "ComplexModes", "equilibrium", "linearize"]
+__all__ = ["LinearModel", "ComplexModes", "equilibrium", "linearize", "complex_modes"]
 
 # Central differences of mj_inverse: step in rad, m, rad/s or m/s. MuJoCo's own mjd_inverseFD takes
 # forward differences, whose error in C visibly distorts small cross FRFs at the spindle modes.
@@ -86,10 +86,10 @@ class ComplexModes:
         r = out @ self.phi_r  # (n_out, n_modes)
         lt = inp @ self.phi_l  # (n_in, n_modes)
         g = 1 / (s - self.poles)  # (n_s, n_modes)
-        h = np.einsum("fm,om,im->foi", g, r, lt)
         gc = np.where(self.real_pole, 0, 1 / (s - self.poles.conj()))
-        h += np.einsum("fm,om,im->foi", gc, r.conj(), lt.conj())
-        return h
+        # Σ_m g_fm r_om lt_im as one product over the stacked modes and their conjugates (BLAS)
+        left = np.concatenate([g[:, None, :] * r[None], gc[:, None, :] * r.conj()[None]], axis=2)
+        return left @ np.concatenate([lt, lt.conj()], axis=1).T
 
 
 @dataclass(frozen=True)
@@ -273,6 +273,11 @@ def _hold_with_actuators(model: mujoco.MjModel, data: mujoco.MjData) -> None:
         gain = model.actuator_gainprm[a, 0]
         data.ctrl[a] = (force - bias[0] - bias[1] * length - bias[2] * velocity) / gain
     mujoco.mj_forward(model, data)
+
+
+def complex_modes(m: np.ndarray, c: np.ndarray, k: np.ndarray) -> ComplexModes:
+    """Complex modes of ``M q'' + C q' + K q = f`` (see :class:`ComplexModes`)."""
+    return _complex_modes(m, c, k)
 
 
 def _complex_modes(m: np.ndarray, c: np.ndarray, k: np.ndarray) -> ComplexModes:

@@ -1,0 +1,22 @@
+"""Sim-to-real gap diagnosis (METHODS.md §11): where a model departs from measurements, which
+unmodelled effect causes it, and how far the gap shrinks once that effect is in the model.
+
+::
+
+    from rmbench.gap import diagnose
+    dg = diagnose("irb6660", "measured.nc")   # or a UFF58 directory
+    dg.verdict, dg.effects[0].name, dg.effects[0].shrink
+    dg.save("diagnosis/")                      # figures, tables, the updated variant MJCF
+"""
+
+from rmbench.gap.design import SensorOffset, TestDesign
+from rmbench.gap.diagnosis import Diagnosis, DiagnosisSettings, EffectResult, diagnose, load_data
+from rmbench.gap.effects import KINDS, Change, Effect, Param, library
+from rmbench.gap.measured import GapDataWarning, MeasuredModes, measured_data
+from rmbench.gap.model import ModelBench, ModelModes
+from rmbench.gap.where import GapMap, gap_map
+
+__all__ = ["diagnose", "Diagnosis", "DiagnosisSettings", "EffectResult", "load_data",
+           "TestDesign", "SensorOffset", "Effect", "Param", "Change", "library", "KINDS",
+           "GapDataWarning", "MeasuredModes", "measured_data", "ModelBench", "ModelModes",
+           "GapMap", "gap_map"]

@@ -1,0 +1,524 @@
+"""Withheld-effect check: hidden effects injected into the model, diagnosed blind, scored.
+
+Each case draws one hidden effect (three cases in five), two at once (one in five), or one outside
+the diagnosis's library (one in five: an extra resonator — a hose package on a spring at a link —
+or a tendon coupling two joints). The effect is injected into a copy of the nominal MJCF by its own
+code path (the variant primitives of :mod:`rmbench.robot.variant` and ``MjSpec`` edits written here,
+never the diagnosis's library), with a magnitude drawn large enough to change the exact FRF by at
+least ``VISIBLE_DB`` somewhere. A campaign measures the changed robot commanded by the nominal
+robot's inverse kinematics; the data go out to UFF58 and back (so nothing but FRFs, postures and the
+test design survives), with the test design as the experimenter believes it (no sensor placement
+errors, the nominal robot named); the diagnosis gets only that and the nominal model.
+
+Scores: top-1 and top-3 identification of kind and location (strict, and up to the effects the
+data cannot tell apart, which the diagnosis reports), the held-out shrink, false attributions on
+the out-of-library cases (anything but "unexplained"), both effects of a two-effect case in the
+top 3, and the calibration of the confidences.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from rmbench.robot import Robot, seed_grid
+from rmbench.robot.spec import spec_to_xml
+from rmbench.robot.variant import add_compliant_base, add_point_mass, make_variant
+
+__all__ = ["Hidden", "CaseResult", "BlindReport", "draw_case", "inject", "run_case", "run_blind",
+           "VISIBLE_DB"]
+
+VISIBLE_DB = 1.0          # the hidden change moves the exact FRF by this much (rms over a band) somewhere
+_IN_LIBRARY_KINDS = ("joint_stiffness", "joint_damping", "load_dependent_stiffness",
+                     "servo_stiffness", "tool_contact_stiffness", "spindle_stiffness",
+                     "base_compliance", "added_mass", "sensor_misplacement", "sensor_misalignment",
+                     "non_reciprocity")
+_OUT_KINDS = ("hose_resonator", "tendon_coupling")
+_FLEX = ("j1_flex", "j2_flex", "j3_flex", "j4_flex", "j5_flex", "j6_flex")
+_BODIES = ("lower_arm", "upper_arm", "forearm", "wrist", "flange", "spindle_rotor")
+_SENSORS = ("1X", "1Y", "1aX", "1aY")
+
+
+@dataclass(frozen=True)
+class Hidden:
+    """One hidden effect: what was injected, where, how much.
+
+    Attributes
+    ----------
+    kind : str
+        A library kind, or ``hose_resonator`` / ``tendon_coupling`` (outside the library).
+    location : str
+        In the diagnosis's naming (MJCF name, ``BAND:COORD``, ``tool_contact``, ...).
+    value : dict
+        The injected magnitude(s), in the units of the kind.
+    """
+
+    kind: str
+    location: str
+    value: dict
+
+    @property
+    def in_library(self) -> bool:
+        return self.kind in _IN_LIBRARY_KINDS
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind}@{self.location}"
+
+
+def draw_case(rng: np.random.Generator, kind: str | None = None) -> tuple[Hidden, ...]:
+    """The hidden effect(s) of one case: one (3 in 5), two (1 in 5), or one out of the library."""
+    if kind is None:
+        u = rng.random()
+        kind = "one" if u < 0.6 else ("two" if u < 0.8 else "out")
+    if kind == "out":
+        return (_draw_out(rng),)
+    first = _draw_in(rng)
+    if kind == "one":
+        return (first,)
+    while True:
+        second = _draw_in(rng)
+        if second.kind != first.kind or second.location != first.location:
+            return (first, second)
+
+
+def _sign(rng):
+    return 1.0 if rng.random() < 0.5 else -1.0
+
+
+def _factor(rng, lo, hi):
+    """A factor log-uniform in [lo, hi] or in [1/hi, 1/lo]."""
+    f = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+    return f if rng.random() < 0.5 else 1 / f
+
+
+def _draw_in(rng) -> Hidden:
+    kind = _IN_LIBRARY_KINDS[int(rng.integers(len(_IN_LIBRARY_KINDS)))]
+    if kind in ("joint_stiffness", "joint_damping", "load_dependent_stiffness"):
+        loc = _FLEX[int(rng.integers(len(_FLEX)))]
+        if kind == "joint_stiffness":
+            return Hidden(kind, loc, {"factor": _factor(rng, 1.2, 1.6)})
+        if kind == "joint_damping":
+            return Hidden(kind, loc, {"factor": _factor(rng, 1.8, 3.5)})
+        return Hidden(kind, loc, {"alpha": float(rng.uniform(0.15, 0.6))})
+    if kind == "servo_stiffness":
+        return Hidden(kind, f"a{int(rng.integers(1, 7))}", {"factor": _factor(rng, 4.0, 10.0)})
+    if kind == "tool_contact_stiffness":
+        return Hidden(kind, "tool_contact", {"translation": _factor(rng, 1.5, 3.0),
+                                             "rotation": _factor(rng, 1.5, 3.0)})
+    if kind == "spindle_stiffness":
+        return Hidden(kind, "spindle", {"radial": _factor(rng, 1.2, 1.6), "tilt": _factor(rng, 1.2, 1.6)})
+    if kind == "base_compliance":
+        return Hidden(kind, "base", {"lateral": float(rng.uniform(20, 80)),
+                                     "tilt": float(rng.uniform(20, 80))})
+    if kind == "added_mass":
+        body = _BODIES[int(rng.integers(len(_BODIES)))]
+        return Hidden(kind, body, {"fraction": float(rng.uniform(0.1, 0.4)) * (1 if rng.random() < 0.7 else -0.6)})
+    if kind == "sensor_misplacement":
+        band = "low" if rng.random() < 0.5 else "high"
+        return Hidden(kind, f"{band}:{_SENSORS[int(rng.integers(4))]}",
+                      {"along_mm": _sign(rng) * float(rng.uniform(3, 8))})
+    if kind == "sensor_misalignment":
+        band = "low" if rng.random() < 0.5 else "high"
+        return Hidden(kind, f"{band}:{_SENSORS[int(rng.integers(4))]}",
+                      {"angle_deg": _sign(rng) * float(rng.uniform(4, 12))})
+    return Hidden("non_reciprocity", "spindle_spin", {"rpm": float(rng.uniform(8000, 24000))})
+
+
+def _draw_out(rng) -> Hidden:
+    kind = _OUT_KINDS[int(rng.integers(len(_OUT_KINDS)))]
+    if kind == "hose_resonator":
+        link = ("upper_arm", "forearm")[int(rng.integers(2))]
+        return Hidden(kind, link, {"mass": float(rng.uniform(5, 15)), "f_hz": float(rng.uniform(9, 30)),
+                                   "zeta": 0.05})
+    pair = [("j2_flex", "j3_flex"), ("j4_flex", "j5_flex"), ("j5_flex", "j6_flex")][int(rng.integers(3))]
+    return Hidden(kind, "+".join(pair), {"fraction": float(rng.uniform(0.3, 0.8))})
+
+
+def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
+    """The hidden effects in a copy of the robot (its own code path).
+
+    Parameters
+    ----------
+    scale : float
+        Magnifies every effect (1: as drawn); used to make a faint draw visible.
+
+    Returns
+    -------
+    xml : str
+        The changed robot's MJCF.
+    placement : dict
+        Per band ``{"position_error_mm": [4], "misalignment_deg": [4]}`` of the sensors.
+    spindle_rpm : float
+    """
+    spec = robot.spec
+    placement = {b: {"position_error_mm": [0.0] * 4, "misalignment_deg": [0.0] * 4} for b in ("low", "high")}
+    rpm = 0.0
+    edits, load, base = [], {}, None
+
+    def factor(f):
+        return float(np.exp(scale * np.log(f)))
+
+    for h in hidden:
+        v = h.value
+        if h.kind == "joint_stiffness":
+            edits.append(f"{h.location}.stiffness*={factor(v['factor']):.9g}")
+        elif h.kind == "joint_damping":
+            edits.append(f"{h.location}.damping*={factor(v['factor']):.9g}")
+        elif h.kind == "load_dependent_stiffness":
+            load[h.location] = scale * v["alpha"]
+        elif h.kind == "servo_stiffness":
+            edits.append(f"{h.location}.kp*={factor(v['factor']):.9g}")
+        elif h.kind == "tool_contact_stiffness":
+            edits += [f"tool_contact_{a}.stiffness*={factor(v['translation']):.9g}" for a in ("x", "y")]
+            edits += [f"tool_contact_{a}.stiffness*={factor(v['rotation']):.9g}" for a in ("rx", "ry")]
+        elif h.kind == "spindle_stiffness":
+            edits += [f"spindle_{a}.stiffness*={factor(v['radial']):.9g}" for a in ("x", "y")]
+            edits += [f"spindle_{a}.stiffness*={factor(v['tilt']):.9g}" for a in ("rx", "ry")]
+        elif h.kind == "base_compliance":
+            base = (1 / (scale * v["lateral"] * 1e-9), 1 / (scale * v["tilt"] * 1e-9))
+        elif h.kind == "added_mass":
+            m0 = float(spec.body(h.location).mass)
+            edits.append(f"{h.location}.mass+={scale * v['fraction'] * m0:.9g}")
+        elif h.kind in ("sensor_misplacement", "sensor_misalignment"):
+            band, coord = h.location.split(":")
+            i = _SENSORS.index(coord)
+            if h.kind == "sensor_misplacement":
+                placement[band]["position_error_mm"][i] += scale * v["along_mm"]
+            else:
+                placement[band]["misalignment_deg"][i] += scale * v["angle_deg"]
+        elif h.kind == "non_reciprocity":
+            rpm += scale * v["rpm"]
+        elif h.kind == "hose_resonator":
+            _add_resonator(spec, h.location, v["mass"], v["f_hz"] * (scale ** 0.25), v["zeta"])
+        elif h.kind == "tendon_coupling":
+            _add_coupling(spec, h.location.split("+"), scale * v["fraction"])
+        else:  # pragma: no cover - draw_case draws known kinds only
+            raise ValueError(h.kind)
+    carrier = Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool)
+    xml = make_variant(carrier, edits, compliant_base=base, load_stiffness=load or None) \
+        if (edits or base is not None or load) else carrier.xml
+    return xml, placement, rpm
+
+
+# the ranges the diagnosis's library fits (rmbench.gap.effects.library): a hidden effect of a
+# library kind stays inside them, else it would be out of the library in all but name
+_LIBRARY_RANGE = {"factor": {"joint_stiffness": (0.3, 3.0), "joint_damping": (0.1, 10.0),
+                             "servo_stiffness": (0.01, 10.0)},
+                  "alpha": (0.0, 3.0), "translation": (0.2, 5.0), "rotation": (0.2, 5.0),
+                  "radial": (0.3, 3.0), "tilt": (0.3, 3.0), "lateral": (0.0, 200.0),
+                  "fraction": (-0.5, 2.0), "along_mm": (-10.0, 10.0), "angle_deg": (-15.0, 15.0),
+                  "rpm": (0.0, 30000.0)}
+
+
+def _within_library(h: Hidden) -> bool:
+    if not h.in_library:
+        return True
+    for key, x in h.value.items():
+        rng = _LIBRARY_RANGE.get(key)
+        if isinstance(rng, dict):
+            rng = rng.get(h.kind)
+        if h.kind == "base_compliance" and key == "tilt":
+            rng = (0.0, 200.0)
+        if rng is not None and not rng[0] <= x <= rng[1]:
+            return False
+    return True
+
+
+def _scaled(h: Hidden, scale: float) -> Hidden:
+    """The hidden effect with its magnitude magnified as :func:`inject` does with ``scale``."""
+    if scale == 1.0:
+        return h
+    v = dict(h.value)
+    for key, x in v.items():
+        if key in ("factor", "translation", "rotation", "radial", "tilt") and h.kind != "base_compliance":
+            v[key] = float(np.exp(scale * np.log(x)))
+        elif key == "f_hz":
+            v[key] = x * scale ** 0.25
+        elif key not in ("zeta", "mass") or h.kind != "hose_resonator":
+            v[key] = scale * x
+    return Hidden(h.kind, h.location, v)
+
+
+def _add_resonator(spec, link: str, mass: float, f_hz: float, zeta: float) -> None:
+    """A hose package: a mass on a lateral spring at the middle of a link."""
+    body = spec.body(link)
+    k = mass * (2 * np.pi * f_hz) ** 2
+    hose = body.add_body(name="hose_package", pos=[0.1, 0.15, 0.1])
+    hose.add_joint(name="hose_slide", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
+                   stiffness=[k, 0, 0], damping=[2 * zeta * np.sqrt(k * mass), 0, 0])
+    hose.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.04, 0, 0], mass=mass,
+                  contype=0, conaffinity=0)
+
+
+def _add_coupling(spec, joints, fraction: float) -> None:
+    """A tendon coupling two joints: a spring on their difference, ``fraction`` of the softer's
+    stiffness."""
+    k = fraction * min(float(spec.joint(j).stiffness[0]) for j in joints)
+    tendon = spec.add_tendon(name="coupling", stiffness=[k, 0, 0])
+    tendon.wrap_joint(joints[0], 1.0)
+    tendon.wrap_joint(joints[1], -1.0)
+
+
+@dataclass(frozen=True)
+class CaseResult:
+    """One blind case: what was hidden, what the diagnosis said, how it scores."""
+
+    index: int
+    method: str
+    hidden: tuple
+    verdict: str
+    ranked: tuple           # (name, confidence) best first
+    equivalent: tuple
+    shrink: float
+    top1: bool
+    top3: bool
+    top1_class: bool
+    top3_class: bool
+    pair_in_top3: bool | None
+    seconds: dict
+    visible_db: float
+    scale: float
+
+    def to_dict(self) -> dict:
+        return {"index": self.index, "method": self.method,
+                "hidden": [{"kind": h.kind, "location": h.location, "value": h.value} for h in self.hidden],
+                "verdict": self.verdict, "ranked": [list(r) for r in self.ranked],
+                "equivalent": [list(g) for g in self.equivalent], "shrink": self.shrink,
+                "top1": self.top1, "top3": self.top3, "top1_class": self.top1_class,
+                "top3_class": self.top3_class, "pair_in_top3": self.pair_in_top3,
+                "seconds": self.seconds, "visible_db": self.visible_db, "scale": self.scale}
+
+
+@dataclass(frozen=True)
+class BlindReport:
+    """All cases of a blind run and their summary."""
+
+    cases: tuple
+    summary: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        return {"summary": self.summary, "cases": [c.to_dict() for c in self.cases]}
+
+
+def _campaign_toml(robot_name: str, tool, postures, method: str, seed: int, *, commands_from=None,
+                   placement=None, rpm: float = 0.0) -> str:
+    rows = ", ".join(f"[{1e3 * p.x:.6g}, {1e3 * p.y:.6g}, {np.degrees(p.theta):.6g}]" for p in postures)
+    lines = [f'name = "blind"', f"seed = {seed}", f'method = "{method}"', "[robot]",
+             f'name = "{robot_name}"']
+    if tool is not None:
+        lines.append(f'tool = "{tool}"')
+    if rpm:
+        lines.append(f"spindle_rpm = {rpm:.6g}")
+    if commands_from:
+        lines.append(f'commands_from = "{commands_from}"')
+    lines += ["[grid]", 'kind = "list"', f"postures = [{rows}]"]
+    from rmbench.impact.config import _default_bands
+
+    for band, b in _default_bands().items():
+        lines += [f"[bands.{band}]", f"f_min = {b.f_min}", f"f_max = {b.f_max}",
+                  f'sensor = "{b.sensor}"', f"s_1a_mm = {b.s_1a_mm}", f"sample_rate = {b.sample_rate}",
+                  f"line_spacing = {b.line_spacing}", f"[bands.{band}.hammer]",
+                  f"pulse_ms = {b.hammer.pulse_ms}", f"peak_n = {b.hammer.peak_n}"]
+        if placement is not None:
+            pe = ", ".join(f"{x:.6g}" for x in placement[band]["position_error_mm"])
+            ma = ", ".join(f"{x:.6g}" for x in placement[band]["misalignment_deg"])
+            lines += [f"[bands.{band}.placement]", f"position_error_mm = [{pe}]",
+                      f"misalignment_deg = [{ma}]"]
+    return "\n".join(lines) + "\n"
+
+
+def _visible_db(nominal: Robot, xml: str, design, placement, rpm, q_cmd) -> float:
+    """Largest band-rms change of the exact as-tested FRF (dB) over the given commands."""
+    from rmbench.gap.design import SensorOffset
+    from rmbench.impact.measure import hammer_rows
+    from rmbench.impact.sensors import COORDS
+    from rmbench.robot.variant import with_tool_masses
+
+    changed = Robot(xml, name="hidden", tool=nominal.tool, spindle_rpm=rpm)
+    true = design.with_offsets([SensorOffset(b, c, along=1e-3 * placement[b]["position_error_mm"][i],
+                                             angle=np.radians(placement[b]["misalignment_deg"][i]))
+                                for b in design.band_names for i, c in enumerate(COORDS)])
+    worst = 0.0
+    for band in design.band_names:
+        b = design.band(band)
+        freq = np.linspace(b.f_min, b.f_max, 200)
+        s_nom, s_true = design.sensors(band), true.sensors(band)
+        r_nom = with_tool_masses(nominal, s_nom.tool_masses()) if s_nom.mass > 0 else nominal
+        r_true = with_tool_masses(changed, s_true.tool_masses()) if s_true.mass > 0 else changed
+        for q in q_cmd:
+            op0, op1 = r_nom.at(q), r_true.at(q)
+            h0 = op0.linear.modes().frf(freq, s_nom.reading_rows(op0), hammer_rows(op0, COORDS, b.s_1a))
+            h1 = op1.linear.modes().frf(freq, s_true.reading_rows(op1), hammer_rows(op1, COORDS, b.s_1a))
+            worst = max(worst, float(np.sqrt(np.mean((20 * np.log10(np.abs(h1) / np.abs(h0))) ** 2))))
+    return worst
+
+
+def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int = 16,
+             workers: int | None = None, workdir: str | Path | None = None,
+             nominal: str = "irb6660", tool: str = "dummy", kind: str | None = None) -> CaseResult:
+    """Draw, inject, measure, export and import, diagnose and score one blind case."""
+    from rmbench.gap.design import TestDesign
+    from rmbench.gap.diagnosis import diagnose
+    from rmbench.impact import open_campaign, parse_config, run_campaign
+    from rmbench.io import read_uff58, write_uff58
+
+    t0 = time.perf_counter()
+    rng = np.random.default_rng([seed, index])
+    grid = seed_grid()
+    postures = [grid[i] for i in sorted(rng.choice(len(grid), n_postures, replace=False))]
+    robot = Robot.load(nominal, tool=tool)
+    believed = _campaign_toml(nominal, tool, postures, method, seed)
+    design = TestDesign.from_text(believed)
+    q_cmd = [robot.ik(p).q for p in postures]
+    probe = q_cmd[::4]
+    # every hidden effect must change the FRF visibly on its own: a faint draw is magnified,
+    # one that stays invisible (load-dependent stiffness of an axis gravity does not load) is
+    # drawn again
+    for _ in range(20):
+        hidden = draw_case(rng, kind)
+        scales = []
+        for h in hidden:
+            scale = 1.0
+            for _ in range(5):
+                xml, placement, rpm = inject(robot, (h,), scale)
+                if _visible_db(robot, xml, design, placement, rpm, probe) >= VISIBLE_DB:
+                    break
+                scale *= 1.6
+            else:
+                scale = None
+            scales.append(scale)
+        if all(sc is not None and _within_library(_scaled(h, sc)) for h, sc in zip(hidden, scales)):
+            break
+    hidden = tuple(_scaled(h, sc) for h, sc in zip(hidden, scales))
+    scale = float(max(scales))
+    xml, placement, rpm = inject(robot, hidden)
+    vis = _visible_db(robot, xml, design, placement, rpm, probe)
+    own = Path(tempfile.mkdtemp(prefix="rmbench_blind_")) if workdir is None else Path(workdir) / f"case_{index:03d}"
+    own.mkdir(parents=True, exist_ok=True)
+    try:
+        variant = own / "hidden.xml"
+        variant.write_text(xml)
+        true_toml = _campaign_toml(str(variant), None, postures, method, seed, commands_from=nominal,
+                                   placement=placement, rpm=rpm)
+        data = own / "measured.nc"
+        if data.exists():
+            data.unlink()
+        run_campaign(parse_config(true_toml), data, toml=true_toml, workers=workers, progress=False)
+        t1 = time.perf_counter()
+        ds = open_campaign(data)
+        ds.attrs.clear()
+        ds.attrs["config"] = believed          # the test design as the experimenter believes it
+        uff = own / "uff"
+        if uff.exists():
+            shutil.rmtree(uff)
+        write_uff58(ds[["H"]], uff)
+        back = read_uff58(uff)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            dg = diagnose(robot, back, workers=workers)
+        t2 = time.perf_counter()
+    finally:
+        if workdir is None:
+            shutil.rmtree(own, ignore_errors=True)
+    return _score(index, method, hidden, dg, {"campaign": round(t1 - t0, 2), "diagnose": round(t2 - t1, 2)},
+                  vis, scale)
+
+
+def _score(index, method, hidden, dg, seconds, vis, scale) -> CaseResult:
+    names = [e.name for e in dg.effects]
+    groups = [set(g) for g in dg.equivalent]
+
+    def same(a, b):
+        return a == b or any(a in g and b in g for g in groups)
+
+    in_lib = all(h.in_library for h in hidden)
+    truth = [h.name for h in hidden]
+    reported = names if dg.verdict == "explained" else []
+    top1 = bool(in_lib and reported and reported[0] in truth)
+    top3 = bool(in_lib and any(n in truth for n in names[:3]))
+    top1_class = bool(in_lib and reported and any(same(reported[0], t) for t in truth))
+    top3_class = bool(in_lib and any(same(n, t) for n in names[:3] for t in truth))
+    pair = None
+    if len(hidden) == 2:
+        pair = all(any(same(n, t) for n in names[:3]) for t in truth)
+    chosen = [e for e in dg.effects if e.chosen]
+    shrink = chosen[0].shrink if chosen else (dg.effects[0].shrink if dg.effects else 0.0)
+    return CaseResult(index=index, method=method, hidden=tuple(hidden), verdict=dg.verdict,
+                      ranked=tuple((e.name, round(e.confidence, 4)) for e in dg.effects[:5]),
+                      equivalent=dg.equivalent, shrink=float(shrink), top1=top1, top3=top3,
+                      top1_class=top1_class, top3_class=top3_class, pair_in_top3=pair,
+                      seconds={**seconds, **{f"diagnose_{k}": v for k, v in dg.seconds.items()}},
+                      visible_db=float(vis), scale=float(scale))
+
+
+def summarise(cases) -> dict:
+    """The blind run's figures (see the module docstring)."""
+    one = [c for c in cases if len(c.hidden) == 1 and c.hidden[0].in_library]
+    two = [c for c in cases if len(c.hidden) == 2]
+    out = [c for c in cases if not c.hidden[0].in_library]
+    inlib = one + two
+    frac = (lambda xs: float(np.mean(xs)) if len(xs) else float("nan"))
+    cal = []
+    records = []
+    for c in inlib:
+        truth = [h.name for h in c.hidden]
+        for name, conf in c.ranked[:3]:
+            records.append((conf, name in truth or any(name in g and t in g for g in map(set, c.equivalent)
+                                                        for t in truth)))
+    edges = np.array([0, 0.2, 0.4, 0.6, 0.8, 1.0 + 1e-9])
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = [ok for conf, ok in records if lo <= conf < hi]
+        confs = [conf for conf, _ in records if lo <= conf < hi]
+        cal.append({"bin": [float(lo), float(min(hi, 1.0))], "n": len(sel),
+                    "mean_confidence": frac(confs), "fraction_right": frac(sel)})
+    return {"cases": len(cases), "time_domain": sum(c.method == "time" for c in cases),
+            "single": len(one), "pairs": len(two), "out_of_library": len(out),
+            "top1": frac([c.top1 for c in one]), "top3": frac([c.top3 for c in one]),
+            "top1_class": frac([c.top1_class for c in one]), "top3_class": frac([c.top3_class for c in one]),
+            "median_shrink": float(np.median([c.shrink for c in inlib])) if inlib else float("nan"),
+            "false_attribution": frac([c.verdict != "unexplained" for c in out]),
+            "pair_recall": frac([bool(c.pair_in_top3) for c in two]),
+            "explained_in_library": frac([c.verdict == "explained" for c in inlib]),
+            "calibration": cal}
+
+
+def run_blind(cases: int, seed: int, *, method: str = "linear", time_share: float = 0.25,
+              workers: int | None = None, workdir=None, progress=None, start: int = 0,
+              done: dict | None = None) -> BlindReport:
+    """Run ``cases`` blind cases (``method`` "linear", "time", or "mixed": a ``time_share`` of
+    time-domain cases). ``done`` maps case indices already run (resumed) to their CaseResult."""
+    results = dict(done or {})
+    n_time = int(round(time_share * cases)) if method == "mixed" else (cases if method == "time" else 0)
+    for i in range(start, start + cases):
+        if i in results:
+            continue
+        m = "time" if (i - start) < n_time else "linear"
+        results[i] = run_case(i, seed, m, workers=workers, workdir=workdir)
+        if progress is not None:
+            progress(results[i])
+    ordered = tuple(results[i] for i in sorted(results))
+    return BlindReport(cases=ordered, summary=summarise(ordered))
+
+
+def case_from_dict(d: dict) -> CaseResult:
+    """A CaseResult back from :meth:`CaseResult.to_dict` (resuming a run from its JSON lines)."""
+    hidden = tuple(Hidden(h["kind"], h["location"], h["value"]) for h in d["hidden"])
+    return CaseResult(index=d["index"], method=d["method"], hidden=hidden, verdict=d["verdict"],
+                      ranked=tuple(tuple(r) for r in d["ranked"]),
+                      equivalent=tuple(tuple(g) for g in d["equivalent"]), shrink=d["shrink"],
+                      top1=d["top1"], top3=d["top3"], top1_class=d["top1_class"],
+                      top3_class=d["top3_class"], pair_in_top3=d["pair_in_top3"],
+                      seconds=d["seconds"], visible_db=d["visible_db"], scale=d["scale"])
+
+
+def dumps(case: CaseResult) -> str:
+    return json.dumps(case.to_dict())

@@ -1,0 +1,593 @@
+"""Sim-to-real gap diagnosis on FRF data: where the model departs, which effect causes it, how far
+the gap shrinks once the effect is in the model (METHODS.md §11).
+
+::
+
+    dg = diagnose("irb6660", "measured.nc")           # or a UFF58 directory, or a Dataset
+    dg.verdict                                         # "explained" | "unexplained" | "no significant gap"
+    dg.effects[0].name, dg.effects[0].shrink          # best first, held-out shrink of the gap
+    dg.where.describe()                                # the nominal model's gap, by mode
+    dg.save("diagnosis/")                              # figures, tables, the updated variant MJCF
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from rmbench.errors import InputError, UnreachablePosture
+from rmbench.gap.design import TestDesign
+from rmbench.gap.effects import Change, Effect, library
+from rmbench.gap.measured import fit_measured, frf_targets, measured_data, postures_of
+from rmbench.gap.model import ModelBench
+from rmbench.gap.residual import mode_residuals
+from rmbench.gap.search import Fitted, Objective, Refiner, significant
+from rmbench.gap.where import GapMap, gap_map
+
+__all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
+
+_DB = 20 / np.log(10)
+
+
+@dataclass(frozen=True)
+class DiagnosisSettings:
+    """How hard the diagnosis searches.
+
+    Attributes
+    ----------
+    heldout : float
+        Share of the postures held out of every fit (every other posture in (θ, x, y) order).
+    refine : int
+        Candidates refined by re-simulation after the screening.
+    pairs_of : int
+        When no single effect explains the gap, this many second effects (the best of a screening
+        on top of each of the two best singles) are paired with each and refined.
+    max_train : int
+        Most training postures used by the screening and the refinement (spread evenly).
+    p_noise : float
+        A held-out χ² whose p-value against the noise falls below this is a gap.
+    bootstrap : int
+        Resamples of the held-out postures for the shrink's interval.
+    kinds : tuple of str or None
+        Restrict the library to these kinds.
+    """
+
+    heldout: float = 0.5
+    refine: int = 6
+    pairs_of: int = 3
+    max_train: int = 24
+    p_noise: float = 1e-3
+    bootstrap: int = 400
+    kinds: tuple | None = None
+
+
+@dataclass(frozen=True)
+class EffectResult:
+    """One ranked effect with its evidence.
+
+    Attributes
+    ----------
+    name : str
+        ``kind@location``.
+    kind, location : str
+        ``location`` is the MJCF name of the joint, actuator or body edited, ``BAND:COORD`` for a
+        sensor, or ``tool_contact``, ``spindle``, ``base``.
+    params : dict
+        Fitted parameters in their units.
+    description : str
+    heldout_before, heldout_after : dict
+        Held-out gap metrics of the nominal model and of the model with this effect (alone, or
+        as part of the chosen model for the chosen effects): ``gap`` (rms normalised residual),
+        ``f_err`` and ``zeta_err`` (mean relative errors of paired modes), ``mac`` (mean MAC of
+        their residues), ``frf_db`` (rms FRF log-magnitude error, dB), ``unpaired``.
+    shrink : float
+        ``1 − gap_after / gap_before`` on the held-out postures.
+    shrink_interval : (float, float)
+        95 % bootstrap interval over the held-out postures.
+    confidence : float
+        Sum of the information-criterion weights of the scored models containing the effect.
+    chosen : bool
+        Part of the model the verdict rests on.
+    """
+
+    name: str
+    kind: str
+    location: str
+    params: dict
+    description: str
+    heldout_before: dict
+    heldout_after: dict
+    shrink: float
+    shrink_interval: tuple
+    confidence: float
+    chosen: bool = False
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "kind": self.kind, "location": self.location,
+                "params": self.params, "description": self.description,
+                "heldout_before": self.heldout_before, "heldout_after": self.heldout_after,
+                "shrink": self.shrink, "shrink_interval": list(self.shrink_interval),
+                "confidence": self.confidence, "chosen": self.chosen}
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The diagnosis of one measurement against one nominal model.
+
+    Attributes
+    ----------
+    verdict : str
+        ``"explained"``, ``"unexplained"`` or ``"no significant gap"``.
+    effects : tuple of EffectResult
+        Best first: the chosen model's effects, then the other candidates by held-out score.
+    where : GapMap
+        The nominal model's gap.
+    where_after : GapMap or None
+        The updated model's gap (when explained).
+    localisation : str
+        Where the gap lies and which candidates come closest (for an unexplained gap).
+    equivalent : tuple of tuple of str
+        Candidate effects the data cannot tell apart (the same signature at every posture).
+    nominal_chi2 : float
+        The nominal model's χ² over all postures, and ``n_residuals`` their number.
+    n_residuals : int
+    variant_xml : str or None
+        MJCF of the updated model (nominal robot plus the chosen effects that edit the robot).
+    design_changes : tuple of str
+        Chosen effects that belong to the test design (sensor placement), not to the robot.
+    train, held : tuple of int
+        Posture indices of the fits and of the held-out scoring.
+    models : tuple of dict
+        Every scored model: name, parameters, χ² train/held, score, weight.
+    seconds : dict
+        Time of each step.
+    notes : tuple of str
+    """
+
+    verdict: str
+    effects: tuple
+    where: GapMap
+    where_after: GapMap | None
+    localisation: str
+    equivalent: tuple
+    nominal_chi2: float
+    n_residuals: int
+    variant_xml: str | None
+    design_changes: tuple
+    train: tuple
+    held: tuple
+    models: tuple
+    seconds: dict
+    notes: tuple = field(default=())
+
+    def __post_init__(self):
+        if self.verdict not in ("explained", "unexplained", "no significant gap"):
+            raise ValueError(f"unknown verdict {self.verdict!r}")
+
+    def to_json(self, variant_path: str | None = None) -> dict:
+        """The CLI's ``--json``: verdict, effects best first, where, variant path."""
+        return {"verdict": self.verdict, "effects": [e.to_dict() for e in self.effects],
+                "where": {**self.where.summary(), "describe": self.where.describe(),
+                          "localisation": self.localisation},
+                "equivalent": [list(g) for g in self.equivalent],
+                "nominal_chi2_per_residual": self.nominal_chi2 / max(self.n_residuals, 1),
+                "design_changes": list(self.design_changes),
+                "variant": variant_path, "seconds": self.seconds, "notes": list(self.notes)}
+
+    def save(self, directory: str | Path) -> dict:
+        """Write ``diagnosis.json``, ``effects.csv``, ``gap_modes.csv``, the figures and the
+        updated variant (``variant.xml``, when there is one) into ``directory``.
+
+        Returns
+        -------
+        dict
+            ``{"json", "effects", "modes", "variant", "figures"}`` paths.
+        """
+        import csv
+        import json
+
+        from rmbench.gap.plot import plot_diagnosis
+
+        d = Path(directory)
+        d.mkdir(parents=True, exist_ok=True)
+        out = {}
+        variant = None
+        if self.variant_xml is not None:
+            variant = d / "variant.xml"
+            _write(variant, self.variant_xml)
+            out["variant"] = str(variant)
+        with open(d / "effects.csv", "w", newline="") as fh:
+            w = csv.writer(fh, lineterminator="\n")
+            w.writerow(["rank", "name", "chosen", "description", "confidence", "shrink",
+                        "gap_before", "gap_after", "f_err_before", "f_err_after", "frf_db_before",
+                        "frf_db_after"])
+            for i, e in enumerate(self.effects):
+                w.writerow([i + 1, e.name, e.chosen, e.description, f"{e.confidence:.4g}",
+                            f"{e.shrink:.4g}", f"{e.heldout_before['gap']:.4g}",
+                            f"{e.heldout_after['gap']:.4g}", f"{e.heldout_before['f_err']:.4g}",
+                            f"{e.heldout_after['f_err']:.4g}", f"{e.heldout_before['frf_db']:.4g}",
+                            f"{e.heldout_after['frf_db']:.4g}"])
+        with open(d / "gap_modes.csv", "w", newline="") as fh:
+            w = csv.writer(fh, lineterminator="\n")
+            cols = ["posture", "x", "y", "theta", "band", "mode", "f_meas", "f_model", "zeta_meas",
+                    "zeta_model", "df", "dzeta", "dscale", "mac", "significant"]
+            w.writerow(cols + ["z_f", "z_zeta", "z_scale", "z_shape"])
+            for r in self.where.records:
+                w.writerow([r[c] for c in cols] + [f"{v:.4g}" for v in r["z"].values()])
+        out["effects"] = str(d / "effects.csv")
+        out["modes"] = str(d / "gap_modes.csv")
+        out["figures"] = [str(p) for p in plot_diagnosis(self, d)]
+        _write(d / "diagnosis.json", json.dumps(_clean(self.to_json(out.get("variant"))), indent=2))
+        out["json"] = str(d / "diagnosis.json")
+        return out
+
+
+def load_data(data) -> xr.Dataset:
+    """A campaign dataset (netCDF path or Dataset) or a UFF58 directory, as a Dataset."""
+    if isinstance(data, xr.Dataset):
+        return data
+    p = Path(data)
+    if p.is_dir():
+        from rmbench.io import read_uff58
+
+        return read_uff58(p)
+    from rmbench.impact import open_campaign
+
+    return open_campaign(p)
+
+
+def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int | None = None,
+             settings: DiagnosisSettings = DiagnosisSettings(), progress=None) -> Diagnosis:
+    """Diagnose the gap between a nominal model and measured FRFs.
+
+    Parameters
+    ----------
+    nominal : str, Path or Robot
+        The nominal robot: a bundled name or an MJCF path (with ``tool``), or a loaded Robot.
+    data : str, Path or xarray.Dataset
+        Measured FRFs: a campaign dataset (netCDF) or a UFF58 directory (``rmbench campaign
+        export``, or a real robot's test). Only H, coherence, postures and the test design are
+        read.
+    test : str, optional
+        Campaign TOML text of the test design, when the data carry none (or to override it).
+    tool : str, optional
+        The tool on the nominal robot (default: the robot's default tool).
+    workers : int, optional
+        Worker processes of the measurement's modal fit.
+    progress : callable, optional
+        ``progress(message)`` after each step.
+
+    Returns
+    -------
+    Diagnosis
+
+    Raises
+    ------
+    InputError
+        Unreadable data, no test design, postures the model cannot reach, no overlap of the
+        data's and the model's bands, data of another robot or sensor layout.
+    """
+    from rmbench.robot import Robot
+
+    say = progress or (lambda msg: None)
+    t = {"start": time.perf_counter()}
+    robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal, tool=tool)
+    ds = measured_data(load_data(data))
+    design = TestDesign.of_dataset(ds, test)
+    bands = _bands(ds, design, robot)
+    postures = postures_of(ds)
+    try:
+        bench = ModelBench.commanded(robot, design, postures)
+    except UnreachablePosture as err:
+        raise InputError(f"the data's postures are not this model's: {err}") from None
+    say(f"nominal model at {len(postures)} postures")
+    meas, fit = fit_measured(ds, bands, workers=workers)
+    frf = frf_targets(ds, fit, bands, design.averages())
+    t["fit"] = time.perf_counter()
+    say("measured FRFs fitted")
+    _check_match(bench, meas, bands)
+    train, held = _split(ds, settings.heldout)
+    return _diagnose(robot, design, bench, meas, frf, bands, _xyt(ds), ds, train, held, settings,
+                     workers, say, t)
+
+
+def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, settings, workers,
+              say, t, notes=()) -> Diagnosis:
+    """The search, once the data are in: nominal gap, screening, refinement, pairs, verdict."""
+    n = bench.n_postures
+    obj_all = Objective(bench, meas, frf, bands, range(n))
+    obj_train = Objective(bench, meas, frf, bands, _spread(train, settings.max_train))
+    obj_held = Objective(bench, meas, frf, bands, held)
+    nominal_change = Change()
+    chi2_all = obj_all.chi2(nominal_change)
+    where = gap_map(bench, meas, ds, bands, nominal_change, xyt, averages=design.averages())
+    t["where"] = time.perf_counter()
+    say("gap map")
+    nom = Fitted((), (), obj_train.chi2(nominal_change), obj_held.chi2(nominal_change),
+                 obj_train.n, obj_held.n)
+    notes = list(notes)
+    effects = library(robot, design)
+    if settings.kinds is not None:
+        effects = [e for e in effects if e.kind in settings.kinds]
+    if not significant(chi2_all, obj_all.n, p=settings.p_noise):
+        t["end"] = time.perf_counter()
+        return Diagnosis(verdict="no significant gap", effects=(), where=where, where_after=None,
+                         localisation=where.describe(), equivalent=(), nominal_chi2=chi2_all,
+                         n_residuals=obj_all.n, variant_xml=None, design_changes=(),
+                         train=tuple(train), held=tuple(held),
+                         models=(_model_row(nom, 1.0),), seconds=_seconds(t), notes=tuple(notes))
+    with Refiner(obj_train, obj_held, workers=_cores(workers)) as refiner:
+        # screening: every candidate, first order
+        e0 = obj_train.vector(nominal_change)
+        screens = refiner.screen(effects, e0)
+        t["screen"] = time.perf_counter()
+        say(f"screened {len(screens)} candidates")
+        order = np.argsort([s.chi2 for s in screens])
+        singles = refiner.run([((screens[i].effect,), (screens[i].values,))
+                               for i in order[:settings.refine]])
+        t["refine"] = time.perf_counter()
+        say(f"refined {len(singles)} candidates")
+        scored = [nom] + singles
+        best = min(singles, key=lambda f: f.score)
+        explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise)
+        if not explained and settings.pairs_of > 0:
+            jobs = []
+            for first in sorted(singles, key=lambda f: f.score)[:2]:
+                base = first.change()
+                e1 = obj_train.vector(base)
+                others = refiner.screen([e for e in effects if e.name != first.effects[0].name],
+                                        e1, base)
+                jobs += [(first.effects + (sc.effect,), first.values + (sc.values,))
+                         for sc in sorted(others, key=lambda s_: s_.chi2)[:settings.pairs_of]]
+            pairs = refiner.run(jobs)
+            scored += pairs
+            if pairs:
+                best_pair = min(pairs, key=lambda f: f.score)
+                if best_pair.score < best.score:
+                    best = best_pair
+                    explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise)
+            t["pairs"] = time.perf_counter()
+            say(f"fitted {len(pairs)} pairs")
+    weights = _weights(scored)
+    verdict = "explained" if explained else "unexplained"
+    chosen = best if explained else None
+    results = _ranked(ds, obj_held, scored, weights, chosen, settings)
+    equivalent = _equivalent(screens)
+    variant_xml, design_changes, where_after = None, (), None
+    if chosen is not None:
+        robot_change = chosen.change().robot_part
+        variant_xml = bench.robot_for(robot_change).xml if not robot_change.is_null() else robot.xml
+        design_changes = tuple(e.describe(v) for e, v in zip(chosen.effects, chosen.values)
+                               if e.kind.startswith("sensor_"))
+        where_after = gap_map(bench, meas, ds, bands, chosen.change(), xyt,
+                              averages=design.averages())
+    localisation = where.describe() if explained else _localise(where, screens, e0)
+    t["end"] = time.perf_counter()
+    return Diagnosis(verdict=verdict, effects=tuple(results), where=where, where_after=where_after,
+                     localisation=localisation, equivalent=equivalent, nominal_chi2=chi2_all,
+                     n_residuals=obj_all.n, variant_xml=variant_xml, design_changes=design_changes,
+                     train=tuple(train), held=tuple(held),
+                     models=tuple(_model_row(f, w) for f, w in zip(scored, weights)),
+                     seconds=_seconds(t), notes=tuple(notes))
+
+
+# -- helpers -----------------------------------------------------------------------------------
+def _bands(ds, design, robot) -> list[str]:
+    """Bands present in the data, in the design and overlapping the model's bands."""
+    data_bands = [b for b in ("low", "high") if np.any(ds.band.values == b)]
+    if not data_bands:
+        raise InputError("the data hold no low- or high-band lines")
+    out = []
+    for b in data_bands:
+        if b not in design.band_names:
+            raise InputError(f"the test design has no {b} band, which the data have")
+        f = ds.freq.values[ds.band.values == b]
+        m = robot.bands.get(b)
+        if m is None or f[-1] <= m.f_min or f[0] >= m.f_max:
+            raise InputError(f"the data's {b} band ({f[0]:g}-{f[-1]:g} Hz) does not overlap the "
+                             f"model's ({m.f_min:g}-{m.f_max:g} Hz)" if m else
+                             f"the model has no {b} band")
+        out.append(b)
+    return out
+
+
+def _check_match(bench, meas, bands, *, least: float = 0.3) -> None:
+    """Data of another robot or sensor layout: most measured modes have no model partner."""
+    total = paired = 0
+    for p in range(bench.n_postures):
+        for b in bands:
+            _, pairing = mode_residuals(meas[p][b], bench.modes(Change(), p, b))
+            total += len(meas[p][b])
+            paired += len(pairing.meas)
+    if total == 0:
+        raise InputError("no modes could be fitted in the measured data")
+    if paired < least * total:
+        raise InputError(f"the data do not look like this model under this test design: only "
+                         f"{paired} of {total} measured modes have a model mode within 15 % in "
+                         "frequency and alike in shape (another robot, tool or sensor layout?)")
+
+
+def _split(ds, heldout: float) -> tuple[list[int], list[int]]:
+    """Training and held-out postures: every other posture in (θ, x, y) order (a share
+    ``heldout`` held out), so both cover the workspace."""
+    n = ds.sizes["posture"]
+    order = np.lexsort((ds.y.values, ds.x.values, ds.theta.values))
+    if n < 2:
+        raise InputError("a diagnosis needs at least 2 measured postures (fit on some, score on "
+                         "the others)")
+    k = max(1, min(n - 1, int(round(heldout * n))))
+    step = n / k
+    held = sorted({int(order[int(i * step + step / 2) % n]) for i in range(k)})
+    train = [p for p in range(n) if p not in held]
+    return train, held
+
+
+def _cores(workers) -> int:
+    import os
+
+    return int(workers) if workers is not None else (os.cpu_count() or 1)
+
+
+def _spread(train, most: int) -> list[int]:
+    if len(train) <= most:
+        return list(train)
+    idx = np.linspace(0, len(train) - 1, most).round().astype(int)
+    return [train[i] for i in idx]
+
+
+def _xyt(ds) -> np.ndarray:
+    return np.column_stack([ds.x.values, ds.y.values, ds.theta.values])
+
+
+def _weights(scored) -> np.ndarray:
+    scores = np.array([f.score for f in scored])
+    best = scored[int(np.argmin(scores))]
+    c_hat = max(1.0, best.chi2_held / max(best.n_held, 1))   # over-dispersion
+    w = np.exp(-(scores - scores.min()) / (2 * c_hat))
+    return w / w.sum()
+
+
+def _metrics(held: Objective, ds, change) -> dict:
+    """Held-out gap metrics of a model (see EffectResult)."""
+    bench, meas, bands = held.bench, held.meas, held.bands
+    f_err, z_err, macs, frf, unpaired = [], [], [], [], 0
+    for p in held.postures:
+        for b in bands:
+            mm, model = meas[p][b], bench.modes(change, p, b)
+            _, pairing = mode_residuals(mm, model)
+            i, j = pairing.meas, pairing.model
+            unpaired += len(pairing.unpaired_meas) + len(pairing.unpaired_model)
+            if len(i):
+                f_err += list(np.abs(model.f_n[j] / mm.f_n[i] - 1))
+                z_err += list(np.abs(model.zeta[j] / mm.zeta[i] - 1))
+                for a, c in zip(i, j):
+                    rd, rm = mm.residue[a].ravel(), model.residue[c].ravel()
+                    macs.append(np.abs(np.vdot(rd, rm)) ** 2 / (np.vdot(rd, rd).real * np.vdot(rm, rm).real))
+            if ds is not None:
+                sel = ds.band.values == b
+                h = ds.H.values[p][sel]
+                hm = bench.frf(change, p, b, ds.freq.values[sel])
+                frf.append(_DB * np.log(np.abs(hm) / np.abs(h)))
+    gap = float(np.sqrt(held.per_posture(change).sum() / held.n))
+    return {"gap": gap, "f_err": float(np.mean(f_err)) if f_err else np.nan,
+            "zeta_err": float(np.mean(z_err)) if z_err else np.nan,
+            "mac": float(np.mean(macs)) if macs else np.nan,
+            "frf_db": (float(np.sqrt(np.nanmean(np.concatenate([x.ravel() for x in frf]) ** 2)))
+                       if frf else float("nan")),
+            "unpaired": int(unpaired)}
+
+
+def _shrink(held: Objective, before: Change, after: Change, n_boot: int, seed: int = 0):
+    """Held-out shrink of the rms normalised gap and its 95 % bootstrap interval over postures."""
+    c0, c1 = held.per_posture(before), held.per_posture(after)
+    n_res = np.array([held.n_posture(p) for p in held.postures])
+
+    def shrink(idx):
+        g0 = np.sqrt(c0[idx].sum() / n_res[idx].sum())
+        g1 = np.sqrt(c1[idx].sum() / n_res[idx].sum())
+        return 1 - g1 / g0 if g0 > 0 else 0.0
+
+    full = shrink(np.arange(len(c0)))
+    rng = np.random.default_rng(seed)
+    boots = [shrink(rng.integers(0, len(c0), len(c0))) for _ in range(n_boot)]
+    return float(full), (float(np.percentile(boots, 2.5)), float(np.percentile(boots, 97.5)))
+
+
+def _ranked(ds, held, scored, weights, chosen, settings) -> list[EffectResult]:
+    """The effects best first, with held-out evidence and confidences."""
+    conf: dict[str, float] = {}
+    for f, w in zip(scored, weights):
+        for e in f.effects:
+            conf[e.name] = conf.get(e.name, 0.0) + float(w)
+    before = _metrics(held, ds, Change())
+    out, seen = [], set()
+    order = []
+    if chosen is not None:
+        order += [(chosen, k) for k in range(len(chosen.effects))]
+    singles = sorted([f for f in scored if len(f.effects) == 1], key=lambda f: f.score)
+    order += [(f, 0) for f in singles]
+    for fitted, k in order:
+        eff, val = fitted.effects[k], fitted.values[k]
+        if eff.name in seen:
+            continue
+        seen.add(eff.name)
+        is_chosen = chosen is not None and fitted is chosen
+        change = fitted.change() if is_chosen else eff.change(val)
+        after = _metrics(held, ds, change)
+        shrink, interval = _shrink(held, Change(), change, settings.bootstrap)
+        out.append(EffectResult(name=eff.name, kind=eff.kind, location=eff.location,
+                                params=eff.params_dict(val), description=eff.describe(val),
+                                heldout_before=before, heldout_after=after, shrink=shrink,
+                                shrink_interval=interval, confidence=conf.get(eff.name, 0.0),
+                                chosen=is_chosen))
+    return out
+
+
+def _equivalent(screens, *, cos_min: float = 0.995) -> tuple:
+    """Groups of candidates whose first-order signatures coincide (|cos| ≥ ``cos_min``)."""
+    vecs, names = [], []
+    for s in screens:
+        v = s.sensitivity[:, 0]
+        norm = np.linalg.norm(v)
+        if norm > 0:
+            vecs.append(v / norm)
+            names.append(s.effect.name)
+    if len(vecs) < 2:
+        return ()
+    V = np.array(vecs)
+    cos = np.abs(V @ V.T)
+    groups, used = [], set()
+    for i in range(len(names)):
+        if i in used:
+            continue
+        g = [j for j in range(len(names)) if cos[i, j] >= cos_min]
+        if len(g) > 1:
+            used.update(g)
+            groups.append(tuple(names[j] for j in g))
+    return tuple(groups)
+
+
+def _localise(where: GapMap, screens, e0) -> str:
+    """For an unexplained gap: where it lies, and which candidates come closest to it."""
+    chi0 = float(e0 @ e0)
+    near = sorted(screens, key=lambda s: s.chi2)[:3]
+    closest = ", ".join(f"{s.effect.name} (closes {100 * (1 - s.chi2 / chi0):.0f} % to first order)"
+                        for s in near)
+    return f"{where.describe()}; closest candidates: {closest}"
+
+
+def _model_row(f: Fitted, w: float) -> dict:
+    return {"name": f.name, "params": {e.name: e.params_dict(v) for e, v in zip(f.effects, f.values)},
+            "chi2_train": f.chi2_train, "n_train": f.n_train, "chi2_held": f.chi2_held,
+            "n_held": f.n_held, "score": f.score, "weight": float(w)}
+
+
+def _seconds(t: dict) -> dict:
+    keys = list(t)
+    return {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i > 0} | {
+        "total": round(t[keys[-1]] - t[keys[0]], 3)}
+
+
+def _write(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def _clean(o):
+    if isinstance(o, dict):
+        return {k: _clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_clean(v) for v in o]
+    if isinstance(o, (np.floating, float)):
+        return float(o) if np.isfinite(o) else None
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, np.bool_):
+        return bool(o)
+    return o

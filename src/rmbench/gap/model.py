@@ -1,0 +1,264 @@
+"""The model side of a diagnosis: a robot, changed or not, put under the test design at postures.
+
+Each posture is *commanded*: its joint commands come from the nominal robot's rigid-body inverse
+kinematics (what a real controller that only knows its nominal model sends), and the model — the
+nominal one or a changed one — settles at those commands under gravity, with the test design's
+sensor masses on the tool. Its modes are exact (the linearisation's complex modes); read at the
+design's sensors (position, direction, cross-axis sensitivity) and excited at its hit points they
+give the modal parameters a test of that model would find, so only the measurement needs a fit.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from rmbench.errors import RmbenchError
+from rmbench.gap.effects import Change
+from rmbench.impact.measure import hammer_rows
+from rmbench.impact.sensors import COORDS
+from rmbench.robot import Posture, Robot
+from rmbench.robot.linear import complex_modes
+from rmbench.robot.load_stiffness import REFERENCE_DEFLECTION
+from rmbench.robot.variant import make_variant, parse_edit, with_tool_masses
+
+__all__ = ["ModelModes", "ModelBench"]
+
+_EXTEND = 1.25        # model modes this far outside a band may pair with measured ones
+_FAST = re.compile(r"^[\w-]+\.(stiffness|damping|kp|kv)\*=")
+_VISIBLE = 0.002      # model modes below this share of the band's peak are ignored
+
+
+@dataclass(frozen=True)
+class ModelModes:
+    """Modes of a model at one posture in one band, as the test design sees them.
+
+    Attributes
+    ----------
+    f_n : ndarray, shape (n,), Hz
+    zeta : ndarray, shape (n,)
+    residue : ndarray, shape (n, 4, 4), complex, m/(N·s)
+        ``φR φLᵀ`` of each mode at the design's sensors (rows) and hit points (columns).
+    peak : ndarray, shape (n,)
+        Peak of the mode's contribution as a share of the band's peak receptance.
+    """
+
+    f_n: np.ndarray
+    zeta: np.ndarray
+    residue: np.ndarray
+    peak: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.f_n)
+
+
+class ModelBench:
+    """A nominal robot under a test design at a set of commanded postures.
+
+    Parameters
+    ----------
+    robot : Robot
+        The nominal robot (with its tool).
+    design : TestDesign
+    q_cmd : ndarray, shape (n_postures, n_arm), rad
+        Joint commands of the postures.
+    """
+
+    def __init__(self, robot: Robot, design, q_cmd: np.ndarray, *, cache: int = 20000):
+        self.robot = robot
+        self.design = design
+        self.q_cmd = np.asarray(q_cmd, float)
+        # robots and operating points are heavy (an MjModel each): keep a few; the modes and
+        # FRFs read off them are light and are what the search asks for again
+        self._robots: OrderedDict = OrderedDict()
+        self._ops: OrderedDict = OrderedDict()
+        self._modes: OrderedDict = OrderedDict()
+        self._frfs: OrderedDict = OrderedDict()
+        self._cache = cache
+
+    @classmethod
+    def commanded(cls, robot: Robot, design, postures) -> "ModelBench":
+        """Joint commands from the nominal robot's inverse kinematics of each posture.
+
+        Raises
+        ------
+        UnreachablePosture
+            Naming the first posture the robot cannot reach.
+        """
+        q = np.array([robot.ik(p).q for p in postures])
+        return cls(robot, design, q)
+
+    @property
+    def n_postures(self) -> int:
+        return len(self.q_cmd)
+
+    # -- robots ---------------------------------------------------------------------------------
+    def robot_for(self, change: Change) -> Robot:
+        """The robot with the change's robot part applied (cached)."""
+        key = change.robot_part
+        if key in self._robots:
+            self._robots.move_to_end(key)
+            return self._robots[key]
+        if key.is_null():
+            robot = self.robot
+        else:
+            kwargs = {}
+            if key.load_stiffness:
+                kwargs["load_stiffness"] = dict(key.load_stiffness)
+            if key.edits or key.masses or key.base is not None or key.load_stiffness:
+                xml = make_variant(self.robot, key.edits,
+                                   masses=[(w, m, (0.0, 0.0, 0.0)) for w, m in key.masses],
+                                   compliant_base=key.base, **kwargs)
+            else:   # only the spindle speed changes
+                xml = self.robot.xml
+            robot = Robot(xml, name=self.robot.name, tool=self.robot.tool,
+                          spindle_rpm=self.robot.spindle_rpm + key.spindle_rpm)
+        _put(self._robots, key, robot, 8)
+        return robot
+
+    def operating_point(self, change: Change, band: str, p: int):
+        """The changed robot, as tested in ``band`` (sensor masses on), settled at posture ``p``."""
+        key = (change.robot_part, band, p)
+        if key in self._ops:
+            self._ops.move_to_end(key)
+            return self._ops[key]
+        tested_key = (change.robot_part, band)
+        tested = self._robots.get(tested_key)
+        if tested is None:
+            robot = self.robot_for(change)
+            masses = self.design.sensors(band).tool_masses()
+            tested = with_tool_masses(robot, masses) if masses else robot
+            _put(self._robots, tested_key, tested, 8)
+        op = tested.at(self.q_cmd[p])
+        _put(self._ops, key, op, 2 * self.n_postures + 8)
+        return op
+
+    # -- modes ----------------------------------------------------------------------------------
+    def modes(self, change: Change, p: int, band: str) -> ModelModes:
+        """Modes of the changed model at posture ``p`` in ``band``, as the test design sees them
+        (re-settled and re-linearised: exact)."""
+        key = (change, band, p)
+        hit = self._modes.get(key)
+        if hit is not None:
+            return hit
+        out = _modes_of(*self._view(change, p, band))
+        _put(self._modes, key, out, self._cache)
+        return out
+
+    def frf(self, change: Change, p: int, band: str, freq: np.ndarray) -> np.ndarray:
+        """Exact receptance as tested, m/N, shape (n_freq, 4, 4)."""
+        freq = np.asarray(freq, float)
+        key = (change, band, p, len(freq), float(freq[0]), float(freq[-1]))
+        hit = self._frfs.get(key)
+        if hit is not None:
+            return hit
+        cm, out_rows, in_rows, _ = self._view(change, p, band)
+        out = cm.frf(freq, out_rows, in_rows)
+        _put(self._frfs, key, out, self._cache // 4)
+        return out
+
+    # -- first order, for screening -------------------------------------------------------------
+    @staticmethod
+    def fast(delta: Change) -> bool:
+        """Whether ``delta`` is a matrix perturbation the fast path takes: joint stiffness and
+        damping, servo gains, load-dependent stiffness, sensor placement."""
+        return (delta.base is None and not delta.masses and delta.spindle_rpm == 0
+                and all(_FAST.match(e) for e in delta.edits))
+
+    def modes_fast(self, base: Change, delta: Change, p: int, band: str) -> ModelModes:
+        """Modes of ``base + delta`` with ``delta`` applied to ``base``'s linearisation (the
+        equilibrium's shift under ``delta`` neglected: first order, for screening)."""
+        return _modes_of(*self._view(base, p, band, delta))
+
+    def frf_fast(self, base: Change, delta: Change, p: int, band: str, freq) -> np.ndarray:
+        cm, out_rows, in_rows, _ = self._view(base, p, band, delta)
+        return cm.frf(np.asarray(freq, float), out_rows, in_rows)
+
+    def _view(self, change: Change, p: int, band: str, delta: Change | None = None):
+        """Complex modes, sensor rows, hit rows and band of a changed model at a posture."""
+        op = self.operating_point(change, band, p)
+        offsets = change.offsets + (delta.offsets if delta is not None else ())
+        design = self.design.with_offsets(offsets) if offsets else self.design
+        b = design.band(band)
+        out_rows = design.sensors(band).reading_rows(op)
+        in_rows = hammer_rows(op, COORDS, b.s_1a)
+        if delta is None or (not delta.edits and not delta.load_stiffness):
+            return op.linear.modes(), out_rows, in_rows, b
+        M, C, K = _perturbed(op, delta)
+        return complex_modes(M, C, K), out_rows, in_rows, b
+
+    def deflection(self, p: int, joint: str) -> float:
+        """Static deflection of a passive joint at posture ``p`` under gravity (rad or m)."""
+        op = self.operating_point(Change(), self.design.band_names[0], p)
+        m = op.robot.model
+        jid = m.joint(joint).id
+        return float(op.data.qpos[m.jnt_qposadr[jid]] - m.qpos_spring[m.jnt_qposadr[jid]])
+
+    def check_postures(self, postures) -> None:
+        """Raise if a posture's commands cannot be held (the nominal model cannot settle there)."""
+        for p in range(self.n_postures):
+            try:
+                self.operating_point(Change(), self.design.band_names[0], p)
+            except RmbenchError as err:
+                label = postures[p].label() if isinstance(postures[p], Posture) else str(p)
+                raise RmbenchError(f"posture {label}: {err}") from None
+
+
+def _put(cache: OrderedDict, key, value, size: int) -> None:
+    """Insert into an LRU dict, dropping the oldest entries beyond ``size``."""
+    cache[key] = value
+    cache.move_to_end(key)
+    while len(cache) > size:
+        cache.popitem(last=False)
+
+
+def _modes_of(cm, out, inp, b) -> ModelModes:
+    """The modes of ``cm`` a test of band ``b`` sees at rows ``out`` (sensors), ``inp`` (hits)."""
+    r = out @ cm.phi_r                      # (4, n)
+    lt = inp @ cm.phi_l
+    f = cm.f_n
+    resid = np.einsum("om,im->moi", r, lt)  # (n, 4, 4)
+    peak = np.abs(resid).reshape(len(f), -1).max(axis=1) / np.maximum(np.abs(cm.poles.real), 1e-300)
+    # the band's peak receptance: on a coarse grid, and at each in-band mode (a light mode's
+    # peak falls between grid lines)
+    in_band = (f >= b.f_min) & (f <= b.f_max) & ~cm.real_pole
+    lines = np.concatenate([np.linspace(b.f_min, b.f_max, 60), f[in_band]])
+    band_peak = float(np.abs(cm.frf(lines, out, inp)).max())
+    keep = ((f >= b.f_min / _EXTEND) & (f <= b.f_max * _EXTEND) & ~cm.real_pole
+            & (peak >= _VISIBLE * band_peak))
+    return ModelModes(f_n=f[keep], zeta=cm.zeta[keep], residue=resid[keep],
+                      peak=peak[keep] / band_peak)
+
+
+def _perturbed(op, delta: Change):
+    """M, C, K of an operating point with ``delta``'s gain and stiffness edits applied."""
+    m = op.robot.model
+    M, C, K = op.linear.M, op.linear.C.copy(), op.linear.K.copy()
+    names = list(op.linear.dof_names)
+    for text in delta.edits:
+        e = parse_edit(text)
+        factor = e.value[0] - 1
+        if e.field in ("stiffness", "damping"):
+            jid = m.joint(e.target).id
+            d = names.index(e.target)
+            if e.field == "stiffness":
+                K[d, d] += m.jnt_stiffness[jid] * factor
+            else:
+                C[d, d] += m.dof_damping[m.jnt_dofadr[jid]] * factor
+        else:
+            act = m.actuator(e.target)
+            d = names.index(m.joint(int(act.trnid[0])).name)
+            if e.field == "kp":
+                K[d, d] += act.gainprm[0] * factor
+            else:
+                C[d, d] += -act.biasprm[2] * factor
+    for joint, alpha in delta.load_stiffness:
+        jid = m.joint(joint).id
+        adr = m.jnt_qposadr[jid]
+        deflection = abs(op.data.qpos[adr] - m.qpos_spring[adr])
+        d = names.index(joint)
+        K[d, d] += m.jnt_stiffness[jid] * alpha * deflection / REFERENCE_DEFLECTION
+    return M, C, K

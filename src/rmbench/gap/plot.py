@@ -1,0 +1,131 @@
+"""Figures of a diagnosis (they read the Diagnosis; nothing is recomputed).
+
+matplotlib is imported only when a figure is drawn.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["plot_diagnosis", "plot_mode_gaps", "plot_workspace", "plot_effects"]
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_mode_gaps(where, ax=None, *, title="frequency gap of each tracked mode"):
+    """Model-minus-measured frequency (%) of each tracked mode against the posture."""
+    plt = _plt()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(9, 4.5))
+    keys = sorted({(r["band"], r["mode"]) for r in where.records})
+    for k, key in enumerate(keys):
+        rs = [r for r in where.records if (r["band"], r["mode"]) == key and r["paired"]]
+        if not rs:
+            continue
+        p = [r["posture"] for r in rs]
+        df = [100 * r["df"] for r in rs]
+        f = np.median([r["f_meas"] for r in rs])
+        ax.plot(p, df, "o-" if len(p) < 40 else ".", ms=3, lw=0.7,
+                label=f"{key[0]} {f:.4g} Hz", color=f"C{k % 10}")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel("posture")
+    ax.set_ylabel("f model / f measured − 1 (%)")
+    ax.set_title(title)
+    ax.legend(fontsize="x-small", ncol=2)
+    return ax
+
+
+def plot_workspace(where, path, *, title="gap over the workspace"):
+    """rms z-score of each posture (both bands) on x, y; one panel per θ."""
+    plt = _plt()
+    per = {}
+    for r in where.records:
+        key = (r["posture"], r["x"], r["y"], r["theta"])
+        per.setdefault(key, []).extend(r["z"].values())
+    if not per:
+        return None
+    keys = list(per)
+    thetas = sorted({round(k[3], 6) for k in keys})
+    vals = {k: float(np.sqrt(np.mean(np.square(per[k])))) for k in keys}
+    vmax = max(vals.values())
+    n = len(thetas)
+    cols = min(n, 4)
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.6 * cols + 1.2, 3.2 * rows + 0.6), squeeze=False,
+                             constrained_layout=True)
+    sc = None
+    for i, th in enumerate(thetas):
+        ax = axes[i // cols][i % cols]
+        ks = [k for k in keys if round(k[3], 6) == th]
+        sc = ax.scatter([1e3 * k[1] for k in ks], [1e3 * k[2] for k in ks], c=[vals[k] for k in ks],
+                        vmin=0, vmax=vmax, cmap="viridis", s=80)
+        ax.set_title(f"θ = {np.degrees(th):.0f}°", fontsize="small")
+        ax.margins(0.2)
+        ax.set_xlabel("x (mm)", fontsize="small")
+        ax.set_ylabel("y (mm)", fontsize="small")
+    for j in range(n, rows * cols):
+        axes[j // cols][j % cols].axis("off")
+    fig.colorbar(sc, ax=axes, shrink=0.8, label="rms z of the modal gap")
+    fig.suptitle(title)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return path
+
+
+def plot_effects(dg, ax=None):
+    """Held-out shrink (with its bootstrap interval) and confidence of the ranked effects."""
+    plt = _plt()
+    if ax is None:
+        _, ax = plt.subplots(figsize=(9, 4.5))
+    eff = list(dg.effects)[:10]
+    y = np.arange(len(eff))[::-1]
+    shrink = [100 * e.shrink for e in eff]
+    lo = [100 * (e.shrink - e.shrink_interval[0]) for e in eff]
+    hi = [100 * (e.shrink_interval[1] - e.shrink) for e in eff]
+    ax.barh(y, shrink, xerr=[lo, hi], color=["C2" if e.chosen else "C0" for e in eff], alpha=0.8)
+    for yi, e in zip(y, eff):
+        ax.text(1, yi, f"{e.name}  (confidence {e.confidence:.2f})", va="center", fontsize="x-small")
+    ax.set_yticks([])
+    ax.set_xlabel("held-out shrink of the gap (%)")
+    ax.set_xlim(0, 105)
+    ax.set_title(f"verdict: {dg.verdict}")
+    return ax
+
+
+def plot_diagnosis(dg, directory) -> list[Path]:
+    """Write the diagnosis's figures into ``directory``; returns their paths."""
+    plt = _plt()
+    d = Path(directory)
+    out = []
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    plot_mode_gaps(dg.where, ax, title="nominal model: frequency gap of each tracked mode")
+    fig.tight_layout()
+    fig.savefig(d / "gap_modes.png", dpi=80)
+    plt.close(fig)
+    out.append(d / "gap_modes.png")
+    out.append(plot_workspace(dg.where, d / "gap_workspace.png",
+                              title="nominal model: gap over the workspace"))
+    if dg.where_after is not None:
+        fig, ax = plt.subplots(figsize=(9, 4.5))
+        plot_mode_gaps(dg.where_after, ax, title="updated model: frequency gap of each tracked mode")
+        fig.tight_layout()
+        fig.savefig(d / "gap_modes_after.png", dpi=80)
+        plt.close(fig)
+        out.append(d / "gap_modes_after.png")
+    if dg.effects:
+        fig, ax = plt.subplots(figsize=(9, 4.5))
+        plot_effects(dg, ax)
+        fig.tight_layout()
+        fig.savefig(d / "effects.png", dpi=80)
+        plt.close(fig)
+        out.append(d / "effects.png")
+    return [p for p in out if p is not None]
