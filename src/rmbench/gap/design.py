@@ -38,6 +38,7 @@ class SensorOffset:
 
 @dataclass(frozen=True)
 class TestDesign:
+    __test__ = False   # not a pytest test class, whatever its name
     """Bands, sensors and hits of an impact test (SI inside).
 
     Attributes

@@ -26,7 +26,7 @@ from rmbench.gap.effects import Change, Effect, library
 from rmbench.gap.measured import fit_measured, frf_targets, measured_data, postures_of
 from rmbench.gap.model import ModelBench
 from rmbench.gap.residual import mode_residuals
-from rmbench.gap.search import Fitted, Objective, Refiner, significant
+from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, significant
 from rmbench.gap.where import GapMap, gap_map
 
 __all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
@@ -341,7 +341,7 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
                 base = first.change()
                 e1 = obj_train.vector(base)
                 others = refiner.screen([e for e in effects if e.name != first.effects[0].name],
-                                        e1, base)
+                                        e1, base, grid=_GRID_PAIR)
                 jobs += [(first.effects + (sc.effect,), first.values + (sc.values,))
                          for sc in sorted(others, key=lambda s_: s_.chi2)[:settings.pairs_of]]
             pairs = refiner.run(jobs)

@@ -2,7 +2,7 @@
 
 1. **Screening** (every candidate): one finite-difference step of each parameter on the exact
    linearisation gives the first-order change of the normalised gap vector; a bounded linear
-   least-squares fit of those sensitivities, and the gap at 0.7 of each parameter's bounds for
+   least-squares fit of those sensitivities, and the gap on a grid of each parameter for
    effects that act far from linearly, say how far the candidate could close the gap.
 2. **Refinement** (the best few): bounded nonlinear least squares (trust region) with the model
    re-simulated — re-settled and re-linearised at every posture — at every evaluation.
@@ -37,6 +37,10 @@ __all__ = ["Objective", "Screen", "Fitted", "screen", "refine", "combined_change
 # factor): their Jacobian columns are re-simulated at the stepped value
 _ADDITIVE = ("added_mass", "base_compliance", "non_reciprocity", "load_dependent_stiffness")
 _FAILED = 30.0   # residual of a change the model cannot be evaluated with
+# screening grids, as fractions of a parameter's upper (positive) or lower (negative) bound
+_GRID_FAST = (-0.75, -0.45, -0.25, -0.12, 0.12, 0.25, 0.45, 0.75)
+_GRID_SLOW = (-0.6, -0.2, 0.2, 0.6)
+_GRID_PAIR = (-0.5, -0.2, 0.2, 0.5)
 
 
 def _informative(meas) -> int:
@@ -204,14 +208,18 @@ class Fitted:
         return combined_change(self.effects, self.values)
 
 
-def screen(objective: Objective, effect: Effect, e0: np.ndarray, base: Change = Change()) -> Screen:
+def screen(objective: Objective, effect: Effect, e0: np.ndarray, base: Change = Change(), *,
+           grid=None) -> Screen:
     """Fit one effect on top of ``base`` (whose gap vector is ``e0``), cheaply.
 
     Sensitivities by one step per parameter give a bounded linear least-squares estimate; since
-    some effects act far from linearly (a softened servo brings a new mode into the band), the
-    gap is also evaluated at that estimate and at 0.7 of each parameter's bounds, and the best
-    evaluated point wins.
+    some effects act far from linearly (a softened servo brings a new mode into the band, a
+    softer joint moves a mode past another), the gap is also evaluated at that estimate and on a
+    grid of each parameter (``grid``: fractions of its bounds; by default finer for the effects
+    the fast path takes), and the best evaluated point wins.
     """
+    if grid is None:
+        grid = _GRID_FAST if objective.bench.fast(effect.change(effect.steps())) else _GRID_SLOW
     steps = effect.steps()
     cols = []
     for k in range(effect.n_params):
@@ -225,7 +233,8 @@ def screen(objective: Objective, effect: Effect, e0: np.ndarray, base: Change = 
     if np.any(J):
         points.append(np.clip(lsq_linear(J, -e0, bounds=(lo0, hi0)).x, lo, hi))
     for k in range(effect.n_params):
-        for x in (0.7 * lo[k], 0.7 * hi[k]):
+        for frac in grid:
+            x = frac * (hi[k] if frac > 0 else -lo[k])
             if x != 0:
                 v = np.zeros(effect.n_params)
                 v[k] = x
@@ -332,13 +341,13 @@ class Refiner:
             return [refine(self.train, self.held, e, s) for e, s in jobs]
         return list(self._executor().map(_refine_job, jobs))
 
-    def screen(self, effects, e0: np.ndarray, base: Change = Change()) -> list[Screen]:
+    def screen(self, effects, e0: np.ndarray, base: Change = Change(), grid=None) -> list[Screen]:
         """:func:`screen` of each effect on top of ``base`` (gap vector ``e0``), in order."""
         effects = list(effects)
         if self.workers <= 1 or len(effects) < 2:
-            return [screen(self.train, e, e0, base) for e in effects]
+            return [screen(self.train, e, e0, base, grid=grid) for e in effects]
         chunks = [effects[i::self.workers] for i in range(self.workers)]
-        done = list(self._executor().map(_screen_job, [(c, e0, base) for c in chunks]))
+        done = list(self._executor().map(_screen_job, [(c, e0, base, grid) for c in chunks]))
         by_name = {s.effect.name: s for part in done for s in part}
         return [by_name[e.name] for e in effects]
 
@@ -381,5 +390,5 @@ def _refine_job(job) -> Fitted:
 
 
 def _screen_job(job) -> list[Screen]:
-    effects, e0, base = job
-    return [screen(_WORKER["train"], e, e0, base) for e in effects]
+    effects, e0, base, grid = job
+    return [screen(_WORKER["train"], e, e0, base, grid=grid) for e in effects]

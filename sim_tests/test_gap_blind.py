@@ -1,0 +1,105 @@
+"""Specification of the withheld-effect check and of the seed-000 real case's data."""
+
+import numpy as np
+import pytest
+
+from rmbench.gap.blind import Hidden, _within_library, draw_case, inject, summarise
+from rmbench.robot import Robot
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return Robot.load("irb6660", tool="dummy")
+
+
+def test_cases_are_one_effect_two_or_one_outside_the_library_in_about_3_1_1():
+    rng = np.random.default_rng(0)
+    cases = [draw_case(rng) for _ in range(400)]
+    one = np.mean([len(c) == 1 and c[0].in_library for c in cases])
+    two = np.mean([len(c) == 2 for c in cases])
+    out = np.mean([not c[0].in_library for c in cases])
+    # 400 draws: shares within 3 standard errors of 0.6, 0.2, 0.2
+    assert abs(one - 0.6) < 0.075 and abs(two - 0.2) < 0.06 and abs(out - 0.2) < 0.06
+    assert all(c[0].name != c[1].name for c in cases if len(c) == 2)
+
+
+def test_injection_edits_a_copy_of_the_model_by_its_own_path(robot):
+    """The hidden stiffness is in the injected MJCF; the nominal robot is untouched."""
+    k0 = robot.model.joint("j4_flex").stiffness[0]
+    xml, placement, rpm = inject(robot, (Hidden("joint_stiffness", "j4_flex", {"factor": 1.4}),))
+    changed = Robot(xml, name="hidden", tool="dummy")
+    assert changed.model.joint("j4_flex").stiffness[0] == pytest.approx(1.4 * k0, rel=1e-6)
+    assert robot.model.joint("j4_flex").stiffness[0] == k0 and rpm == 0.0
+    assert placement["high"]["position_error_mm"] == [0.0] * 4
+
+
+def test_sensor_and_spindle_effects_go_to_the_test_not_the_model(robot):
+    xml, placement, rpm = inject(robot, (Hidden("sensor_misalignment", "low:1aY", {"angle_deg": 6.0}),
+                                        Hidden("non_reciprocity", "spindle_spin", {"rpm": 12000.0})))
+    assert placement["low"]["misalignment_deg"] == [0.0, 0.0, 0.0, 6.0] and rpm == 12000.0
+    assert xml == robot.xml
+
+
+@pytest.mark.parametrize("hidden", [Hidden("hose_resonator", "forearm", {"mass": 8.0, "f_hz": 20.0, "zeta": 0.05}),
+                                    Hidden("tendon_coupling", "j2_flex+j3_flex", {"fraction": 0.5})],
+                         ids=["hose", "tendon"])
+def test_out_of_library_effects_add_what_no_candidate_can(robot, hidden):
+    xml, _, _ = inject(robot, (hidden,))
+    changed = Robot(xml, name="hidden", tool="dummy")
+    if hidden.kind == "hose_resonator":
+        assert changed.model.nv == robot.model.nv + 1           # one more freedom: a new mode
+    else:
+        assert changed.model.ntendon == robot.model.ntendon + 1  # a spring across two joints
+
+
+def test_hidden_effects_stay_inside_the_librarys_ranges():
+    assert _within_library(Hidden("servo_stiffness", "a4", {"factor": 0.05}))
+    assert not _within_library(Hidden("servo_stiffness", "a4", {"factor": 0.005}))
+    assert _within_library(Hidden("tendon_coupling", "j2_flex+j3_flex", {"fraction": 5.0}))
+
+
+def test_summary_counts_each_kind_of_case():
+    from rmbench.gap.blind import CaseResult
+
+    def case(hidden, verdict, ranked, **kw):
+        base = dict(index=0, method="linear", hidden=hidden, verdict=verdict, ranked=ranked,
+                    equivalent=(), shrink=0.9, top1=False, top3=False, top1_class=False,
+                    top3_class=False, pair_in_top3=None, seconds={}, visible_db=2.0, scale=1.0)
+        base.update(kw)
+        return CaseResult(**base)
+
+    a = Hidden("joint_stiffness", "j2_flex", {"factor": 1.3})
+    b = Hidden("added_mass", "flange", {"fraction": 0.2})
+    o = Hidden("tendon_coupling", "j2_flex+j3_flex", {"fraction": 0.5})
+    s = summarise([case((a,), "explained", (("joint_stiffness@j2_flex", 0.9),), top1=True, top3=True),
+                   case((a, b), "explained", (("joint_stiffness@j2_flex", 0.9), ("added_mass@flange", 0.8)),
+                        pair_in_top3=True),
+                   case((o,), "explained", (("joint_stiffness@j2_flex", 0.5),))])
+    assert s["top1"] == 1.0 and s["pair_recall"] == 1.0 and s["false_attribution"] == 1.0
+    assert s["single"] == 1 and s["pairs"] == 1 and s["out_of_library"] == 1
+
+
+def test_seed000_tables_are_read_with_the_mirror_postures():
+    from rmbench.gap.real import VALIDATION, seed000_modes
+
+    keys, meas = seed000_modes()
+    assert keys[:3] == list(VALIDATION) and len(keys) == 4
+    assert all(len(m["low"]) == 5 and len(m["high"]) == 4 for m in meas)
+    # the real robot's first mode: 8.19 Hz at y = -200 mm, 9.68 Hz at +200 mm (18 % apart)
+    first = [m["low"].f_n[list(m["low"].mode_id).index(1)] for m in meas[:2]]
+    assert first == [8.19, 9.68]
+    assert np.isnan(meas[0]["low"].residue).all() and np.isfinite(meas[3]["low"].residue).all()
+
+
+def test_table_b1_frf_is_written_as_uff58_and_reads_back(tmp_path):
+    from rmbench.gap.real import write_table_b1_uff
+    from rmbench.io import read_uff58
+    from rmbench.modal import synthesize
+    from rmbench.modal.synthetic import table_b1
+
+    write_table_b1_uff(tmp_path)
+    ds = read_uff58(tmp_path)
+    s = table_b1("low")
+    f = ds.freq.values
+    np.testing.assert_allclose(ds.H.values[0], synthesize(f, s.poles, s.phi_r, s.phi_l), rtol=1e-9)
+    assert ds.x.values[0] == pytest.approx(1.3) and ds.y.values[0] == pytest.approx(0.1)

@@ -1,0 +1,187 @@
+"""Specification of the gap diagnosis's parts: test design, effect library, model bench (its fast
+path against re-simulation), pairing and residuals, what is read of the data."""
+
+import warnings
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from rmbench.errors import InputError
+from rmbench.gap import Change, GapDataWarning, MeasuredModes, ModelBench, TestDesign, library, measured_data
+from rmbench.gap.design import SensorOffset
+from rmbench.gap.residual import UNPAIRED, mode_residuals, pair
+from rmbench.impact import load_config, parse_config
+from rmbench.robot import Posture, Robot
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return Robot.load("irb6660", tool="dummy")
+
+
+@pytest.fixture(scope="module")
+def design():
+    return TestDesign.from_config(load_config("seed_full"))
+
+
+@pytest.fixture(scope="module")
+def bench(robot, design):
+    return ModelBench.commanded(robot, design, [Posture.from_mm_deg(1800, -200, 0),
+                                                Posture.from_mm_deg(1500, 100, 40)])
+
+
+# -- test design -----------------------------------------------------------------------------------
+def test_design_keeps_bands_sensors_and_hits_and_drops_how_the_data_were_made():
+    cfg = parse_config('seed = 42\nmethod = "time"\nnoise_scale = 3.0\n[robot]\nname = "secret.xml"\n'
+                       'spindle_rpm = 9000.0\n[hits]\naverages = 5\n')
+    d = TestDesign.from_config(cfg)
+    assert d.config.seed == 0 and d.config.method == "linear" and d.config.noise_scale == 1.0
+    assert d.config.robot.name == "irb6660" and d.config.robot.spindle_rpm == 0.0
+    assert d.averages() == 5 and d.band_names == ("low", "high")
+    assert d.band("low").s_1a == pytest.approx(0.0334)
+
+
+def test_design_is_read_from_toml_or_from_a_datasets_json(design):
+    assert TestDesign.from_text(design.config.model_dump_json()).config == design.config
+    with pytest.raises(InputError, match="no test design"):
+        TestDesign.of_dataset(xr.Dataset(), None)
+
+
+def test_sensor_offset_moves_and_turns_one_sensor(design):
+    moved = design.with_offsets([SensorOffset("high", "1aX", along=0.002, angle=0.1)])
+    s0, s1 = design.sensors("high"), moved.sensors("high")
+    np.testing.assert_allclose(s1.s_up - s0.s_up, [0, 0, 0.002, 0])
+    np.testing.assert_allclose(s1.angle - s0.angle, [0, 0, 0.1, 0])
+    np.testing.assert_array_equal(moved.sensors("low").s_up, design.sensors("low").s_up)
+    with pytest.raises(InputError, match="sensor coordinate"):
+        SensorOffset("high", "2X")
+
+
+# -- effect library --------------------------------------------------------------------------------
+def test_library_names_the_models_own_joints_actuators_bodies_and_the_designs_sensors(robot, design):
+    effects = {e.name: e for e in library(robot, design)}
+    for j in ("j1_flex", "j6_flex"):
+        assert f"joint_stiffness@{j}" in effects and f"load_dependent_stiffness@{j}" in effects
+    assert "servo_stiffness@a3" in effects and "servo_stiffness@a_spin" not in effects
+    assert {"tool_contact_stiffness@tool_contact", "spindle_stiffness@spindle", "base_compliance@base",
+            "added_mass@flange", "non_reciprocity@spindle_spin", "sensor_misplacement@high:1aY",
+            "sensor_misalignment@low:1X"} <= set(effects)
+    assert not any(n.startswith("added_mass@motor") for n in effects)   # 1 kg rotor stand-ins
+
+
+def test_an_effect_is_data_turned_into_a_change(robot, design):
+    effects = {e.name: e for e in library(robot, design)}
+    ch = effects["joint_stiffness@j2_flex"].change([np.log(0.8)])
+    assert ch.edits == ("j2_flex.stiffness*=0.8",)
+    assert effects["sensor_misplacement@high:1aX"].change([2.0]).offsets == (
+        SensorOffset("high", "1aX", along=0.002),)
+    both = ch + effects["non_reciprocity@spindle_spin"].change([6000.0])
+    assert both.edits == ch.edits and both.spindle_rpm == 6000.0 and both.robot_part == both
+    assert effects["joint_stiffness@j2_flex"].describe([np.log(0.8)]) == "j2_flex stiffness × 0.8"
+    assert effects["base_compliance@base"].change([0.0, 0.0]).is_null()
+
+
+# -- the model bench -------------------------------------------------------------------------------
+def test_nominal_modes_at_a_posture_are_the_robots_exact_modes(bench, robot):
+    op = robot.at(Posture.from_mm_deg(1800, -200, 0))
+    exact = op.modes("low")
+    got = bench.modes(Change(), 0, "low")
+    for f in exact.f_n:
+        assert np.min(np.abs(got.f_n / f - 1)) < 1e-6
+
+
+@pytest.mark.parametrize("delta", [Change(edits=("j2_flex.stiffness*=0.9",)), Change(edits=("a3.kp*=0.3",)),
+                                   Change(edits=("j3_flex.damping*=2",)),
+                                   Change(load_stiffness=(("j2_flex", 0.2),))],
+                         ids=["stiffness", "servo", "damping", "load-stiffness"])
+def test_fast_path_agrees_with_re_simulation_to_first_order(bench, delta):
+    """The fast path applies the change to the nominal linearisation and neglects the shift of
+    the equilibrium it causes: frequencies agree to 0.1 %, damping ratios to 1 %."""
+    assert bench.fast(delta)
+    for band in ("low", "high"):
+        full, fast = bench.modes(delta, 0, band), bench.modes_fast(Change(), delta, 0, band)
+        assert len(full) == len(fast)
+        np.testing.assert_allclose(fast.f_n, full.f_n, rtol=1e-3)
+        np.testing.assert_allclose(fast.zeta, full.zeta, rtol=1e-2)
+
+
+def test_masses_and_bases_are_not_on_the_fast_path(bench):
+    assert not bench.fast(Change(edits=("flange.mass+=3",)))
+    assert not bench.fast(Change(base=(1e8, 1e9)))
+    assert not bench.fast(Change(spindle_rpm=5000.0))
+
+
+def test_a_sensor_offset_changes_the_residues_not_the_poles(bench):
+    delta = Change(offsets=(SensorOffset("high", "1X", angle=np.radians(10)),))
+    a, b = bench.modes(Change(), 0, "high"), bench.modes(delta, 0, "high")
+    np.testing.assert_allclose(a.f_n, b.f_n)
+    assert np.abs(a.residue[:, 0] - b.residue[:, 0]).max() > 0.01 * np.abs(a.residue[:, 0]).max()
+    np.testing.assert_allclose(a.residue[:, 1:], b.residue[:, 1:])
+
+
+# -- pairing and residuals -------------------------------------------------------------------------
+def _as_measured(model, *, f_scale=1.0, std=0.0):
+    n = len(model)
+    return MeasuredModes(f_n=model.f_n * f_scale, zeta=model.zeta, f_std=np.full(n, std),
+                         zeta_std=np.zeros(n), residue=model.residue, residue_std=np.zeros(n),
+                         mode_id=np.arange(n))
+
+
+def test_a_model_that_is_the_measurement_has_no_gap(bench):
+    model = bench.modes(Change(), 0, "low")
+    e, pairing = mode_residuals(_as_measured(model), model)
+    assert len(pairing.meas) == len(model) and not len(pairing.unpaired_model)
+    # √(1 − MAC) of a vector with itself is the root of a rounding error, ~1e-8, over the 0.02 floor
+    np.testing.assert_allclose(e, 0, atol=1e-5)
+
+
+def test_a_frequency_gap_is_measured_in_floors(bench):
+    """1 % higher measured frequencies with no standard error: each mode's frequency residual is
+    ln(1/1.01) over the 0.1 % floor, about −9.95."""
+    model = bench.modes(Change(), 0, "low")
+    e, _ = mode_residuals(_as_measured(model, f_scale=1.01), model)
+    np.testing.assert_allclose(e[:-1].reshape(-1, 4)[:, 0], np.log(1 / 1.01) / 1e-3, rtol=1e-9)
+
+
+def test_a_measured_mode_the_model_lacks_costs_the_unpaired_penalty(bench):
+    model = bench.modes(Change(), 0, "low")
+    meas = _as_measured(model)
+    extra = MeasuredModes(f_n=np.append(meas.f_n, 33.0), zeta=np.append(meas.zeta, 0.02),
+                          f_std=np.zeros(len(meas) + 1), zeta_std=np.zeros(len(meas) + 1),
+                          residue=np.concatenate([meas.residue, meas.residue[:1]]),
+                          residue_std=np.zeros(len(meas) + 1))
+    e, pairing = mode_residuals(extra, model)
+    assert list(pairing.unpaired_meas) == [len(meas)]
+    assert e[4 * len(meas)] == UNPAIRED
+
+
+def test_modes_without_shapes_pair_by_frequency(bench):
+    model = bench.modes(Change(), 0, "low")
+    n = len(model)
+    meas = MeasuredModes(f_n=model.f_n * 1.02, zeta=model.zeta, f_std=np.zeros(n), zeta_std=np.zeros(n),
+                         residue=np.full((n, 4, 4), np.nan + 0j), residue_std=np.zeros(n))
+    e, pairing = mode_residuals(meas, model)
+    np.testing.assert_array_equal(pairing.meas, pairing.model)
+    assert np.all(e[:-1].reshape(-1, 4)[:, 2:] == 0)   # no shape, no shape residual
+
+
+# -- what is read of the data ----------------------------------------------------------------------
+def test_ground_truth_is_set_aside_with_a_warning_and_provenance_dropped():
+    ds = xr.Dataset({"H": (("posture", "freq", "out", "inp"), np.ones((1, 3, 4, 4), complex)),
+                     "H_exact": (("posture", "freq", "out", "inp"), np.ones((1, 3, 4, 4), complex))},
+                    coords={"x": ("posture", [1.8]), "y": ("posture", [0.0]), "theta": ("posture", [0.0]),
+                            "band": ("freq", ["low"] * 3)},
+                    attrs={"config": "x", "robot": "secret", "source_file": "hidden.xml"})
+    with pytest.warns(GapDataWarning, match="ground-truth"):
+        out = measured_data(ds)
+    assert "H_exact" not in out and set(out.attrs) == {"config"}
+
+
+def test_data_without_postures_are_refused():
+    ds = xr.Dataset({"H": (("posture", "freq", "out", "inp"), np.ones((1, 3, 4, 4), complex))},
+                    coords={"band": ("freq", ["low"] * 3)})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InputError, match="posture positions"):
+            measured_data(ds)
