@@ -30,6 +30,8 @@ bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
 	$(BIN)/python bench/modal_vs_sdypy.py | tee bench/results/modal_vs_sdypy.txt
 	$(BIN)/python bench/modal_robustness.py | tee bench/results/modal_robustness.txt
+	$(BIN)/python bench/gap_blind.py | tee bench/results/gap_blind.txt
+	$(BIN)/python bench/gap_real.py | tee bench/results/gap_real.txt
 
 clean:
 	rm -rf $(VENV) rmbench_demo

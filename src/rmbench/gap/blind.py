@@ -29,6 +29,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from rmbench.errors import RmbenchError
 from rmbench.robot import Robot, seed_grid
 from rmbench.robot.spec import spec_to_xml
 from rmbench.robot.variant import add_compliant_base, add_point_mass, make_variant
@@ -424,7 +425,16 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
         back = read_uff58(uff)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            dg = diagnose(robot, back, workers=workers)
+            try:
+                dg = diagnose(robot, back, workers=workers)
+            except RmbenchError as err:
+                # a diagnosis that stops is a wrong answer, not the end of the run
+                return CaseResult(index=index, method=method, hidden=hidden, verdict=f"error: {err}",
+                                  ranked=(), equivalent=(), shrink=0.0, top1=False, top3=False,
+                                  top1_class=False, top3_class=False,
+                                  pair_in_top3=False if len(hidden) == 2 else None,
+                                  seconds={"campaign": round(t1 - t0, 2)}, visible_db=float(vis),
+                                  scale=float(max(scales)))
         t2 = time.perf_counter()
     finally:
         if workdir is None:

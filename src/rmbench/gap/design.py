@@ -119,6 +119,11 @@ class TestDesign:
     def averages(self) -> int:
         return int(self.config.hits.averages)
 
+    def direction_scatter(self) -> dict:
+        """Per band, the hammer's direction scatter in the XY plane, rad."""
+        return {b: float(np.radians(c.hammer.direction_scatter_deg))
+                for b, c in self.config.bands.items()}
+
     def lines(self, band: str) -> np.ndarray:
         from rmbench.impact.measure import band_lines
 

@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from rmbench.errors import InputError, UnreachablePosture
+from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.gap.design import TestDesign
 from rmbench.gap.effects import Change, Effect, library
 from rmbench.gap.measured import fit_measured, frf_targets, measured_data, postures_of
 from rmbench.gap.model import ModelBench
 from rmbench.gap.residual import mode_residuals
-from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, significant
+from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, _peak, significant
 from rmbench.gap.where import GapMap, gap_map
 
 __all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
@@ -49,6 +49,9 @@ class DiagnosisSettings:
         on top of each of the two best singles) are paired with each and refined.
     max_train : int
         Most training postures used by the screening and the refinement (spread evenly).
+    max_held : int
+        Most held-out postures the candidates are scored on (spread evenly); postures beyond
+        ``max_train + max_held`` enter the gap map and the significance test only.
     p_noise : float
         A held-out χ² whose p-value against the noise falls below this is a gap.
     bootstrap : int
@@ -60,7 +63,8 @@ class DiagnosisSettings:
     heldout: float = 0.5
     refine: int = 6
     pairs_of: int = 3
-    max_train: int = 24
+    max_train: int = 16
+    max_held: int = 32
     p_noise: float = 1e-3
     bootstrap: int = 400
     kinds: tuple | None = None
@@ -84,7 +88,8 @@ class EffectResult:
         Held-out gap metrics of the nominal model and of the model with this effect (alone, or
         as part of the chosen model for the chosen effects): ``gap`` (rms normalised residual),
         ``f_err`` and ``zeta_err`` (mean relative errors of paired modes), ``mac`` (mean MAC of
-        their residues), ``frf_db`` (rms FRF log-magnitude error, dB), ``unpaired``.
+        their residues), ``frf_db`` (rms FRF log-magnitude error, dB), ``unpaired``, ``failed``
+        (postures the changed robot cannot hold).
     shrink : float
         ``1 − gap_after / gap_before`` on the held-out postures.
     shrink_interval : (float, float)
@@ -136,6 +141,8 @@ class Diagnosis:
     nominal_chi2 : float
         The nominal model's χ² over all postures, and ``n_residuals`` their number.
     n_residuals : int
+    nominal_peak : float
+        The nominal model's largest normalised residual (absolute).
     variant_xml : str or None
         MJCF of the updated model (nominal robot plus the chosen effects that edit the robot).
     design_changes : tuple of str
@@ -157,6 +164,7 @@ class Diagnosis:
     equivalent: tuple
     nominal_chi2: float
     n_residuals: int
+    nominal_peak: float
     variant_xml: str | None
     design_changes: tuple
     train: tuple
@@ -176,6 +184,7 @@ class Diagnosis:
                           "localisation": self.localisation},
                 "equivalent": [list(g) for g in self.equivalent],
                 "nominal_chi2_per_residual": self.nominal_chi2 / max(self.n_residuals, 1),
+                "nominal_peak_residual": self.nominal_peak,
                 "design_changes": list(self.design_changes),
                 "variant": variant_path, "seconds": self.seconds, "notes": list(self.notes)}
 
@@ -287,11 +296,12 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
         raise InputError(f"the data's postures are not this model's: {err}") from None
     say(f"nominal model at {len(postures)} postures")
     meas, fit = fit_measured(ds, bands, workers=workers)
-    frf = frf_targets(ds, fit, bands, design.averages())
+    frf = frf_targets(ds, fit, bands, design.averages(), design.direction_scatter())
     t["fit"] = time.perf_counter()
     say("measured FRFs fitted")
     _check_match(bench, meas, bands)
     train, held = _split(ds, settings.heldout)
+    train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
     return _diagnose(robot, design, bench, meas, frf, bands, _xyt(ds), ds, train, held, settings,
                      workers, say, t)
 
@@ -301,24 +311,27 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
     """The search, once the data are in: nominal gap, screening, refinement, pairs, verdict."""
     n = bench.n_postures
     obj_all = Objective(bench, meas, frf, bands, range(n))
-    obj_train = Objective(bench, meas, frf, bands, _spread(train, settings.max_train))
+    obj_train = Objective(bench, meas, frf, bands, train)
     obj_held = Objective(bench, meas, frf, bands, held)
     nominal_change = Change()
-    chi2_all = obj_all.chi2(nominal_change)
-    where = gap_map(bench, meas, ds, bands, nominal_change, xyt, averages=design.averages())
+    e_all = obj_all.vector(nominal_change)
+    chi2_all, peak_all = float(e_all @ e_all), _peak(e_all)
+    where = gap_map(bench, meas, ds, bands, nominal_change, xyt, averages=design.averages(),
+                    scatter=design.direction_scatter())
     t["where"] = time.perf_counter()
     say("gap map")
-    nom = Fitted((), (), obj_train.chi2(nominal_change), obj_held.chi2(nominal_change),
-                 obj_train.n, obj_held.n)
+    e_held = obj_held.vector(nominal_change)
+    nom = Fitted((), (), obj_train.chi2(nominal_change), float(e_held @ e_held),
+                 obj_train.n, obj_held.n, peak_held=_peak(e_held))
     notes = list(notes)
     effects = library(robot, design)
     if settings.kinds is not None:
         effects = [e for e in effects if e.kind in settings.kinds]
-    if not significant(chi2_all, obj_all.n, p=settings.p_noise):
+    if not significant(chi2_all, obj_all.n, p=settings.p_noise, peak=peak_all):
         t["end"] = time.perf_counter()
         return Diagnosis(verdict="no significant gap", effects=(), where=where, where_after=None,
                          localisation=where.describe(), equivalent=(), nominal_chi2=chi2_all,
-                         n_residuals=obj_all.n, variant_xml=None, design_changes=(),
+                         n_residuals=obj_all.n, nominal_peak=peak_all, variant_xml=None, design_changes=(),
                          train=tuple(train), held=tuple(held),
                          models=(_model_row(nom, 1.0),), seconds=_seconds(t), notes=tuple(notes))
     with Refiner(obj_train, obj_held, workers=_cores(workers)) as refiner:
@@ -334,7 +347,8 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
         say(f"refined {len(singles)} candidates")
         scored = [nom] + singles
         best = min(singles, key=lambda f: f.score)
-        explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise)
+        explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise,
+                                      peak=best.peak_held)
         if not explained and settings.pairs_of > 0:
             jobs = []
             for first in sorted(singles, key=lambda f: f.score)[:2]:
@@ -350,7 +364,8 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
                 best_pair = min(pairs, key=lambda f: f.score)
                 if best_pair.score < best.score:
                     best = best_pair
-                    explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise)
+                    explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise,
+                                      peak=best.peak_held)
             t["pairs"] = time.perf_counter()
             say(f"fitted {len(pairs)} pairs")
     weights = _weights(scored)
@@ -364,13 +379,16 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
         variant_xml = bench.robot_for(robot_change).xml if not robot_change.is_null() else robot.xml
         design_changes = tuple(e.describe(v) for e, v in zip(chosen.effects, chosen.values)
                                if e.kind.startswith("sensor_"))
-        where_after = gap_map(bench, meas, ds, bands, chosen.change(), xyt,
-                              averages=design.averages())
+        try:
+            where_after = gap_map(bench, meas, ds, bands, chosen.change(), xyt,
+                                  averages=design.averages(), scatter=design.direction_scatter())
+        except RmbenchError as err:
+            notes.append(f"no gap map of the updated model: {err}")
     localisation = where.describe() if explained else _localise(where, screens, e0)
     t["end"] = time.perf_counter()
     return Diagnosis(verdict=verdict, effects=tuple(results), where=where, where_after=where_after,
                      localisation=localisation, equivalent=equivalent, nominal_chi2=chi2_all,
-                     n_residuals=obj_all.n, variant_xml=variant_xml, design_changes=design_changes,
+                     n_residuals=obj_all.n, nominal_peak=peak_all, variant_xml=variant_xml, design_changes=design_changes,
                      train=tuple(train), held=tuple(held),
                      models=tuple(_model_row(f, w) for f, w in zip(scored, weights)),
                      seconds=_seconds(t), notes=tuple(notes))
@@ -455,8 +473,13 @@ def _weights(scored) -> np.ndarray:
 def _metrics(held: Objective, ds, change) -> dict:
     """Held-out gap metrics of a model (see EffectResult)."""
     bench, meas, bands = held.bench, held.meas, held.bands
-    f_err, z_err, macs, frf, unpaired = [], [], [], [], 0
+    f_err, z_err, macs, frf, unpaired, failed = [], [], [], [], 0, 0
     for p in held.postures:
+        try:
+            bench.modes(change, p, bands[0])
+        except RmbenchError:
+            failed += 1       # the changed robot cannot hold this posture: counted, not compared
+            continue
         for b in bands:
             mm, model = meas[p][b], bench.modes(change, p, b)
             _, pairing = mode_residuals(mm, model)
@@ -479,7 +502,7 @@ def _metrics(held: Objective, ds, change) -> dict:
             "mac": float(np.mean(macs)) if macs else np.nan,
             "frf_db": (float(np.sqrt(np.nanmean(np.concatenate([x.ravel() for x in frf]) ** 2)))
                        if frf else float("nan")),
-            "unpaired": int(unpaired)}
+            "unpaired": int(unpaired), "failed": int(failed)}
 
 
 def _shrink(held: Objective, before: Change, after: Change, n_boot: int, seed: int = 0):
@@ -564,7 +587,7 @@ def _localise(where: GapMap, screens, e0) -> str:
 def _model_row(f: Fitted, w: float) -> dict:
     return {"name": f.name, "params": {e.name: e.params_dict(v) for e, v in zip(f.effects, f.values)},
             "chi2_train": f.chi2_train, "n_train": f.n_train, "chi2_held": f.chi2_held,
-            "n_held": f.n_held, "score": f.score, "weight": float(w)}
+            "n_held": f.n_held, "peak_held": f.peak_held, "score": f.score, "weight": float(w)}
 
 
 def _seconds(t: dict) -> dict:

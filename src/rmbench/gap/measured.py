@@ -138,14 +138,17 @@ def fit_measured(ds: xr.Dataset, bands, *, workers: int | None = None) -> tuple[
     return out, fit
 
 
-def frf_targets(ds: xr.Dataset, fit: xr.Dataset, bands, averages: int) -> list[dict]:
+def frf_targets(ds: xr.Dataset, fit: xr.Dataset, bands, averages: int,
+                scatter: dict | None = None) -> list[dict]:
     """Per posture ``{band: FrfTarget}``: the measured FRFs the residual compares.
 
     Each line's relative noise comes from the coherence (``√((1 − γ²) / (2 n γ²))`` for an H1
     estimate of ``n`` averages) or, for data without coherence (a UFF58 import), from the modal
     fit's residual (its NMSE spread evenly over the band: constant absolute noise per FRF).
+    ``scatter`` maps a band to its hammer's direction scatter (rad), whose leak from the other
+    direction's response is added to the cross entries (:func:`rmbench.gap.residual.hammer_leak`).
     """
-    from rmbench.gap.residual import frf_target
+    from rmbench.gap.residual import frf_target, hammer_leak
 
     out = []
     fit_bands = list(fit.fit_band.values)
@@ -162,6 +165,9 @@ def frf_targets(ds: xr.Dataset, fit: xr.Dataset, bands, averages: int) -> list[d
                 nmse = np.where(np.isfinite(nmse), nmse, 1e-4)
                 rms = np.sqrt(np.mean(np.abs(H) ** 2, axis=0))
                 noise = np.sqrt(nmse)[None] * rms[None] / np.maximum(np.abs(H), 1e-300)
-            per[b] = frf_target(freq, H, noise)
+            leak = None
+            if scatter and scatter.get(b):
+                leak = hammer_leak(H, ds.inp.values, scatter[b], averages)
+            per[b] = frf_target(freq, H, noise, leak)
         out.append(per)
     return out

@@ -29,6 +29,7 @@ __all__ = ["ModelModes", "ModelBench"]
 
 _EXTEND = 1.25        # model modes this far outside a band may pair with measured ones
 _FAST = re.compile(r"^[\w-]+\.(stiffness|damping|kp|kv)\*=")
+_EDGE = 1.02         # a mode this close to a band edge may be fitted as an out-of-band term
 _VISIBLE = 0.002      # model modes below this share of the band's peak are ignored
 
 
@@ -44,12 +45,16 @@ class ModelModes:
         ``φR φLᵀ`` of each mode at the design's sensors (rows) and hit points (columns).
     peak : ndarray, shape (n,)
         Peak of the mode's contribution as a share of the band's peak receptance.
+    inside : ndarray of bool, shape (n,)
+        Whether the mode lies inside the band (2 % clear of its edges), where a test must see it;
+        modes beyond the edges show only as the out-of-band terms of a fit.
     """
 
     f_n: np.ndarray
     zeta: np.ndarray
     residue: np.ndarray
     peak: np.ndarray
+    inside: np.ndarray
 
     def __len__(self) -> int:
         return len(self.f_n)
@@ -229,8 +234,9 @@ def _modes_of(cm, out, inp, b) -> ModelModes:
     band_peak = float(np.abs(cm.frf(lines, out, inp)).max())
     keep = ((f >= b.f_min / _EXTEND) & (f <= b.f_max * _EXTEND) & ~cm.real_pole
             & (peak >= _VISIBLE * band_peak))
+    inside = (f >= b.f_min * _EDGE) & (f <= b.f_max / _EDGE)
     return ModelModes(f_n=f[keep], zeta=cm.zeta[keep], residue=resid[keep],
-                      peak=peak[keep] / band_peak)
+                      peak=peak[keep] / band_peak, inside=inside[keep])
 
 
 def _perturbed(op, delta: Change):

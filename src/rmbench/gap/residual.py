@@ -11,15 +11,27 @@ modal fit cannot resolve better:
 - residue scale ``ln(|R_model| / |R_meas|)`` (modal mass, sensor gain), floor 3 %;
 - residue shape ``√(1 − MAC)``, floor 0.02 (MAC 0.9996).
 
-A measured mode with no model partner scores ``UNPAIRED`` on its first slot; model modes visible
-above 1 % of the band's peak with no measured partner add ``UNPAIRED`` each to one slot per
+Modes closer than their bandwidths trade their parameters off in any fit (the modal stage resolves
+modes down to one half-power bandwidth apart, and a weak neighbour left out biases the strong
+one), so each floor grows with a mode's overlap ``o = (ζ_i f_i + ζ_j f_j) / |f_i − f_j|`` with its
+nearest measured neighbour ``j``: frequency by ``0.1 ζ o``, damping, scale and shape by
+``0.2 o`` (added in quadrature). A model mode overlapping a stronger one, or one already
+paired, that much (``o ≥ 1``) is not one a test must resolve.
+
+A measured mode with no model partner scores ``UNPAIRED`` on its first slot; model modes inside
+the band, above 1 % of its peak and resolvable with no measured partner add ``UNPAIRED`` each to one slot per
 posture and band. The vector has a fixed layout for a given measurement, so least squares can
 move the model freely.
 
 The modes say nothing of what lies between and beyond them — the residual flexibility of a tool
 contact, a sensor's gain — so the FRFs themselves enter too: per entry and per quarter of each
 band, the mean log-magnitude gap over a dozen lines, divided by the noise of that mean (from the
-coherence, or from the modal fit's residual when the data carry none) and a floor of 3 %.
+coherence, or from the modal fit's residual when the data carry none), the hammer's direction
+scatter and a floor of 3 %. A hand-held hammer hits a few tenths of a degree off its axis, and
+that error is the same at every line of a hit: a cross entry (X response to a Y hit) picks up
+``δ H(i, j')`` from the direct response to the other direction ``j'``, which averaging lines does
+not reduce. Its relative size, ``σ_δ / √n_avg · |H(i, j')| / |H(i, j)|``, enters each segment's
+uncertainty unreduced (:func:`hammer_leak`).
 """
 
 from __future__ import annotations
@@ -29,14 +41,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["FLOORS", "UNPAIRED", "Pairing", "pair", "mode_residuals", "n_slots", "SLOT_NAMES",
-           "FrfTarget", "frf_target", "frf_residuals", "FRF_FLOOR", "FRF_SEGMENTS"]
+__all__ = ["overlap", "FLOORS", "UNPAIRED", "Pairing", "pair", "mode_residuals", "n_slots", "SLOT_NAMES",
+           "FrfTarget", "frf_target", "frf_residuals", "FRF_FLOOR", "FRF_SEGMENTS", "hammer_leak"]
 
 FLOORS = {"f": 1e-3, "zeta": 0.03, "scale": 0.03, "shape": 0.02}
 UNPAIRED = 10.0           # a missing or surplus mode weighs as a 10-sigma gap
 _FREQ_SCALE = 0.15        # pairing: 15 % in frequency weighs as much as MAC 0 → 1
 _MAX_COST = 1.5
 _VISIBLE = 0.01           # a model mode this strong must be seen in the data
+_F_OVERLAP = 0.1          # frequency uncertainty per unit overlap, in units of ζ
+_OVERLAP = 0.2            # damping, scale and shape uncertainty per unit overlap
 SLOT_NAMES = ("f", "zeta", "scale", "shape")
 
 
@@ -72,7 +86,7 @@ def pair(meas, model) -> Pairing:
     """Pair measured and model modes of one posture and band (MAC of residues and frequency)."""
     n, m = len(meas), len(model)
     if n == 0 or m == 0:
-        vis = np.flatnonzero(model.peak >= _VISIBLE) if m else np.zeros(0, int)
+        vis = np.flatnonzero(_must_see(model)) if m else np.zeros(0, int)
         return Pairing(np.zeros(0, int), np.zeros(0, int), np.arange(n), vis)
     mac = _mac(meas.residue.reshape(n, -1), model.residue.reshape(m, -1))
     # a measured mode without shape (a table of frequencies and dampings) pairs by frequency
@@ -83,7 +97,38 @@ def pair(meas, model) -> Pairing:
     rows, cols = rows[good], cols[good]
     um = np.setdiff1d(np.arange(n), rows)
     rest = np.setdiff1d(np.arange(m), cols)
-    return Pairing(rows, cols, um, rest[model.peak[rest] >= _VISIBLE])
+    missing = rest[_must_see(model)[rest]]
+    if len(missing) and len(cols):
+        # a model mode within the bandwidth of a paired one is part of a cluster the test may
+        # show as one mode, whichever of the two the pairing took
+        f, z = model.f_n, np.abs(model.zeta)
+        with np.errstate(divide="ignore"):
+            o = (z[missing, None] * f[missing, None] + z[None, cols] * f[None, cols]) / np.abs(
+                f[missing, None] - f[None, cols])
+        missing = missing[~np.any(o >= 1.0, axis=1)]
+    return Pairing(rows, cols, um, missing)
+
+
+def _must_see(model) -> np.ndarray:
+    """Model modes a test must find: inside the band, above 1 % of its peak, and not lost in
+    the bandwidth of a stronger mode."""
+    f, z, peak = model.f_n, np.abs(model.zeta), model.peak
+    with np.errstate(divide="ignore"):
+        o = (z[:, None] * f[:, None] + z[None, :] * f[None, :]) / np.abs(f[:, None] - f[None, :])
+    hidden = np.any((o >= 1.0) & (peak[None, :] > peak[:, None]), axis=1)
+    return (peak >= _VISIBLE) & model.inside & ~hidden
+
+
+def overlap(f_n: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+    """Modal overlap of each mode with its nearest neighbour: ``(ζ_i f_i + ζ_j f_j) / |f_i − f_j|``
+    maximised over ``j`` (0 for a lone mode), shape (n,)."""
+    f, z = np.asarray(f_n, float), np.abs(np.asarray(zeta, float))
+    if len(f) < 2:
+        return np.zeros(len(f))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        o = (z[:, None] * f[:, None] + z[None, :] * f[None, :]) / np.abs(f[:, None] - f[None, :])
+    np.fill_diagonal(o, 0.0)
+    return np.nan_to_num(o, nan=0.0, posinf=1e3).max(axis=1)
 
 
 def n_slots(meas_modes: list[dict], bands) -> int:
@@ -100,19 +145,21 @@ def mode_residuals(meas, model, pairing: Pairing | None = None) -> tuple[np.ndar
     e[pairing.unpaired_meas, 0] = UNPAIRED
     i, j = pairing.meas, pairing.model
     if len(i):
-        f_rel = meas.f_std[i] / meas.f_n[i]
-        z_rel = meas.zeta_std[i] / np.abs(meas.zeta[i])
-        r_rel = meas.residue_std[i]
+        o = overlap(meas.f_n, meas.zeta)[i]
+        zeta = np.abs(meas.zeta[i])
+        f_rel = np.hypot(_finite(meas.f_std[i] / meas.f_n[i]), _F_OVERLAP * zeta * o)
+        z_rel = np.hypot(_finite(meas.zeta_std[i] / zeta), _OVERLAP * o)
+        r_rel = np.hypot(_finite(meas.residue_std[i]), _OVERLAP * o)
         with np.errstate(invalid="ignore", divide="ignore"):
-            e[i, 0] = np.log(model.f_n[j] / meas.f_n[i]) / np.hypot(_finite(f_rel), FLOORS["f"])
-            e[i, 1] = np.log(np.abs(model.zeta[j] / meas.zeta[i])) / np.hypot(_finite(z_rel), FLOORS["zeta"])
+            e[i, 0] = np.log(model.f_n[j] / meas.f_n[i]) / np.hypot(f_rel, FLOORS["f"])
+            e[i, 1] = np.log(np.abs(model.zeta[j] / meas.zeta[i])) / np.hypot(z_rel, FLOORS["zeta"])
             rm = model.residue[j].reshape(len(j), -1)
             rd = meas.residue[i].reshape(len(i), -1)
             e[i, 2] = (np.log(np.linalg.norm(rm, axis=1) / np.linalg.norm(rd, axis=1))
-                       / np.hypot(_finite(r_rel), FLOORS["scale"]))
+                       / np.hypot(r_rel, FLOORS["scale"]))
             mac = np.abs(np.sum(rd.conj() * rm, axis=1)) ** 2 / (
                 np.sum(np.abs(rd) ** 2, axis=1) * np.sum(np.abs(rm) ** 2, axis=1))
-            e[i, 3] = np.sqrt(np.clip(1 - mac, 0, 1)) / np.hypot(_finite(r_rel), FLOORS["shape"])
+            e[i, 3] = np.sqrt(np.clip(1 - mac, 0, 1)) / np.hypot(r_rel, FLOORS["shape"])
         e[~np.isfinite(e)] = 0.0   # no shape measured: nothing to compare
     extra = UNPAIRED * np.sqrt(len(pairing.unpaired_model))
     return np.append(e.ravel(), extra), pairing
@@ -148,8 +195,37 @@ class FrfTarget:
     sigma: np.ndarray
 
 
-def frf_target(freq, H, noise_rel) -> FrfTarget:
-    """Reduce one band's measured FRF: ``noise_rel`` (n_freq, 4, 4) is each line's relative noise."""
+def hammer_leak(H: np.ndarray, coords, scatter: float, averages: int) -> np.ndarray:
+    """Relative error of each line and entry from the hammer's direction scatter.
+
+    Parameters
+    ----------
+    H : ndarray, shape (n_freq, n_out, n_in)
+        Measured FRFs; inputs named by ``coords`` ("1X", "1aY", ...).
+    scatter : float
+        Standard deviation of the hit direction in the XY plane, rad.
+    averages : int
+        Hits averaged per FRF.
+
+    Returns
+    -------
+    ndarray, shape (n_freq, n_out, n_in): ``σ_δ / √n · |H(i, j')| / |H(i, j)|`` with ``j'`` the
+    hit in the other direction at the same point (0 where the data have no such hit).
+    """
+    coords = [str(c) for c in coords]
+    out = np.zeros(H.shape)
+    mag = np.maximum(np.abs(H), 1e-300)
+    for j, c in enumerate(coords):
+        other = c[:-1] + {"X": "Y", "Y": "X"}.get(c[-1], c[-1])
+        if other != c and other in coords:
+            out[:, :, j] = mag[:, :, coords.index(other)] / mag[:, :, j]
+    return scatter / np.sqrt(max(averages, 1)) * out
+
+
+def frf_target(freq, H, noise_rel, leak_rel=None) -> FrfTarget:
+    """Reduce one band's measured FRF: ``noise_rel`` (n_freq, 4, 4) is each line's relative noise,
+    independent from line to line; ``leak_rel`` (same shape, optional) an error common to all
+    lines of a hit (:func:`hammer_leak`), which a segment's mean does not reduce."""
     n = len(freq)
     edges = np.linspace(0, n, FRF_SEGMENTS + 1).round().astype(int)
     idx, seg = [], []
@@ -162,6 +238,8 @@ def frf_target(freq, H, noise_rel) -> FrfTarget:
     for s in range(FRF_SEGMENTS):
         lines = slice(edges[s], edges[s + 1])
         noise = np.sqrt(np.mean(noise_rel[lines] ** 2, axis=0) / max(edges[s + 1] - edges[s], 1))
+        if leak_rel is not None:
+            noise = np.hypot(noise, np.sqrt(np.mean(leak_rel[lines] ** 2, axis=0)))
         sigma[s] = np.hypot(noise, FRF_FLOOR)
     return FrfTarget(freq=np.asarray(freq)[idx], segment=seg, log_mag=np.log(np.abs(H[idx])),
                      sigma=sigma)

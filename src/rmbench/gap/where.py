@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rmbench.gap.residual import SLOT_NAMES, mode_residuals
+from rmbench.gap.residual import SLOT_NAMES, hammer_leak, mode_residuals
 
 __all__ = ["GapMap", "gap_map", "entry_class", "ENTRY_CLASSES"]
 
@@ -94,7 +94,8 @@ class GapMap:
         return "; ".join(parts) if parts else "no mode departs beyond the noise"
 
 
-def gap_map(bench, meas, ds, bands, change, postures_xyt, *, averages: int = 3) -> GapMap:
+def gap_map(bench, meas, ds, bands, change, postures_xyt, *, averages: int = 3,
+            scatter: dict | None = None) -> GapMap:
     """The gap map of the model (``bench`` with ``change``) against the measurement.
 
     Parameters
@@ -108,6 +109,9 @@ def gap_map(bench, meas, ds, bands, change, postures_xyt, *, averages: int = 3) 
         x, y (m), θ (rad) of each posture.
     averages : int
         Hits averaged per FRF (the coherence's noise formula).
+    scatter : dict, optional
+        Per band, the hammer's direction scatter (rad): its leak into the cross entries is part
+        of their noise (:func:`rmbench.gap.residual.hammer_leak`).
     """
     coords = ["1X", "1Y", "1aX", "1aY"] if ds is None else [str(c) for c in ds.out.values]
     classes = {c: [(i, j) for i, o in enumerate(coords) for j, k in enumerate(coords)
@@ -149,13 +153,15 @@ def gap_map(bench, meas, ds, bands, change, postures_xyt, *, averages: int = 3) 
             h = ds.H.values[p][sel]
             h_model = bench.frf(change, p, b, freq)
             coh = ds.coherence.values[p][sel] if "coherence" in ds else None
+            leak = (hammer_leak(h, ds.inp.values, scatter[b], averages)
+                    if scatter and scatter.get(b) else np.zeros(h.shape))
             row = {"posture": p, "band": b}
             for c, idx in classes.items():
                 ii, jj = zip(*idx)
                 gap = _DB * np.log(np.abs(h_model[:, ii, jj]) / np.abs(h[:, ii, jj]))
                 if coh is not None:
                     g2 = np.clip(coh[:, ii, jj], 1e-6, 1 - 1e-9)
-                    noise = _DB * np.sqrt((1 - g2) / (2 * averages * g2))
+                    noise = _DB * np.hypot(np.sqrt((1 - g2) / (2 * averages * g2)), leak[:, ii, jj])
                     noise_rms = float(np.sqrt(np.nanmean(noise ** 2)))
                 else:
                     noise_rms = float("nan")
