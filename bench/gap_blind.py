@@ -36,20 +36,12 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from _stats import wilson  # noqa: E402
+
 from rmbench.gap.blind import case_from_dict, summarise  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 RMBENCH = str(Path(sys.executable).with_name("rmbench"))
-
-
-def _wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    if n == 0:
-        return float("nan"), float("nan")
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return c - h, c + h
 
 
 def _rate(flags) -> str:
@@ -57,7 +49,7 @@ def _rate(flags) -> str:
     k, n = sum(bool(f) for f in flags), len(flags)
     if n == 0:
         return "-"
-    lo, hi = _wilson(k, n)
+    lo, hi = wilson(k, n)
     return f"{k}/{n} = {100 * k / n:.1f} % (95 %: {100 * lo:.0f}-{100 * hi:.0f})"
 
 

@@ -38,6 +38,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")       # one core per worker
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
+
+from _stats import wilson  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
 from rmbench.modal import ModalFit  # noqa: E402
@@ -76,16 +78,6 @@ def run(task):
             "reason": reason, "seconds": time.perf_counter() - t0, "level": level,
             "n_modes": int(system.in_band.sum()), "separation": system.min_separation,
             "lines": len(system.freq)}
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    if n == 0:
-        return float("nan"), float("nan")
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return max(c - h, 0.0), min(c + h, 1.0)
 
 
 def row(label: str, rs: list[dict]) -> str:

@@ -391,7 +391,12 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
             scale = 1.0
             for _ in range(5):
                 xml, placement, rpm = inject(robot, (h,), scale)
-                if _visible_db(robot, xml, design, placement, rpm, probe) >= VISIBLE_DB:
+                try:
+                    seen = _visible_db(robot, xml, design, placement, rpm, probe)
+                except RmbenchError:     # a robot that cannot hold its postures is no test case
+                    scale = None
+                    break
+                if seen >= VISIBLE_DB:
                     break
                 scale *= 1.6
             else:
@@ -402,7 +407,10 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
     hidden = tuple(_scaled(h, sc) for h, sc in zip(hidden, scales))
     scale = float(max(scales))
     xml, placement, rpm = inject(robot, hidden)
-    vis = _visible_db(robot, xml, design, placement, rpm, probe)
+    try:
+        vis = _visible_db(robot, xml, design, placement, rpm, probe)
+    except RmbenchError:                 # two effects together the robot cannot hold
+        vis = float("nan")
     own = Path(tempfile.mkdtemp(prefix="rmbench_blind_")) if workdir is None else Path(workdir) / f"case_{index:03d}"
     own.mkdir(parents=True, exist_ok=True)
     try:

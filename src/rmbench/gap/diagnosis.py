@@ -475,13 +475,13 @@ def _metrics(held: Objective, ds, change) -> dict:
     bench, meas, bands = held.bench, held.meas, held.bands
     f_err, z_err, macs, frf, unpaired, failed = [], [], [], [], 0, 0
     for p in held.postures:
-        try:
-            bench.modes(change, p, bands[0])
+        try:                  # each band's robot carries its own sensors
+            models = {b: bench.modes(change, p, b) for b in bands}
         except RmbenchError:
             failed += 1       # the changed robot cannot hold this posture: counted, not compared
             continue
         for b in bands:
-            mm, model = meas[p][b], bench.modes(change, p, b)
+            mm, model = meas[p][b], models[b]
             _, pairing = mode_residuals(mm, model)
             i, j = pairing.meas, pairing.model
             unpaired += len(pairing.unpaired_meas) + len(pairing.unpaired_model)
@@ -530,9 +530,12 @@ def _ranked(ds, held, scored, weights, chosen, settings) -> list[EffectResult]:
     before = _metrics(held, ds, Change())
     out, seen = [], set()
     order = []
-    if chosen is not None:
-        order += [(chosen, k) for k in range(len(chosen.effects))]
     singles = sorted([f for f in scored if len(f.effects) == 1], key=lambda f: f.score)
+    if chosen is not None:
+        # within the chosen model, the effect that alone explains the most comes first
+        alone = {f.effects[0].name: f.score for f in singles}
+        order += sorted(((chosen, k) for k in range(len(chosen.effects))),
+                        key=lambda fk: alone.get(fk[0].effects[fk[1]].name, np.inf))
     order += [(f, 0) for f in singles]
     for fitted, k in order:
         eff, val = fitted.effects[k], fitted.values[k]

@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-__all__ = ["stable_step", "simulate", "site_positions"]
+__all__ = ["stable_step", "simulate", "hold_commands", "site_positions"]
 
 
 # Stability limits of ω_max·dt on an undamped oscillator: semi-implicit Euler 2, RK4 2.8.
@@ -39,7 +39,8 @@ def simulate(op, qfrc: np.ndarray, *, dt: float, ctrl: np.ndarray | None = None,
     dt : float
         Time step, s.
     ctrl : ndarray, shape (n_step, nu), optional
-        Actuator commands; by default those that hold the equilibrium.
+        Actuator commands; by default those that hold the equilibrium, with a spinning
+        spindle's drive command turning with the rotor (:func:`hold_commands`).
     integrator : {"rk4", "euler"}
         RK4 (4 evaluations a step) or MuJoCo's semi-implicit Euler (1 evaluation, damping
         implicit; stable to ω_max·dt < 2, frequency error (ω·dt)²/24).
@@ -64,12 +65,36 @@ def simulate(op, qfrc: np.ndarray, *, dt: float, ctrl: np.ndarray | None = None,
     mujoco.mj_getState(op.robot.model, op.data, state0, spec)
     nb, n = qfrc.shape[:2]
     u = np.empty((nb, n, m.nu + m.nv))
-    u[:, :, : m.nu] = op.data.ctrl if ctrl is None else ctrl
+    u[:, :, : m.nu] = hold_commands(op, n, dt) if ctrl is None else ctrl
     u[:, :, m.nu:] = qfrc
     control_spec = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_QFRC_APPLIED
     state, _ = rollout.rollout(m, mujoco.MjData(m), np.tile(state0, (nb, 1)), u, control_spec=control_spec)
     q = state[:, :, 1: 1 + m.nq]
     return q[0] if single else q
+
+
+def hold_commands(op, n_step: int, dt: float) -> np.ndarray:
+    """Actuator commands that hold the operating point, shape (n_step, nu).
+
+    The servos' commands of the equilibrium, constant; a spinning spindle's position-servo drive
+    (an actuator on the joint ``spindle_spin``) is commanded along the rotor's steady rotation,
+    ``u0 + Ω t`` at each step's midpoint, as a spindle drive in speed control holds its speed. A
+    constant command would pull the rotor back to its start angle: the drive's torque would then
+    grow without bound and shake the arm, which no linearisation about the steady spin describes.
+    """
+    m, d = op.robot.model, op.data
+    u = np.tile(np.asarray(d.ctrl, float), (n_step, 1))
+    spin = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "spindle_spin")
+    if spin < 0:
+        return u
+    omega = float(d.qvel[m.jnt_dofadr[spin]])
+    if omega == 0.0:
+        return u
+    t = (np.arange(n_step) + 0.5) * dt
+    for a in range(m.nu):
+        if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT and m.actuator_trnid[a, 0] == spin:
+            u[:, a] += omega * t
+    return u
 
 
 def site_positions(op, qpos: np.ndarray, sites) -> np.ndarray:
