@@ -84,7 +84,7 @@ def speed(args) -> tuple[float, str]:
         seconds = time.perf_counter() - t0
     res = json.loads(out.stdout)
     top = res["effects"][0] if res["effects"] else {}
-    return seconds, (f"verdict {res['verdict']}, top {top.get('name')}@{top.get('location')} "
+    return seconds, (f"verdict {res['verdict']}, top {top.get('name')} "
                      f"{top.get('params')}, shrink {top.get('shrink', float('nan')):.3f}")
 
 

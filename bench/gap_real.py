@@ -36,6 +36,19 @@ from rmbench.gap.real import VALIDATION, diagnose_seed000, write_table_b1_uff  #
 HERE = Path(__file__).resolve().parent
 
 
+def _variant(effect) -> str:
+    """MJCF of the stand-in with one ranked effect's fitted model change."""
+    from rmbench.gap import ModelBench, TestDesign, library
+    from rmbench.impact import load_config
+    from rmbench.robot import Robot
+
+    robot = Robot.load("irb6660", tool="dummy")
+    design = TestDesign.from_config(load_config("seed_full"))
+    eff = {e.name: e for e in library(robot, design)}[effect.name]
+    change = eff.change(np.array(list(effect.params.values()), float)).robot_part
+    return ModelBench(robot, design, []).robot_for(change).xml
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--workers", type=int, default=2)
@@ -68,7 +81,12 @@ def main() -> int:
         if dg.variant_xml is not None:
             path = out / f"gap_real_fold{k + 1}.xml"
             path.write_text(dg.variant_xml)
-            print(f"  updated model saved: {path.relative_to(out.parent) if out.parent in path.parents else path}")
+            print(f"  updated model saved: {path.name}")
+        elif dg.effects:
+            # no explanation, but the best single update is still the closest bench robot
+            path = out / f"gap_real_fold{k + 1}_best_partial.xml"
+            path.write_text(_variant(dg.effects[0]))
+            print(f"  best partial update (not an explanation) saved: {path.name}")
         print(f"  localisation: {dg.localisation}")
         print()
 

@@ -216,3 +216,25 @@ def test_one_large_residual_among_many_small_ones_is_significant():
     assert not significant(chi2, n, p=1e-3)
     assert significant(chi2, n, p=1e-3, peak=8.0)
     assert not significant(chi2, n, p=1e-3, peak=4.0)
+
+
+def test_a_model_better_at_every_held_out_posture_wins_every_bootstrap_resample():
+    """Confidences are bootstrap selection frequencies: a model ahead at each of 8 postures wins
+    all resamples; one ahead at 7 but far behind at the 8th (χ² 0 against 20 at seven, 200
+    against 20 at one) wins only the resamples that miss that posture, (7/8)^8 ≈ 34 %."""
+    from rmbench.gap.diagnosis import _weights
+    from rmbench.gap.search import Fitted
+
+    class Held:
+        postures = list(range(8))
+
+        @staticmethod
+        def n_posture(p):
+            return 100
+
+    def model(chi2):
+        return Fitted((), (), 0.0, float(sum(chi2)), 800, 800, chi2_held_posture=tuple(chi2))
+
+    np.testing.assert_allclose(_weights([model([100.0] * 8), model([50.0] * 8)], Held), [0.0, 1.0])
+    w = _weights([model([20.0] * 8), model([0.0] * 7 + [200.0])], Held, n_boot=4000)
+    assert abs(w[1] - (7 / 8) ** 8) < 0.03

@@ -34,3 +34,18 @@ def test_only_the_spindle_drive_command_turns(spinning):
     moving = np.flatnonzero(np.ptp(u, axis=0) > 0)
     assert [m.actuator(a).name for a in moving] == ["a_spin"]
     np.testing.assert_allclose(np.diff(u[:, moving[0]]), 10_000 / 60 * 2 * np.pi * 1e-3)
+
+
+
+def test_a_time_domain_campaign_on_a_spinning_spindle_warns_of_the_welded_rotor():
+    """The laser band's condensed simulation welds the rotor: its gyroscopic coupling is lost
+    there, and the user is told so, not left to find cross entries a few per cent off; the
+    linear method and a spindle at rest have nothing to warn of."""
+    from rmbench.impact import load_config
+    from rmbench.impact.campaign import campaign_warnings
+
+    cfg = load_config("demo")
+    spinning = cfg.with_overrides(robot_spindle_rpm=10_000.0)
+    assert len(campaign_warnings(spinning)) == 1 and "gyroscopic" in campaign_warnings(spinning)[0]
+    assert campaign_warnings(spinning.with_overrides(method="linear")) == []
+    assert campaign_warnings(cfg) == []

@@ -36,7 +36,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    return f"rmbench: warning: {message}\n"
+
+
 def main(argv=None) -> int:
+    import warnings
+
+    warnings.formatwarning = _one_line_warning   # the command line's warnings: one line each
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

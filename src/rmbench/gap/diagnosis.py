@@ -26,7 +26,8 @@ from rmbench.gap.effects import Change, Effect, library
 from rmbench.gap.measured import fit_measured, frf_targets, measured_data, postures_of
 from rmbench.gap.model import ModelBench
 from rmbench.gap.residual import mode_residuals
-from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, _peak, significant
+from rmbench.gap.search import (_GRID_PAIR, Fitted, Objective, Refiner, _peak, per_posture_chi2,
+                                 significant)
 from rmbench.gap.where import GapMap, gap_map
 
 __all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
@@ -95,7 +96,8 @@ class EffectResult:
     shrink_interval : (float, float)
         95 % bootstrap interval over the held-out postures.
     confidence : float
-        Sum of the information-criterion weights of the scored models containing the effect.
+        Sum of the weights of the scored models containing the effect: how often each model has
+        the best held-out BIC over bootstrap resamples of the held-out postures.
     chosen : bool
         Part of the model the verdict rests on.
     """
@@ -322,7 +324,8 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
     say("gap map")
     e_held = obj_held.vector(nominal_change)
     nom = Fitted((), (), obj_train.chi2(nominal_change), float(e_held @ e_held),
-                 obj_train.n, obj_held.n, peak_held=_peak(e_held))
+                 obj_train.n, obj_held.n, peak_held=_peak(e_held),
+                 chi2_held_posture=per_posture_chi2(obj_held, e_held))
     notes = list(notes)
     effects = library(robot, design)
     if settings.kinds is not None:
@@ -368,7 +371,7 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
                                       peak=best.peak_held)
             t["pairs"] = time.perf_counter()
             say(f"fitted {len(pairs)} pairs")
-    weights = _weights(scored)
+    weights = _weights(scored, obj_held)
     verdict = "explained" if explained else "unexplained"
     chosen = best if explained else None
     results = _ranked(ds, obj_held, scored, weights, chosen, settings)
@@ -462,12 +465,27 @@ def _xyt(ds) -> np.ndarray:
     return np.column_stack([ds.x.values, ds.y.values, ds.theta.values])
 
 
-def _weights(scored) -> np.ndarray:
+def _weights(scored, held: Objective, *, n_boot: int = 400, seed: int = 0) -> np.ndarray:
+    """Model weights: bootstrap selection frequencies over the held-out postures (see
+    :mod:`rmbench.gap.search`), or over-dispersed BIC weights with fewer than 4 of them."""
     scores = np.array([f.score for f in scored])
-    best = scored[int(np.argmin(scores))]
-    c_hat = max(1.0, best.chi2_held / max(best.n_held, 1))   # over-dispersion
-    w = np.exp(-(scores - scores.min()) / (2 * c_hat))
-    return w / w.sum()
+    per = [f.chi2_held_posture for f in scored]
+    n_post = len(held.postures)
+    if n_post < 4 or any(len(c) != n_post for c in per):
+        best = scored[int(np.argmin(scores))]
+        c_hat = max(1.0, best.chi2_held / max(best.n_held, 1))   # over-dispersion
+        w = np.exp(-(scores - scores.min()) / (2 * c_hat))
+        return w / w.sum()
+    chi2 = np.array(per)                                        # (n_models, n_postures)
+    n_res = np.array([held.n_posture(p) for p in held.postures])
+    k = np.array([f.k for f in scored])
+    rng = np.random.default_rng(seed)
+    wins = np.zeros(len(scored))
+    for _ in range(n_boot):
+        idx = rng.integers(0, n_post, n_post)
+        bic = chi2[:, idx].sum(axis=1) + k * np.log(max(n_res[idx].sum(), 2))
+        wins[int(np.argmin(bic))] += 1
+    return wins / n_boot
 
 
 def _metrics(held: Objective, ds, change) -> dict:

@@ -13,10 +13,14 @@
    candidate is screened again on top of each of the two best singles (forward selection), and
    the best few of those pairs are refined and scored the same way.
 
-Confidences are the information criterion's model weights ``exp(−ΔBIC / 2ĉ)`` over every model
-scored (the nominal one, the singles, the pairs), ``ĉ`` the best model's held-out χ² per residual
-when above 1 (over-dispersion: structured measurement error the floors do not cover), and an
-effect's confidence sums the weights of the models that contain it.
+Confidences are bootstrap model-selection frequencies (Buckland, Burnham & Augustin 1997): the
+held-out postures are resampled with replacement, every scored model (the nominal one, the
+singles, the pairs) gets its held-out BIC on the resample, and a model's weight is the share of
+resamples it wins. A model whose advantage rests on a few postures wins only some resamples,
+which Gaussian BIC weights ``exp(−ΔBIC / 2)`` over residuals that are not independent noise would
+not show. With fewer than four held-out postures the BIC weights are used, scaled by the
+over-dispersion ``ĉ`` (the best model's held-out χ² per residual when above 1). An effect's
+confidence sums the weights of the models that contain it.
 """
 
 from __future__ import annotations
@@ -190,6 +194,8 @@ class Fitted:
         Numbers of normalised residuals.
     peak_held : float
         Largest held-out normalised residual (absolute).
+    chi2_held_posture : tuple of float
+        The held-out χ² of each held-out posture (for the bootstrap of the confidences).
     score : float
         ``chi2_held + k ln n_held`` (k: parameters of all effects).
     evaluations : int
@@ -204,6 +210,7 @@ class Fitted:
     n_held: int
     evaluations: int = 0
     peak_held: float = 0.0
+    chi2_held_posture: tuple = ()
     extra: dict = field(default_factory=dict)
 
     @property
@@ -318,7 +325,15 @@ def refine(train: Objective, held: Objective, effects, start, *, max_nfev: int =
     chi2_train = float(sol.fun @ sol.fun)
     e_held = held.vector(change)
     return Fitted(effects, values, chi2_train, float(e_held @ e_held), train.n, held.n,
-                  evaluations=train.evaluations - n0, peak_held=_peak(e_held))
+                  evaluations=train.evaluations - n0, peak_held=_peak(e_held),
+                  chi2_held_posture=per_posture_chi2(held, e_held))
+
+
+def per_posture_chi2(objective: Objective, e: np.ndarray) -> tuple:
+    """χ² of each posture of ``objective`` from its whole residual vector ``e``."""
+    sizes = [objective.n_posture(p) for p in objective.postures]
+    parts = np.split(np.asarray(e), np.cumsum(sizes)[:-1])
+    return tuple(float(x @ x) for x in parts)
 
 
 def _peak(e: np.ndarray) -> float:
