@@ -101,31 +101,28 @@ def plot_effects(dg, ax=None):
     return ax
 
 
+def _figure(path: Path, draw) -> Path:
+    """One 9 x 4.5 in figure drawn by ``draw(ax)``, written to ``path``."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    draw(ax)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+    return path
+
+
 def plot_diagnosis(dg, directory) -> list[Path]:
     """Write the diagnosis's figures into ``directory``; returns their paths."""
-    plt = _plt()
     d = Path(directory)
     out = []
-    fig, ax = plt.subplots(figsize=(9, 4.5))
-    plot_mode_gaps(dg.where, ax, title="nominal model: frequency gap of each tracked mode")
-    fig.tight_layout()
-    fig.savefig(d / "gap_modes.png", dpi=80)
-    plt.close(fig)
-    out.append(d / "gap_modes.png")
+    out.append(_figure(d / "gap_modes.png", lambda ax: plot_mode_gaps(
+        dg.where, ax, title="nominal model: frequency gap of each tracked mode")))
     out.append(plot_workspace(dg.where, d / "gap_workspace.png",
                               title="nominal model: gap over the workspace"))
     if dg.where_after is not None:
-        fig, ax = plt.subplots(figsize=(9, 4.5))
-        plot_mode_gaps(dg.where_after, ax, title="updated model: frequency gap of each tracked mode")
-        fig.tight_layout()
-        fig.savefig(d / "gap_modes_after.png", dpi=80)
-        plt.close(fig)
-        out.append(d / "gap_modes_after.png")
+        out.append(_figure(d / "gap_modes_after.png", lambda ax: plot_mode_gaps(
+            dg.where_after, ax, title="updated model: frequency gap of each tracked mode")))
     if dg.effects:
-        fig, ax = plt.subplots(figsize=(9, 4.5))
-        plot_effects(dg, ax)
-        fig.tight_layout()
-        fig.savefig(d / "effects.png", dpi=80)
-        plt.close(fig)
-        out.append(d / "effects.png")
+        out.append(_figure(d / "effects.png", lambda ax: plot_effects(dg, ax)))
     return [p for p in out if p is not None]
