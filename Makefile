@@ -32,6 +32,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/modal_robustness.py | tee bench/results/modal_robustness.txt
 	$(BIN)/python bench/gap_blind.py | tee bench/results/gap_blind.txt
 	$(BIN)/python bench/gap_real.py | tee bench/results/gap_real.txt
+	$(BIN)/python bench/gap_tracker.py | tee bench/results/gap_tracker.txt
 
 clean:
 	rm -rf $(VENV) rmbench_demo

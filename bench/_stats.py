@@ -14,3 +14,13 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     c = (p + z * z / (2 * n)) / d
     h = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
     return max(c - h, 0.0), min(c + h, 1.0)
+
+
+def rate(flags) -> str:
+    """``k/n = p % (95 %: lo-hi)`` of boolean flags, or ``-`` for none."""
+    flags = list(flags)
+    k, n = sum(bool(f) for f in flags), len(flags)
+    if n == 0:
+        return "-"
+    lo, hi = wilson(k, n)
+    return f"{k}/{n} = {100 * k / n:.1f} % (95 %: {100 * lo:.0f}-{100 * hi:.0f})"

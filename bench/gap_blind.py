@@ -36,21 +36,12 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _stats import wilson  # noqa: E402
+from _stats import rate as _rate  # noqa: E402
 
 from rmbench.gap.blind import case_from_dict, summarise  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 RMBENCH = str(Path(sys.executable).with_name("rmbench"))
-
-
-def _rate(flags) -> str:
-    flags = list(flags)
-    k, n = sum(bool(f) for f in flags), len(flags)
-    if n == 0:
-        return "-"
-    lo, hi = wilson(k, n)
-    return f"{k}/{n} = {100 * k / n:.1f} % (95 %: {100 * lo:.0f}-{100 * hi:.0f})"
 
 
 def run_cases(args) -> list:

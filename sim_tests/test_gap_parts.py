@@ -222,19 +222,50 @@ def test_a_model_better_at_every_held_out_posture_wins_every_bootstrap_resample(
     """Confidences are bootstrap selection frequencies: a model ahead at each of 8 postures wins
     all resamples; one ahead at 7 but far behind at the 8th (χ² 0 against 20 at seven, 200
     against 20 at one) wins only the resamples that miss that posture, (7/8)^8 ≈ 34 %."""
-    from rmbench.gap.diagnosis import _weights
+    from rmbench.gap.selection import selection_weights
+
+    n_units = [100] * 8
+    np.testing.assert_allclose(selection_weights([[100.0] * 8, [50.0] * 8], n_units, [0, 0]), [0.0, 1.0])
+    w = selection_weights([[20.0] * 8, [0.0] * 7 + [200.0]], n_units, [0, 0], n_boot=4000)
+    assert abs(w[1] - (7 / 8) ** 8) < 0.03
+
+
+class _Eff:
+    """A stand-in effect: a name and one parameter."""
+
+    n_params = 1
+
+    def __init__(self, name):
+        self.name = name
+
+
+def _single(name, chi2_train, chi2_held):
     from rmbench.gap.search import Fitted
 
-    class Held:
-        postures = list(range(8))
+    return Fitted((_Eff(name),), (np.zeros(1),), chi2_train, chi2_held, 1000, 1000)
 
-        @staticmethod
-        def n_posture(p):
-            return 100
 
-    def model(chi2):
-        return Fitted((), (), 0.0, float(sum(chi2)), 800, 800, chi2_held_posture=tuple(chi2))
+def test_pairs_are_built_on_the_best_single_and_the_next_one_that_is_no_look_alike():
+    """j1 stiffness and servo a1 are springs in series: pairs on both would repeat each other."""
+    from rmbench.gap.diagnosis import _pair_bases
 
-    np.testing.assert_allclose(_weights([model([100.0] * 8), model([50.0] * 8)], Held), [0.0, 1.0])
-    w = _weights([model([20.0] * 8), model([0.0] * 7 + [200.0])], Held, n_boot=4000)
-    assert abs(w[1] - (7 / 8) ** 8) < 0.03
+    singles = [_single("servo@a1", 100, 100), _single("joint@j1", 101, 101), _single("base", 150, 150)]
+    bases = _pair_bases(singles, (("servo@a1", "joint@j1"),))
+    assert [f.name for f in bases] == ["servo@a1", "base"]
+
+
+def test_a_far_worse_second_single_gets_no_pairs_of_its_own():
+    """A second single with more than twice the best's training χ² would need its partner to do
+    the best's work; the best's own screening already offers that pair."""
+    from rmbench.gap.diagnosis import _pair_bases
+
+    bases = _pair_bases([_single("a", 100, 100), _single("b", 250, 260)])
+    assert [f.name for f in bases] == ["a"]
+
+
+def test_a_single_refitted_from_a_pair_replaces_its_stalled_fit():
+    from rmbench.gap.diagnosis import _better_singles
+
+    stalled, refit, other = _single("base", 6000, 4900), _single("base", 85, 52), _single("j1", 9e4, 9e4)
+    out = _better_singles([stalled, other], [refit, _single("mass", 9e5, 9e5)])
+    assert {f.name: f.chi2_held for f in out} == {"base": 52, "j1": 9e4, "mass": 9e5}

@@ -45,7 +45,7 @@ def test_invalidate_benchmark_prints_table1_beside_the_seed(cli):
     (["invalidate", "readings", "CSV", "--eta", "0.375", "--alpha", "1.5"],
      "alpha must lie strictly between 0 and 1"),
     (["invalidate", "readings", "CSV", "--eta", "-1"], "--eta must be a finite accuracy level"),
-    (["invalidate", "readings", "MISSINGCOL", "--eta", "0.375"], "missing column"),
+    (["invalidate", "readings", "MISSINGCOL", "--eta", "0.375"], "z_nom"),
     (["invalidate", "readings", "NAN", "--eta", "0.375"], "not finite"),
     (["invalidate", "readings", "NOSIGMA", "--eta", "0.375", "--repeatability", "0"],
      "--repeatability must be > 0 mm"),

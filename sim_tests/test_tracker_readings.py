@@ -28,8 +28,22 @@ def test_csv_round_trip_keeps_every_value(tmp_path):
         assert np.array_equal(getattr(back, name), getattr(original, name))
 
 
+def test_csv_round_trip_keeps_time_and_temperature_and_allows_no_model_columns(tmp_path):
+    from dataclasses import replace
+
+    path = tmp_path / "r.csv"
+    original = replace(readings(), nominal=None, t=np.arange(4) * 15.0,
+                       temperature=np.array([20.0, 20.5, 21.0, 21.2]))
+    write_tracker_csv(path, original)
+    back = read_tracker_csv(path)
+    assert back.nominal is None
+    for name in ("t", "temperature", "measured"):
+        assert np.array_equal(getattr(back, name), getattr(original, name))
+
+
 @pytest.mark.parametrize("text, message", [
-    (HEADER.replace(",z_nom", "") + "\n0,0,0,1,2,3,1,2\n", "missing column.*z_nom"),
+    ("location,q_j1,q_j2,x,y,x_nom,y_nom,z_nom\n0,0,0,1,2,1,2,3\n", "missing column.*z"),
+    (HEADER.replace(",z_nom", "") + "\n0,0,0,1,2,3,1,2\n", "all of x_nom, y_nom, z_nom or none"),
     ("location,x,y,z,x_nom,y_nom,z_nom\n0,1,2,3,1,2,3\n", r"no joint columns"),
     (HEADER + "\n0,0.1,0.2,1,nan,3,1,2,3\n", "line 2: column y is 'nan', not finite"),
     (HEADER + "\n0,0.1,0.2,1,,3,1,2,3\n", "line 2: column y is not a number"),
@@ -38,7 +52,7 @@ def test_csv_round_trip_keeps_every_value(tmp_path):
      "sigma must be finite and > 0"),
     (HEADER + ",sigma_x\n0,0.1,0.2,1,2,3,1,2,3,1e-5\n", "all of sigma_x, sigma_y, sigma_z or none"),
     (HEADER + "\n0,0.1,0.2,1,2,3,1,2,3\n0,0.3,0.2,1,2,3,1,2,3\n", "different joint angles"),
-], ids=["missing-column", "no-joints", "nan", "empty-field", "short-row", "sigma-zero",
+], ids=["missing-column", "nominal-partial", "no-joints", "nan", "empty-field", "short-row", "sigma-zero",
         "sigma-partial", "inconsistent-location"])
 def test_malformed_csv_is_refused_with_a_clear_message(tmp_path, text, message):
     path = tmp_path / "bad.csv"

@@ -1,4 +1,5 @@
-"""``rmbench gap diagnose`` and ``rmbench gap blind``: sim-to-real gap diagnosis on FRF data."""
+"""``rmbench gap diagnose`` and ``rmbench gap blind``: sim-to-real gap diagnosis on FRF data and on
+laser-tracker readings."""
 
 from __future__ import annotations
 
@@ -15,10 +16,15 @@ __all__ = ["register"]
 
 def register(sub) -> None:
     g = command_group(sub, "gap", "sim-to-real gap diagnosis: where the model departs, which effect, how far it shrinks")
-    d = g.add_parser("diagnose", help="diagnose measured FRFs against a nominal model")
-    d.add_argument("--robot", default="irb6660", help="nominal robot: bundled name or MJCF path (default irb6660)")
+    d = g.add_parser("diagnose", help="diagnose measured FRFs or tracker readings against a nominal model")
+    d.add_argument("--robot", default=None,
+                   help="nominal robot: bundled name or MJCF path (default irb6660 for FRFs, mh180 for readings)")
     d.add_argument("--tool", default=None, help="tool on the nominal robot (default: its own)")
-    d.add_argument("--data", required=True, help="measured FRFs: campaign dataset (netCDF) or UFF58 directory")
+    src = d.add_mutually_exclusive_group(required=True)
+    src.add_argument("--data", help="measured FRFs: campaign dataset (netCDF) or UFF58 directory")
+    src.add_argument("--readings", help="laser-tracker readings CSV (rmbench.io.tracker_csv columns)")
+    d.add_argument("--repeatability", type=float, default=0.2,
+                   help="with --readings and no sigma columns: the robot's rated ISO 9283 RP, mm (default 0.2)")
     d.add_argument("--test", default=None, help="campaign TOML of the test design (default: the data's own)")
     d.add_argument("--out", default=None, help="directory for figures, tables and the updated variant MJCF")
     d.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
@@ -26,6 +32,8 @@ def register(sub) -> None:
     d.set_defaults(func=cmd_diagnose)
 
     b = g.add_parser("blind", help="withheld-effect check: inject hidden effects, diagnose them blind, score")
+    b.add_argument("--data", choices=("frf", "tracker"), default="frf",
+                   help="kind of data: FRF campaigns (default) or laser-tracker readings")
     b.add_argument("--cases", type=int, required=True, help="number of blind cases")
     b.add_argument("--seed", type=int, default=0)
     b.add_argument("--method", choices=("linear", "time", "mixed"), default="linear",
@@ -39,6 +47,8 @@ def register(sub) -> None:
 
 
 def cmd_diagnose(args) -> int:
+    if args.readings is not None:
+        return _diagnose_readings(args)
     from rmbench.gap import diagnose
     from rmbench.gap.measured import GapDataWarning
 
@@ -54,7 +64,8 @@ def cmd_diagnose(args) -> int:
     say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", GapDataWarning)
-        dg = diagnose(args.robot, data, test=test, tool=args.tool, workers=args.workers, progress=say)
+        dg = diagnose(args.robot or "irb6660", data, test=test, tool=args.tool, workers=args.workers,
+                      progress=say)
     for w in caught:
         if issubclass(w.category, GapDataWarning):
             print(f"rmbench: warning: {w.message}", file=sys.stderr)
@@ -81,11 +92,73 @@ def cmd_diagnose(args) -> int:
     return 0
 
 
+def _diagnose_readings(args) -> int:
+    from rmbench.gap.tracker import diagnose_tracker, tracker_data
+    from rmbench.io.tracker_csv import read_tracker_csv
+    from rmbench.robot import Robot
+
+    if not (args.repeatability > 0):
+        raise InputError(f"--repeatability must be > 0 mm, got {args.repeatability!r}")
+    readings = read_tracker_csv(args.readings)
+    robot = Robot.load(args.robot or "mh180", tool=args.tool)
+    if len(readings.joints) != len(robot.arm_joints):
+        raise InputError(f"the readings have {len(readings.joints)} joint columns, robot {robot.name} "
+                         f"has {len(robot.arm_joints)} arm joints")
+    say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
+    data = tracker_data(readings, robot=robot, repeatability=1e-3 * args.repeatability)
+    dg = diagnose_tracker(robot, data, progress=say)
+    paths = dg.save(args.out) if args.out else {}
+    if args.json:
+        print_json(dg.to_json())
+        return 0
+    b, a = dg.heldout_before, dg.heldout_after
+    print(f"verdict: {dg.verdict} ({dg.n_readings} readings; held-out rms {1e3 * b['rms']:.3f} -> "
+          f"{1e3 * a['rms']:.3f} mm, max {1e3 * b['max']:.3f} -> {1e3 * a['max']:.3f} mm, "
+          f"shrink {100 * dg.shrink:.1f} %)")
+    print(f"where: {dg.where.describe()}")
+    for i, s in enumerate(dg.sources[:8]):
+        mark = "*" if s.chosen else " "
+        share = f", {100 * s.share:.0f} % of the error" if s.chosen else ""
+        print(f" {mark}{i + 1}. {s.name}: {s.description}{share}; held-out rms "
+              f"{1e3 * s.heldout_after['rms']:.3f} mm, confidence {s.confidence:.2f}")
+    for group in dg.equivalent:
+        print(f"   the data cannot tell apart: {', '.join(group)}")
+    if dg.absorbed:
+        print(f"   no signature beyond the base registration: {', '.join(dg.absorbed)}")
+    if paths:
+        print(f"wrote {args.out}: " + ", ".join(Path(p).name for p in paths.values()))
+    return 0
+
+
+def _blind_tracker(args) -> int:
+    from rmbench.gap.tracker_blind import run_tracker_blind, summarise_tracker
+
+    def progress(i, case):
+        if not args.json:
+            hidden = " + ".join(f"{h['kind']}@{h['location']}" for h in case["hidden"])
+            print(f"case {i}: hidden {hidden}; {case['verdict']}, chosen "
+                  f"{', '.join(case['chosen']) or '-'}", file=sys.stderr)
+
+    cases = run_tracker_blind(args.cases, args.seed, out=args.out, progress=progress)
+    s = summarise_tracker(cases)
+    if args.json:
+        print_json(s)
+        return 0
+    print(f"{s['cases']} cases: {s['in_library']} in the library, {s['out_of_library']} outside")
+    print(f"  recall of sources carrying >= 10 % of the error {s['recall']:.1%}; sources reported that "
+          f"were not there {s['false_sources']:.1%}; median held-out shrink of the true error "
+          f"{s['median_shrink']:.1%} (measured rms {s['median_shrink_measured']:.1%}); out-of-library "
+          f"cases unexplained {s['unexplained_ok']:.1%}")
+    return 0
+
+
 def cmd_blind(args) -> int:
     from rmbench.gap.blind import case_from_dict, dumps, run_blind
 
     if args.cases < 1:
         raise InputError(f"--cases must be at least 1, got {args.cases}")
+    if args.data == "tracker":
+        return _blind_tracker(args)
     if not 0 <= args.time_share <= 1:
         raise InputError(f"--time-share must lie in [0, 1], got {args.time_share}")
     done = {}

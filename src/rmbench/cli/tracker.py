@@ -143,6 +143,9 @@ def cmd_invalidate_readings(args) -> int:
 
     eta = _eta_m(args.eta)
     readings = read_tracker_csv(args.csv)
+    if readings.nominal is None:
+        raise InputError(f"{args.csv}: judging readings needs the model's predictions "
+                         f"(columns x_nom, y_nom, z_nom)")
     sigma, rotations = readings.sigma, None
     if sigma is None or not args.no_register:
         sigma_rob, rotations = _robot_model(args, readings)
@@ -217,8 +220,8 @@ def _robot_model(args, readings):
     """σ per reading (repeatability through the nominal Jacobian + tracker noise) and nominal
     TCP orientations, from the robot's nominal kinematics at the readings' joint angles."""
     from rmbench.robot import Robot
-    from rmbench.tracker import SerialChain, TrackerSpec, joint_sigma_for_rp
-    from rmbench.tracker.simulator import _reference_q
+    from rmbench.tracker import SerialChain
+    from rmbench.tracker.simulator import reading_sigma
 
     if not (math.isfinite(args.repeatability) and args.repeatability > 0):
         raise InputError(f"--repeatability must be > 0 mm, got {args.repeatability!r}")
@@ -227,9 +230,5 @@ def _robot_model(args, readings):
     if len(readings.joints) != chain.n_joint:
         raise InputError(f"the readings have {len(readings.joints)} joint columns, robot "
                          f"{robot.name} has {chain.n_joint} arm joints")
-    sv = joint_sigma_for_rp(chain.jacobian(_reference_q(robot, chain.n_joint)),
-                            args.repeatability * MM)
-    jac = chain.jacobian(readings.q)
-    tracker = TrackerSpec().sigma(np.linalg.norm(readings.measured, axis=1))
-    sigma = np.sqrt(np.sum((jac * sv) ** 2, axis=-1) + tracker[:, None] ** 2)
+    sigma = reading_sigma(robot, readings.q, readings.measured, repeatability=args.repeatability * MM)
     return sigma, chain.pose(readings.q)[1]

@@ -7,6 +7,10 @@ unmodelled effect causes it, and how far the gap shrinks once that effect is in 
     dg = diagnose("irb6660", "measured.nc")   # or a UFF58 directory
     dg.verdict, dg.effects[0].name, dg.effects[0].shrink
     dg.save("diagnosis/")                      # figures, tables, the updated variant MJCF
+
+    from rmbench.gap import diagnose_tracker, tracker_data   # laser-tracker readings
+    dg = diagnose_tracker("mh180", tracker_data(read_tracker_csv("readings.csv"), robot=...))
+    dg.verdict, [s.name for s in dg.chosen], dg.heldout_before, dg.heldout_after
 """
 
 from rmbench.gap.design import SensorOffset, TestDesign
@@ -14,9 +18,14 @@ from rmbench.gap.diagnosis import Diagnosis, DiagnosisSettings, EffectResult, di
 from rmbench.gap.effects import KINDS, Change, Effect, Param, library
 from rmbench.gap.measured import GapDataWarning, MeasuredModes, measured_data
 from rmbench.gap.model import ModelBench, ModelModes
+from rmbench.gap.sources import PoseModel, Source, source_library
+from rmbench.gap.tracker import (FittedPose, PoseErrorMap, SourceResult, TrackerData,
+                                 TrackerDiagnosis, TrackerSettings, diagnose_tracker, tracker_data)
 from rmbench.gap.where import GapMap, gap_map
 
 __all__ = ["diagnose", "Diagnosis", "DiagnosisSettings", "EffectResult", "load_data",
            "TestDesign", "SensorOffset", "Effect", "Param", "Change", "library", "KINDS",
            "GapDataWarning", "MeasuredModes", "measured_data", "ModelBench", "ModelModes",
-           "GapMap", "gap_map"]
+           "GapMap", "gap_map", "diagnose_tracker", "tracker_data", "TrackerData", "TrackerSettings",
+           "TrackerDiagnosis", "SourceResult", "PoseErrorMap", "FittedPose", "PoseModel", "Source",
+           "source_library"]

@@ -26,8 +26,9 @@ from rmbench.gap.effects import Change, Effect, library
 from rmbench.gap.measured import fit_measured, frf_targets, measured_data, postures_of
 from rmbench.gap.model import ModelBench
 from rmbench.gap.residual import mode_residuals
-from rmbench.gap.search import (_GRID_PAIR, Fitted, Objective, Refiner, _peak, per_posture_chi2,
-                                 significant)
+from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, _peak, per_posture_chi2
+from rmbench.gap.jsonable import jsonable, write_whole
+from rmbench.gap.selection import confidences, selection_weights, significant
 from rmbench.gap.where import GapMap, gap_map
 
 __all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
@@ -210,7 +211,7 @@ class Diagnosis:
         variant = None
         if self.variant_xml is not None:
             variant = d / "variant.xml"
-            _write(variant, self.variant_xml)
+            write_whole(variant, self.variant_xml)
             out["variant"] = str(variant)
         with open(d / "effects.csv", "w", newline="") as fh:
             w = csv.writer(fh, lineterminator="\n")
@@ -233,7 +234,7 @@ class Diagnosis:
         out["effects"] = str(d / "effects.csv")
         out["modes"] = str(d / "gap_modes.csv")
         out["figures"] = [str(p) for p in plot_diagnosis(self, d)]
-        _write(d / "diagnosis.json", json.dumps(_clean(self.to_json(out.get("variant"))), indent=2))
+        write_whole(d / "diagnosis.json", json.dumps(jsonable(self.to_json(out.get("variant"))), indent=2))
         out["json"] = str(d / "diagnosis.json")
         return out
 
@@ -354,21 +355,28 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
                                       peak=best.peak_held)
         if not explained and settings.pairs_of > 0:
             jobs = []
-            for first in sorted(singles, key=lambda f: f.score)[:2]:
+            # the second effect is screened on every other training posture (the pairs are
+            # refined on all): half the cost, and the screening only has to rank
+            coarse = obj_train.subset(obj_train.postures[::2])
+            for first in _pair_bases(singles, _equivalent(screens)):
                 base = first.change()
-                e1 = obj_train.vector(base)
+                e1 = coarse.vector(base)
                 others = refiner.screen([e for e in effects if e.name != first.effects[0].name],
-                                        e1, base, grid=_GRID_PAIR)
+                                        e1, base, grid=_GRID_PAIR, postures=coarse.postures)
                 jobs += [(first.effects + (sc.effect,), first.values + (sc.values,))
                          for sc in sorted(others, key=lambda s_: s_.chi2)[:settings.pairs_of]]
             pairs = refiner.run(jobs)
-            scored += pairs
             if pairs:
+                # each effect of the best pair alone, refitted from its value in the pair: a
+                # single's refinement can stall (at a bound, in a local minimum) where the pair's
+                # found the way, and a pair whose second effect does nothing must lose to its first
                 best_pair = min(pairs, key=lambda f: f.score)
-                if best_pair.score < best.score:
-                    best = best_pair
-                    explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise,
-                                      peak=best.peak_held)
+                again = refiner.run([((e,), (v,)) for e, v in zip(best_pair.effects, best_pair.values)])
+                singles = _better_singles(singles, again)
+                scored = [nom] + singles + pairs
+                best = min(singles + pairs, key=lambda f: f.score)
+                explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise,
+                                            peak=best.peak_held)
             t["pairs"] = time.perf_counter()
             say(f"fitted {len(pairs)} pairs")
     weights = _weights(scored, obj_held)
@@ -461,31 +469,47 @@ def _spread(train, most: int) -> list[int]:
     return [train[i] for i in idx]
 
 
+def _pair_bases(singles, equivalent=(), *, within: float = 2.0) -> list:
+    """The singles that pairs are built on: the best, and the next best that is not
+    indistinguishable from it, if its training χ² is within a factor ``within`` of the best's (a
+    look-alike repeats the best's pairs; a far worse second adds pairs the best's screening
+    already offers: its partner would have to do the best's work)."""
+    ranked = sorted(singles, key=lambda f: f.score)
+    if not ranked:
+        return []
+    first = ranked[0]
+    twins = {n for g in equivalent if first.effects[0].name in g for n in g}
+    for f in ranked[1:]:
+        if f.effects[0].name not in twins:
+            return [first, f] if f.chi2_train <= within * first.chi2_train else [first]
+    return [first]
+
+
+def _better_singles(singles, refits) -> list:
+    """``singles`` with each refit in place of the same effect's fit if it scores better (or added)."""
+    out = {f.effects[0].name: f for f in singles}
+    for f in refits:
+        name = f.effects[0].name
+        if name not in out or f.score < out[name].score:
+            out[name] = f
+    return list(out.values())
+
+
 def _xyt(ds) -> np.ndarray:
     return np.column_stack([ds.x.values, ds.y.values, ds.theta.values])
 
 
-def _weights(scored, held: Objective, *, n_boot: int = 400, seed: int = 0) -> np.ndarray:
+def _weights(scored, held: Objective) -> np.ndarray:
     """Model weights: bootstrap selection frequencies over the held-out postures (see
-    :mod:`rmbench.gap.search`), or over-dispersed BIC weights with fewer than 4 of them."""
-    scores = np.array([f.score for f in scored])
-    per = [f.chi2_held_posture for f in scored]
+    :mod:`rmbench.gap.selection`), or over-dispersed BIC weights with fewer than 4 of them."""
     n_post = len(held.postures)
-    if n_post < 4 or any(len(c) != n_post for c in per):
-        best = scored[int(np.argmin(scores))]
-        c_hat = max(1.0, best.chi2_held / max(best.n_held, 1))   # over-dispersion
-        w = np.exp(-(scores - scores.min()) / (2 * c_hat))
-        return w / w.sum()
-    chi2 = np.array(per)                                        # (n_models, n_postures)
-    n_res = np.array([held.n_posture(p) for p in held.postures])
-    k = np.array([f.k for f in scored])
-    rng = np.random.default_rng(seed)
-    wins = np.zeros(len(scored))
-    for _ in range(n_boot):
-        idx = rng.integers(0, n_post, n_post)
-        bic = chi2[:, idx].sum(axis=1) + k * np.log(max(n_res[idx].sum(), 2))
-        wins[int(np.argmin(bic))] += 1
-    return wins / n_boot
+    per = [f.chi2_held_posture for f in scored]
+    if any(len(c) != n_post for c in per):     # no per-posture split: one unit
+        per = [(f.chi2_held,) for f in scored]
+        n_units = [held.n]
+    else:
+        n_units = [held.n_posture(p) for p in held.postures]
+    return selection_weights(per, n_units, [f.k for f in scored])
 
 
 def _metrics(held: Objective, ds, change) -> dict:
@@ -541,19 +565,18 @@ def _shrink(held: Objective, before: Change, after: Change, n_boot: int, seed: i
 
 def _ranked(ds, held, scored, weights, chosen, settings) -> list[EffectResult]:
     """The effects best first, with held-out evidence and confidences."""
-    conf: dict[str, float] = {}
-    for f, w in zip(scored, weights):
-        for e in f.effects:
-            conf[e.name] = conf.get(e.name, 0.0) + float(w)
+    conf = confidences([[e.name for e in f.effects] for f in scored], weights)
     before = _metrics(held, ds, Change())
     out, seen = [], set()
     order = []
     singles = sorted([f for f in scored if len(f.effects) == 1], key=lambda f: f.score)
     if chosen is not None:
-        # within the chosen model, the effect that alone explains the most comes first
+        # within the chosen model, the effect the held-out postures most often select comes
+        # first; between equally certain ones, the one that alone explains the most
         alone = {f.effects[0].name: f.score for f in singles}
         order += sorted(((chosen, k) for k in range(len(chosen.effects))),
-                        key=lambda fk: alone.get(fk[0].effects[fk[1]].name, np.inf))
+                        key=lambda fk: (-round(conf.get(fk[0].effects[fk[1]].name, 0.0), 6),
+                                        alone.get(fk[0].effects[fk[1]].name, np.inf)))
     order += [(f, 0) for f in singles]
     for fitted, k in order:
         eff, val = fitted.effects[k], fitted.values[k]
@@ -615,23 +638,3 @@ def _seconds(t: dict) -> dict:
     keys = list(t)
     return {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i > 0} | {
         "total": round(t[keys[-1]] - t[keys[0]], 3)}
-
-
-def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text)
-    tmp.replace(path)
-
-
-def _clean(o):
-    if isinstance(o, dict):
-        return {k: _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (np.floating, float)):
-        return float(o) if np.isfinite(o) else None
-    if isinstance(o, np.integer):
-        return int(o)
-    if isinstance(o, np.bool_):
-        return bool(o)
-    return o

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_diagnosis", "plot_mode_gaps", "plot_workspace", "plot_effects"]
+__all__ = ["plot_diagnosis", "plot_mode_gaps", "plot_workspace", "plot_effects", "plot_pose_errors"]
 
 
 def _plt():
@@ -126,3 +126,44 @@ def plot_diagnosis(dg, directory) -> list[Path]:
     if dg.effects:
         out.append(_figure(d / "effects.png", lambda ax: plot_effects(dg, ax)))
     return [p for p in out if p is not None]
+
+
+def plot_pose_errors(dg, path) -> Path:
+    """A tracker diagnosis: the nominal pose error over each joint's angle and over the workspace,
+    and the held-out rms and largest error before and after each ranked source."""
+    plt = _plt()
+    fig, (a0, a1, a2) = plt.subplots(1, 3, figsize=(15, 4.5))
+    w = dg.where
+    for k, (name, (edges, rms)) in enumerate((n, b) for n, b in w.bins.items() if not n.startswith("tcp_")):
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        a0.plot(np.degrees(mid), 1e3 * rms, "o-", ms=3, label=name, color=f"C{k % 10}")
+    a0.axhline(1e3 * w.noise_rms, color="k", lw=0.6, ls="--", label="noise")
+    a0.set_xlabel("joint angle (deg)")
+    a0.set_ylabel("rms pose error (mm)")
+    a0.set_title("nominal model, by joint angle")
+    a0.legend(fontsize=7)
+    for k, axis in enumerate("xyz"):
+        edges, rms = w.bins[f"tcp_{axis}"]
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        a1.plot(1e3 * mid, 1e3 * rms, "o-", ms=3, label=f"TCP {axis}", color=f"C{k}")
+    a1.axhline(1e3 * w.noise_rms, color="k", lw=0.6, ls="--")
+    a1.set_xlabel("TCP position in the base frame (mm)")
+    a1.set_ylabel("rms pose error (mm)")
+    a1.set_title("nominal model, over the workspace")
+    a1.legend(fontsize=7)
+    shown = list(dg.sources[:8])
+    before = 1e3 * dg.heldout_before["rms"]
+    y = np.arange(len(shown))
+    a2.barh(y, [1e3 * s.heldout_after["rms"] for s in shown],
+            color=["C2" if s.chosen else "C7" for s in shown])
+    a2.axvline(before, color="C3", lw=1, label=f"nominal {before:.3f} mm")
+    a2.set_yticks(y, [s.name for s in shown], fontsize=7)
+    a2.invert_yaxis()
+    a2.set_xlabel("held-out rms pose error (mm)")
+    a2.set_title(f"{dg.verdict}: chosen (green), alone (grey)")
+    a2.legend(fontsize=7)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -29,12 +29,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear
-from scipy.stats import chi2 as chi2_dist
-from scipy.stats import norm
 
 from rmbench.errors import RmbenchError
 from rmbench.gap.effects import Change, Effect
 from rmbench.gap.residual import FRF_SEGMENTS, frf_residuals, mode_residuals
+from rmbench.gap.selection import significant
 
 __all__ = ["Objective", "Screen", "Fitted", "screen", "refine", "combined_change", "significant"]
 
@@ -46,6 +45,7 @@ _FAILED = 30.0   # residual of a change the model cannot be evaluated with
 _GRID_FAST = (-0.75, -0.45, -0.25, -0.12, 0.12, 0.25, 0.45, 0.75)
 _GRID_SLOW = (-0.6, -0.2, 0.2, 0.6)
 _GRID_PAIR = (-0.5, -0.2, 0.2, 0.5)
+_GRID_CORNER = (-0.6, -0.2, 0.2, 0.6)    # per parameter, for the corners of two-parameter effects
 
 
 def _informative(meas) -> int:
@@ -60,21 +60,6 @@ def combined_change(effects, values) -> Change:
     for e, v in zip(effects, values):
         total = total + e.change(v)
     return total
-
-
-def significant(chi2: float, n: int, *, p: float = 1e-3, peak: float | None = None) -> bool:
-    """Whether ``n`` normalised residuals exceed what noise gives, at level ``p``.
-
-    Two tests, each at ``p/2``: the χ² of all residuals (a gap spread thinly over many), and
-    the largest residual ``peak`` against the Bonferroni bound for ``n`` normal ones (a gap
-    concentrated in a few — a damping change of one joint's modes — that the χ² of thousands of
-    residuals dilutes). The residuals' floors make both conservative: noise alone gives χ²/n well
-    below 1.
-    """
-    n = max(n, 1)
-    if chi2_dist.sf(chi2, n) < p / 2:
-        return True
-    return bool(peak is not None and 2 * norm.sf(abs(peak)) * n < p / 2)
 
 
 class Objective:
@@ -102,6 +87,10 @@ class Objective:
         self.bands = tuple(bands)
         self.postures = tuple(int(p) for p in postures)
         self.evaluations = 0
+
+    def subset(self, postures) -> "Objective":
+        """The objective over other postures of the same bench and data."""
+        return Objective(self.bench, self.meas, self.frf, self.bands, postures)
 
     def _target(self, p, b):
         return self.frf[p][b] if self.frf is not None else None
@@ -253,13 +242,18 @@ def screen(objective: Objective, effect: Effect, e0: np.ndarray, base: Change = 
     points = [np.zeros(effect.n_params)]
     if np.any(J):
         points.append(np.clip(lsq_linear(J, -e0, bounds=(lo0, hi0)).x, lo, hi))
+    axis = [[frac * (hi[k] if frac > 0 else -lo[k]) for frac in grid] for k in range(effect.n_params)]
     for k in range(effect.n_params):
-        for frac in grid:
-            x = frac * (hi[k] if frac > 0 else -lo[k])
+        for x in axis[k]:
             if x != 0:
                 v = np.zeros(effect.n_params)
                 v[k] = x
                 points.append(v)
+    if effect.n_params == 2:
+        # two parameters that trade off (a base's lateral and tilt compliance, a spindle's
+        # radial and tilt stiffness): a coarse grid's corners too, or the search stays on the axes
+        corner = [[f * (hi[k] if f > 0 else -lo[k]) for f in _GRID_CORNER] for k in range(2)]
+        points += [np.array([a, b]) for a in corner[0] for b in corner[1] if a != 0 and b != 0]
     best, best_chi2 = points[0], float(e0 @ e0)
     for v in points[1:]:
         e = objective.vector_fast(base, effect.change(v))
@@ -374,13 +368,20 @@ class Refiner:
             return [refine(self.train, self.held, e, s) for e, s in jobs]
         return list(self._executor().map(_refine_job, jobs))
 
-    def screen(self, effects, e0: np.ndarray, base: Change = Change(), grid=None) -> list[Screen]:
-        """:func:`screen` of each effect on top of ``base`` (gap vector ``e0``), in order."""
+    def screen(self, effects, e0: np.ndarray, base: Change = Change(), grid=None,
+               postures=None) -> list[Screen]:
+        """:func:`screen` of each effect on top of ``base`` (gap vector ``e0``), in order.
+
+        ``postures``: screen on these training postures only (``e0`` is then theirs).
+        """
         effects = list(effects)
         if self.workers <= 1 or len(effects) < 2:
-            return [screen(self.train, e, e0, base, grid=grid) for e in effects]
-        chunks = [effects[i::self.workers] for i in range(self.workers)]
-        done = list(self._executor().map(_screen_job, [(c, e0, base, grid) for c in chunks]))
+            obj = self.train if postures is None else self.train.subset(postures)
+            return [screen(obj, e, e0, base, grid=grid) for e in effects]
+        # several chunks per worker: the effects' costs differ (a re-simulation or not)
+        n_chunks = min(len(effects), 4 * self.workers)
+        chunks = [effects[i::n_chunks] for i in range(n_chunks)]
+        done = list(self._executor().map(_screen_job, [(c, e0, base, grid, postures) for c in chunks]))
         by_name = {s.effect.name: s for part in done for s in part}
         return [by_name[e.name] for e in effects]
 
@@ -423,5 +424,6 @@ def _refine_job(job) -> Fitted:
 
 
 def _screen_job(job) -> list[Screen]:
-    effects, e0, base, grid = job
-    return [screen(_WORKER["train"], e, e0, base, grid=grid) for e in effects]
+    effects, e0, base, grid, postures = job
+    obj = _WORKER["train"] if postures is None else _WORKER["train"].subset(postures)
+    return [screen(obj, e, e0, base, grid=grid) for e in effects]

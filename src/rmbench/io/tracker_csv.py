@@ -6,7 +6,9 @@ Columns (order free, names fixed):
 * ``q_<joint>``: commanded joint angles, rad, one column per joint in chain order;
 * ``x, y, z``: measured reflector position, m, in the tracker frame (tracker head at the origin);
 * ``x_nom, y_nom, z_nom``: the model under test's prediction, m (any frame: judging registers it);
-* optional ``sigma_x, sigma_y, sigma_z``: standard deviation of one reading per axis, m.
+  needed to judge readings, optional for the gap diagnosis (which predicts them itself);
+* optional ``sigma_x, sigma_y, sigma_z``: standard deviation of one reading per axis, m;
+* optional ``t``: time stamp, s; optional ``temperature``: the robot's temperature, °C.
 
 The file is parsed with the csv module; nothing in it is ever evaluated.
 """
@@ -24,7 +26,8 @@ from rmbench.errors import InputError
 
 __all__ = ["TrackerReadings", "read_tracker_csv", "write_tracker_csv", "REQUIRED_COLUMNS"]
 
-REQUIRED_COLUMNS = ("location", "x", "y", "z", "x_nom", "y_nom", "z_nom")
+REQUIRED_COLUMNS = ("location", "x", "y", "z")
+_NOMINAL = ("x_nom", "y_nom", "z_nom")
 _SIGMA = ("sigma_x", "sigma_y", "sigma_z")
 
 
@@ -39,27 +42,33 @@ class TrackerReadings:
         Joint names (from the ``q_<joint>`` columns).
     q : ndarray, shape (n, n_joint), rad
     measured : ndarray, shape (n, 3), m
-    nominal : ndarray, shape (n, 3), m
+    nominal : ndarray, shape (n, 3), m, or None
     sigma : ndarray, shape (n, 3), m, or None
     comments : tuple of str
         Header comment lines (without '#').
+    t : ndarray, shape (n,), s, or None
+    temperature : ndarray, shape (n,), °C, or None
     """
 
     location: np.ndarray
     joints: tuple
     q: np.ndarray
     measured: np.ndarray
-    nominal: np.ndarray
+    nominal: np.ndarray | None
     sigma: np.ndarray | None = None
     comments: tuple = field(default=())
+    t: np.ndarray | None = None
+    temperature: np.ndarray | None = None
 
     def __post_init__(self):
         n = len(self.location)
         if n == 0:
             raise InputError("readings must hold at least one row")
         for name, shape in (("q", (n, len(self.joints))), ("measured", (n, 3)),
-                            ("nominal", (n, 3))):
+                            ("nominal", (n, 3)), ("t", (n,)), ("temperature", (n,))):
             arr = getattr(self, name)
+            if arr is None and name in ("nominal", "t", "temperature"):
+                continue
             if arr.shape != shape:
                 raise InputError(f"readings {name} must have shape {shape}, got {arr.shape}")
             if not np.all(np.isfinite(arr)):
@@ -102,10 +111,14 @@ def read_tracker_csv(path) -> TrackerReadings:
         raise InputError(f"{path}: missing column(s) {', '.join(missing)}")
     if not joints:
         raise InputError(f"{path}: no joint columns (q_<joint>)")
-    has_sigma = [c in header for c in _SIGMA]
-    if any(has_sigma) and not all(has_sigma):
-        raise InputError(f"{path}: give all of sigma_x, sigma_y, sigma_z or none")
-    wanted = list(REQUIRED_COLUMNS) + [f"q_{j}" for j in joints] + (list(_SIGMA) if all(has_sigma) else [])
+    optional = []
+    for group in (_NOMINAL, _SIGMA):
+        has = [c in header for c in group]
+        if any(has) and not all(has):
+            raise InputError(f"{path}: give all of {', '.join(group)} or none")
+        optional += list(group) if all(has) else []
+    optional += [c for c in ("t", "temperature") if c in header]
+    wanted = list(REQUIRED_COLUMNS) + [f"q_{j}" for j in joints] + optional
     col = {name: header.index(name) for name in wanted}
     values = {name: [] for name in wanted}
     for (lineno, _), row in zip(numbered[1:], rows[1:]):
@@ -130,17 +143,24 @@ def read_tracker_csv(path) -> TrackerReadings:
     def stack(names):
         return np.column_stack([values[n] for n in names])
 
+    def maybe(names):
+        return stack(list(names)) if names[0] in values else None
+
     return TrackerReadings(loc.astype(int), joints, stack([f"q_{j}" for j in joints]),
-                           stack(["x", "y", "z"]), stack(["x_nom", "y_nom", "z_nom"]),
-                           stack(list(_SIGMA)) if all(has_sigma) else None, comments)
+                           stack(["x", "y", "z"]), maybe(_NOMINAL), maybe(_SIGMA), comments,
+                           np.asarray(values["t"]) if "t" in values else None,
+                           np.asarray(values["temperature"]) if "temperature" in values else None)
 
 
 def write_tracker_csv(path, readings: TrackerReadings) -> None:
     """Write readings (with their comment lines) to ``path``; written whole, then renamed."""
     path = Path(path)
-    header = (["location"] + [f"q_{j}" for j in readings.joints] + ["x", "y", "z", "x_nom", "y_nom",
-                                                                     "z_nom"]
-              + (list(_SIGMA) if readings.sigma is not None else []))
+    extra = [(list(_NOMINAL), readings.nominal), (list(_SIGMA), readings.sigma),
+             (["t"], None if readings.t is None else readings.t[:, None]),
+             (["temperature"], None if readings.temperature is None else readings.temperature[:, None])]
+    extra = [(names, arr) for names, arr in extra if arr is not None]
+    header = (["location"] + [f"q_{j}" for j in readings.joints] + ["x", "y", "z"]
+              + [n for names, _ in extra for n in names])
     tmp = path.with_name(path.name + ".part")
     with tmp.open("w", newline="") as f:
         for line in readings.comments:
@@ -150,8 +170,7 @@ def write_tracker_csv(path, readings: TrackerReadings) -> None:
         for k in range(len(readings.location)):
             row = [int(readings.location[k])] + [repr(float(v)) for v in readings.q[k]]
             row += [repr(float(v)) for v in readings.measured[k]]
-            row += [repr(float(v)) for v in readings.nominal[k]]
-            if readings.sigma is not None:
-                row += [repr(float(v)) for v in readings.sigma[k]]
+            for _, arr in extra:
+                row += [repr(float(v)) for v in arr[k]]
             w.writerow(row)
     tmp.replace(path)

@@ -325,19 +325,22 @@ def _rotate(quat, vec) -> np.ndarray:
     return out
 
 
-def condensed(robot, prefixes=("spindle_", "tool_")):
+def condensed(robot, prefixes=("spindle_", "tool_"), *, keep=()):
     """The robot with the freedoms of joints named ``prefixes*`` removed (welded rigid).
 
     For long simulations: stiff freedoms (the spindle, holder and tool: 0.8-60 kHz) bound the
     stable time step, while well below their modes they act as static springs, whose compliance
-    the caller adds back. Returns a :class:`~rmbench.robot.Robot` of the same name and tool,
-    which keeps the load-dependent stiffness of the joints it keeps.
+    the caller adds back. Joints named in ``keep`` stay even if a prefix matches (a spinning
+    rotor's ``spindle_spin``: it is no stiff freedom, and its gyroscopic coupling acts on the
+    arm's modes). Returns a :class:`~rmbench.robot.Robot` of the same name and tool, which keeps
+    the load-dependent stiffness of the joints it keeps, and the spindle speed if the rotor's
+    joint is kept.
     """
     from rmbench.robot.model import Robot
     from rmbench.robot.spec import spec_to_xml
 
     spec = robot.spec
-    doomed = [j for j in spec.joints if j.name.startswith(prefixes)]
+    doomed = [j for j in spec.joints if j.name.startswith(prefixes) and j.name not in keep]
     names = {j.name for j in doomed}
     set_load_stiffness(spec, {j: a for j, a in robot.load_stiffness.items() if j not in names})
     for act in list(spec.actuators):
@@ -345,7 +348,7 @@ def condensed(robot, prefixes=("spindle_", "tool_")):
             spec.delete(act)
     for j in doomed:
         spec.delete(j)
-    spin_kept = not any("spindle_spin".startswith(p) for p in prefixes)
+    spin_kept = "spindle_spin" not in names
     return Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool,
                  spindle_rpm=robot.spindle_rpm if spin_kept else 0.0, spec=spec)
 

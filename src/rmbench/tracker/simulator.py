@@ -32,7 +32,7 @@ from rmbench.tracker.chain import SerialChain
 from rmbench.tracker.repeatability import joint_sigma_for_rp
 
 __all__ = ["ErrorDistribution", "HiddenErrors", "TrackerSpec", "TrackerSimulator",
-           "nominal_stiffness"]
+           "nominal_stiffness", "reading_sigma", "reading_covariance"]
 
 
 @dataclass(frozen=True)
@@ -265,6 +265,28 @@ def nominal_stiffness(robot) -> np.ndarray:
             raise ModelError(f"joint {name + '_flex'!r} has stiffness {k}, expected > 0")
         out.append(k)
     return np.array(out)
+
+
+def reading_covariance(robot, q, measured, *, repeatability: float = 0.2e-3,
+                       tracker: TrackerSpec = TrackerSpec()) -> np.ndarray:
+    """Covariance of each reading in the robot's base frame, shape (n, 3, 3), m²: a robot of
+    rated ISO 9283 RP
+    ``repeatability`` (m) at its reference posture, through the nominal Jacobian at commands ``q``
+    (n, n_joint), rad — one joint's scatter moves the TCP along one direction, so the axes are
+    correlated — plus the tracker's noise at the range of the readings ``measured`` (n, 3), m."""
+    chain = SerialChain.from_kinematics(robot.kinematics, robot.arm_joints)
+    sv = joint_sigma_for_rp(chain.jacobian(_reference_q(robot, chain.n_joint)), repeatability)
+    jac = chain.jacobian(np.asarray(q, float)) * sv
+    noise = tracker.sigma(np.linalg.norm(np.asarray(measured, float), axis=-1))
+    return jac @ np.swapaxes(jac, -1, -2) + noise[..., None, None] ** 2 * np.eye(3)
+
+
+def reading_sigma(robot, q, measured, *, repeatability: float = 0.2e-3,
+                  tracker: TrackerSpec = TrackerSpec()) -> np.ndarray:
+    """σ of each reading per axis of the base frame, shape (n, 3), m (the diagonal of
+    :func:`reading_covariance`)."""
+    cov = reading_covariance(robot, q, measured, repeatability=repeatability, tracker=tracker)
+    return np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
 
 
 def _reference_q(robot, n: int) -> np.ndarray:

@@ -1,0 +1,252 @@
+"""Kinematic error sources of a serial arm, and the pose model they edit (tracker data).
+
+A :class:`Source` is one candidate cause of pose error, with a few parameters in SI units, zero
+for the nominal arm. :class:`PoseModel` predicts TCP positions in the robot base frame for any
+set of source values: the nominal rigid chain (:class:`~rmbench.tracker.chain.SerialChain`) with
+its nominal gravity compliance (the MJCF ``<joint>_flex`` stiffness), edited by the sources. The
+conventions are the tracker simulator's (:mod:`rmbench.tracker.simulator`), so a source drawn
+there is the same source here.
+
+Kinds (:func:`source_library`):
+
+* ``joint_offset@jN`` — zero offset, rad;
+* ``link_geometry@jN`` — placement of joint N: length (m, along the placement's translation) and
+  twist (rad, about the axis normal to the joint axis and the link);
+* ``gravity_compliance@jN`` — fraction added to the joint's nominal compliance (joints with a
+  ``_flex`` spring only);
+* ``payload@tool`` — unmodelled mass at the TCP, kg (deflects the compliant joints);
+* ``gear_periodic_error@jN:hH`` — harmonic H of the joint's output revolution, ``a sin(H q) +
+  b cos(H q)``, rad;
+* ``frame_error@tool`` — reflector (TCP) offset in the tool frame, m, 3 components;
+* ``thermal_drift@time`` (or ``@temperature``) — uniform expansion of the arm about its base, per
+  hour since the first reading (or per kelvin above its temperature); needs time stamps (or
+  temperatures).
+
+The robot base's place in the tracker frame is registered by a best fit in every model, so a base
+frame error is the registration's and no source of its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rmbench.tracker.chain import SerialChain
+
+__all__ = ["Source", "PoseModel", "source_library", "SOURCE_KINDS"]
+
+SOURCE_KINDS = ("joint_offset", "link_geometry", "gravity_compliance", "payload",
+                "gear_periodic_error", "frame_error", "thermal_drift")
+
+
+@dataclass(frozen=True)
+class Source:
+    """One candidate error source.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`SOURCE_KINDS`.
+    location : str
+        ``jN`` (joint), ``jN:hH`` (joint and harmonic), ``tool`` or ``time``.
+    params : tuple of str
+        Parameter names.
+    scale : tuple of float
+        A typical magnitude of each parameter (SI): finite-difference steps are 1e-3 of it.
+    joint : int
+        Index of the joint (-1: none).
+    harmonic : int
+        Harmonic order (gear errors), else 0.
+    """
+
+    kind: str
+    location: str
+    params: tuple
+    scale: tuple
+    joint: int = -1
+    harmonic: int = 0
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind}@{self.location}"
+
+    @property
+    def n_params(self) -> int:
+        return len(self.params)
+
+    def params_dict(self, values) -> dict:
+        return {p: float(v) for p, v in zip(self.params, np.atleast_1d(values))}
+
+    def describe(self, values) -> str:
+        """One line in user units (mm, degrees, kg, per cent)."""
+        v = np.atleast_1d(np.asarray(values, float))
+        if self.kind == "joint_offset":
+            return f"{self.location} zero offset {np.degrees(v[0]):+.4f}°"
+        if self.kind == "link_geometry":
+            return (f"{self.location} placement: length {1e3 * v[0]:+.3f} mm, "
+                    f"twist {np.degrees(v[1]):+.4f}°")
+        if self.kind == "gravity_compliance":
+            return f"{self.location} gravity compliance {100 * v[0]:+.1f} %"
+        if self.kind == "payload":
+            return f"payload {v[0]:+.2f} kg at the TCP"
+        if self.kind == "gear_periodic_error":
+            amp = np.hypot(v[0], v[1])
+            phase = np.degrees(np.arctan2(v[1], v[0]))
+            return (f"{self.location.split(':')[0]} gear error, harmonic {self.harmonic}: "
+                    f"{1e6 * amp:.1f} µrad, phase {phase:.0f}°")
+        if self.kind == "frame_error":
+            return "TCP offset (" + ", ".join(f"{1e3 * x:+.3f}" for x in v) + ") mm"
+        unit = "hour" if self.location == "time" else "kelvin"
+        return f"thermal expansion {1e6 * v[0]:+.1f} µm/m per {unit}"
+
+
+def source_library(chain: SerialChain, compliance, *, harmonics: int = 2,
+                   drive: str | None = None) -> list[Source]:
+    """Every candidate source of a chain.
+
+    Parameters
+    ----------
+    compliance : array_like, shape (n_joint,), rad/(N·m)
+        Nominal gravity compliance per joint (0: rigid; such joints get no compliance source).
+    harmonics : int
+        Gear-error harmonics per joint.
+    drive : {"time", "temperature"} or None
+        What the readings carry that thermal drift can follow (None: no thermal source).
+    """
+    c = np.asarray(compliance, float)
+    out = []
+    for j, name in enumerate(chain.names):
+        out.append(Source("joint_offset", name, ("offset",), (1e-3,), joint=j))
+    for j, name in enumerate(chain.names):
+        out.append(Source("link_geometry", name, ("length", "twist"), (1e-3, 1e-3), joint=j))
+    for j, name in enumerate(chain.names):
+        if c[j] > 0:
+            out.append(Source("gravity_compliance", name, ("fraction",), (0.1,), joint=j))
+    out.append(Source("payload", "tool", ("mass",), (10.0,)))
+    for j, name in enumerate(chain.names):
+        for h in range(1, harmonics + 1):
+            out.append(Source("gear_periodic_error", f"{name}:h{h}", ("a_sin", "b_cos"),
+                              (1e-4, 1e-4), joint=j, harmonic=h))
+    out.append(Source("frame_error", "tool", ("dx", "dy", "dz"), (1e-3, 1e-3, 1e-3)))
+    if drive == "time":
+        out.append(Source("thermal_drift", "time", ("per_hour",), (1e-5,)))
+    elif drive == "temperature":
+        out.append(Source("thermal_drift", "temperature", ("per_kelvin",), (1e-5,)))
+    return out
+
+
+class PoseModel:
+    """TCP positions of the nominal arm edited by error sources.
+
+    Parameters
+    ----------
+    chain : SerialChain
+        The nominal rigid arm.
+    compliance : array_like, shape (n_joint,), rad/(N·m)
+        Nominal gravity compliance per joint (0: rigid).
+    """
+
+    def __init__(self, chain: SerialChain, compliance):
+        self.chain = chain
+        self.compliance = np.asarray(compliance, float)
+        n = chain.n_joint
+        # per placement, in the joint's own frame: the length direction (the placement's
+        # translation) and the twist axis, the common normal of the previous joint's axis (the
+        # base z for the first) and this one's, as in Denavit-Hartenberg's link twist; for
+        # parallel axes, the link's direction across them
+        self._length_dir = np.empty((n, 3))
+        self._twist_dir = np.empty((n, 3))
+        prev = np.array([0.0, 0.0, 1.0])      # in the frame before placement 0 (the base)
+        for i in range(n):
+            r = chain.rotations[i]
+            d = r.T @ chain.translations[i]
+            axis = chain.axes[i]
+            prev_here = r.T @ prev
+            tw = np.cross(prev_here, axis)
+            if np.linalg.norm(tw) < 1e-6:
+                tw = d - (d @ axis) * axis
+            if np.linalg.norm(tw) < 1e-6:
+                tw = _normal(axis)
+            if np.linalg.norm(d) < 1e-6:
+                d = _normal(axis)
+            self._length_dir[i] = d / np.linalg.norm(d)
+            self._twist_dir[i] = tw / np.linalg.norm(tw)
+            prev = axis                        # next placement's "before" frame is this joint's
+
+    def twists(self, sources, values) -> np.ndarray:
+        """Placement twists (n_joint + 1, 6) of the sources (simulator convention)."""
+        tw = np.zeros((self.chain.n_joint + 1, 6))
+        for s, v in zip(sources, values):
+            v = np.atleast_1d(v)
+            if s.kind == "link_geometry":
+                tw[s.joint, :3] += v[0] * self._length_dir[s.joint]
+                tw[s.joint, 3:] += v[1] * self._twist_dir[s.joint]
+            elif s.kind == "frame_error":
+                tw[-1, :3] += v
+        return tw
+
+    def positions(self, q, sources=(), values=(), drive=None) -> np.ndarray:
+        """TCP positions in the base frame, shape (n, 3), m.
+
+        Parameters
+        ----------
+        q : ndarray, shape (n, n_joint), rad
+            Commanded (motor-side) joint angles.
+        sources, values : sequences
+            Sources and one parameter array each.
+        drive : ndarray, shape (n,), optional
+            What thermal drift follows: hours since the first reading, or kelvin above its
+            temperature.
+        """
+        q = np.asarray(q, float)
+        chain = self.chain
+        tw = self.twists(sources, values)
+        if np.any(tw):
+            chain = chain.perturbed(tw)
+        angles = q.copy()
+        comp = self.compliance.copy()
+        expansion = 0.0
+        for s, v in zip(sources, values):
+            v = np.atleast_1d(v)
+            if s.kind == "joint_offset":
+                angles[:, s.joint] += v[0]
+            elif s.kind == "gear_periodic_error":
+                h = s.harmonic
+                angles[:, s.joint] += v[0] * np.sin(h * q[:, s.joint]) + v[1] * np.cos(h * q[:, s.joint])
+            elif s.kind == "gravity_compliance":
+                comp[s.joint] *= 1.0 + v[0]
+            elif s.kind == "payload":
+                chain = _with_mass(chain, float(v[0]), self.chain.tool_translation)
+            elif s.kind == "thermal_drift":
+                if drive is None:
+                    raise ValueError("thermal drift needs time stamps or temperatures")
+                expansion = v[0] * np.asarray(drive, float)
+        deflection = np.zeros_like(angles)
+        if np.any(comp):
+            for _ in range(2):   # as the simulator: two fixed-point steps
+                deflection = comp * chain.gravity_torque(angles + deflection)
+        p = chain.position(angles + deflection)
+        if np.any(expansion):
+            p = p * (1.0 + np.asarray(expansion))[:, None]
+        return p
+
+
+def _with_mass(chain: SerialChain, mass: float, point) -> SerialChain:
+    """The chain with a point mass (kg, either sign: a fit may go below zero) added to the last
+    body at ``point`` (its frame), as :meth:`SerialChain.with_payload` adds a payload."""
+    from dataclasses import replace
+
+    masses, centres = chain.masses.copy(), chain.centres.copy()
+    total = masses[-1] + mass
+    if total > 0:
+        centres[-1] = (masses[-1] * centres[-1] + mass * np.asarray(point, float)) / total
+    masses[-1] = total
+    return replace(chain, masses=masses, centres=centres)
+
+
+def _normal(axis: np.ndarray) -> np.ndarray:
+    """A unit vector normal to ``axis``."""
+    e = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    v = np.cross(axis, e)
+    return v / np.linalg.norm(v)

@@ -1,0 +1,839 @@
+"""Gap diagnosis on laser-tracker readings: which kinematic error source, and the accuracy it costs.
+
+The same engine as the FRF diagnosis (:mod:`rmbench.gap.selection`): candidate models are fitted
+on training configurations and scored on held-out ones by ``χ²_held + k ln n_held``; sources are
+added greedily (forward selection), since real robots carry several at once; confidences are
+bootstrap selection frequencies over the held-out configurations; the verdict is "explained" when
+the best model's held-out residuals are noise.
+
+1. **Where** (:class:`PoseErrorMap`): the nominal model's registered error per axis, the share of
+   it above the noise, its rms over bins of each joint's angle, and how much of it each joint's
+   angle, gravity torque and the harmonics of its angle explain (R² of a linear fit).
+2. **Which**: every source of :func:`~rmbench.gap.sources.source_library` is screened by one
+   linearised least-squares step on top of the current model; the best few are refined by
+   Gauss-Newton (sources and the base registration together) and scored held out; the best joins
+   the model while it lowers the held-out score and the residual is not yet noise.
+3. **How far**: held-out rms and largest pose error before and after, with bootstrap intervals
+   over held-out configurations, and each chosen source's share of the error it removes.
+
+Every model registers the robot base in the tracker frame by a best fit (6 parameters, fitted on
+the training configurations with the sources), so a base frame error, and any source whose
+signature the registration takes up (a zero offset of the first joint, whose axis is vertical), is
+reported as absorbed, not diagnosed.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from rmbench.errors import InputError
+from rmbench.gap.jsonable import jsonable, write_whole
+from rmbench.gap.selection import bic, confidences, selection_weights, significant
+from rmbench.gap.sources import PoseModel, Source, source_library
+from rmbench.tracker.chain import _skew
+
+_IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
+
+__all__ = ["TrackerData", "TrackerSettings", "SourceResult", "PoseErrorMap", "TrackerDiagnosis",
+           "FittedPose", "diagnose_tracker", "pose_error_map", "tracker_data", "default_sigma",
+           "default_covariance"]
+
+
+@dataclass(frozen=True)
+class TrackerData:
+    """What the diagnosis reads: joint commands, readings and their noise.
+
+    Attributes
+    ----------
+    q : ndarray, shape (n, n_joint), rad
+        Commanded joint angles.
+    measured : ndarray, shape (n, 3), m
+        Tracker readings (tracker frame).
+    location : ndarray of int, shape (n,)
+        Configuration label (repeats share it).
+    sigma : ndarray, shape (n, 3), m
+        Standard deviation of each reading per axis.
+    t : ndarray, shape (n,), s, or None
+        Time stamps.
+    joints : tuple of str
+    temperature : ndarray, shape (n,), °C, or None
+        The robot's temperature at each reading.
+    covariance : ndarray, shape (n, 3, 3), m², or None
+        Full covariance of each reading in the robot's base frame (joint repeatability moves the
+        TCP along one direction per joint: the axes are correlated); residuals are whitened with
+        it, turned into the base frame by the registration, else divided by ``sigma``.
+    """
+
+    q: np.ndarray
+    measured: np.ndarray
+    location: np.ndarray
+    sigma: np.ndarray
+    t: np.ndarray | None = None
+    joints: tuple = ()
+    temperature: np.ndarray | None = None
+    covariance: np.ndarray | None = None
+
+    def whitening(self, rotation=np.eye(3)) -> np.ndarray:
+        """Per reading, W with W Σ Wᵀ = I for the readings' (tracker-frame) errors, shape
+        (n, 3, 3), 1/m; ``rotation`` turns base-frame vectors into the tracker frame."""
+        if self.covariance is None:
+            return np.eye(3)[None] / self.sigma[:, :, None]
+        # Σ_tracker = R Σ Rᵀ = (R L)(R L)ᵀ: W = L⁻¹ Rᵀ
+        return np.linalg.inv(np.linalg.cholesky(self.covariance)) @ np.asarray(rotation).T
+
+    @property
+    def drive_kind(self) -> str | None:
+        """What thermal drift can follow: "temperature", "time" or None."""
+        return "temperature" if self.temperature is not None else ("time" if self.t is not None else None)
+
+    def drive(self, idx=slice(None)) -> np.ndarray | None:
+        """Kelvin above the first reading's temperature, else hours since it (None without)."""
+        if self.temperature is not None:
+            return self.temperature[idx] - self.temperature[0]
+        if self.t is not None:
+            return (self.t[idx] - self.t.min()) / 3600.0
+        return None
+
+
+@dataclass(frozen=True)
+class TrackerSettings:
+    """How hard the diagnosis searches.
+
+    Attributes
+    ----------
+    heldout : float
+        Share of the configurations held out (every other one in label order at 0.5).
+    refine : int
+        Candidates refined after each screening.
+    max_sources : int
+        Most sources in a model.
+    harmonics : int
+        Gear-error harmonics per joint in the library.
+    p_noise : float
+        A held-out χ² whose p-value against the noise falls below this is a gap.
+    bootstrap : int
+        Resamples of the held-out configurations.
+    kinds : tuple of str or None
+        Restrict the library to these kinds.
+    """
+
+    heldout: float = 0.5
+    refine: int = 6
+    max_sources: int = 4
+    harmonics: int = 2
+    p_noise: float = 1e-3
+    bootstrap: int = 400
+    kinds: tuple | None = None
+
+
+@dataclass(frozen=True)
+class SourceResult:
+    """One ranked source with its evidence.
+
+    Attributes
+    ----------
+    name, kind, location : str
+    params : dict
+        Fitted parameters, SI.
+    description : str
+        The same in user units.
+    share : float
+        Share of the held-out mean squared error it removes within the chosen model (0 if not
+        chosen); the chosen shares sum to the model's reduction.
+    confidence : float
+        Summed bootstrap selection frequency of the scored models containing it.
+    heldout_after : dict
+        Held-out ``rms`` and ``max`` pose error (m) of the model with this source (the chosen
+        model for a chosen source, the source alone otherwise).
+    chosen : bool
+    """
+
+    name: str
+    kind: str
+    location: str
+    params: dict
+    description: str
+    share: float
+    confidence: float
+    heldout_after: dict
+    chosen: bool
+
+
+@dataclass(frozen=True)
+class PoseErrorMap:
+    """Where the nominal model's pose error lies (all configurations, registered).
+
+    Attributes
+    ----------
+    rms : ndarray, shape (3,), m
+        Per axis (tracker frame).
+    rms_total, max_total : float, m
+        Of the error vector's length.
+    noise_rms : float, m
+        Of the readings' noise (length of the σ vector).
+    above_noise : float
+        Share of the mean squared error above the noise, 0-1.
+    explains : dict
+        ``{"q_j2": R², "tau_j2": R², "sin1_j2": R², ...}``: the share of the error's variance
+        that a linear fit on each regressor explains (joint angle, gravity torque, harmonics).
+    bins : dict
+        ``{joint: (edges rad (n_bins + 1,), rms m (n_bins,))}`` over each joint's angle, and
+        ``{"tcp_x" | "tcp_y" | "tcp_z": (edges m, rms m)}`` over the workspace (the nominal TCP
+        in the base frame).
+    """
+
+    rms: np.ndarray
+    rms_total: float
+    max_total: float
+    noise_rms: float
+    above_noise: float
+    explains: dict
+    bins: dict
+
+    def top(self, n: int = 5) -> list:
+        """The ``n`` regressors that explain most, as (name, R²)."""
+        return sorted(self.explains.items(), key=lambda kv: -kv[1])[:n]
+
+    def describe(self) -> str:
+        tops = ", ".join(f"{k} {100 * v:.0f} %" for k, v in self.top(3))
+        return (f"rms {1e3 * self.rms_total:.3f} mm (x {1e3 * self.rms[0]:.3f}, y {1e3 * self.rms[1]:.3f}, "
+                f"z {1e3 * self.rms[2]:.3f}), max {1e3 * self.max_total:.3f} mm, "
+                f"{100 * self.above_noise:.0f} % above the noise; explained best by {tops}")
+
+    def to_dict(self) -> dict:
+        return {"rms": self.rms.tolist(), "rms_total": self.rms_total, "max_total": self.max_total,
+                "noise_rms": self.noise_rms, "above_noise": self.above_noise,
+                "explains": self.explains,
+                "bins": {k: {"edges": e.tolist(), "rms": r.tolist()} for k, (e, r) in self.bins.items()}}
+
+
+class FittedPose:
+    """A fitted model's TCP positions in the tracker frame (the registration included).
+
+    Parameters
+    ----------
+    model : PoseModel
+    sources, values : sequences
+        The model's sources and one parameter array each.
+    rotation, translation : ndarray
+        Registration: tracker-frame position = R p + t.
+    """
+
+    def __init__(self, model: PoseModel, sources, values, rotation, translation):
+        self.model = model
+        self.sources, self.values = tuple(sources), tuple(values)
+        self.rotation, self.translation = np.asarray(rotation), np.asarray(translation)
+
+    def position(self, q, drive=None) -> np.ndarray:
+        """Positions at commands q (n, n_joint), rad, shape (n, 3), m; ``drive`` (n,): hours since
+        the first reading, or kelvin above its temperature (thermal drift)."""
+        p = self.model.positions(np.atleast_2d(np.asarray(q, float)), self.sources, self.values,
+                                 drive=drive)
+        return p @ self.rotation.T + self.translation
+
+
+@dataclass(frozen=True)
+class TrackerDiagnosis:
+    """Result of :func:`diagnose_tracker`.
+
+    Attributes
+    ----------
+    verdict : str
+        "explained", "unexplained" or "no significant gap".
+    sources : tuple of SourceResult
+        Chosen sources first (by share), then the others by held-out score.
+    where : PoseErrorMap
+    heldout_before, heldout_after : dict
+        Held-out ``rms`` and ``max`` pose error, m, with ``rms_interval`` and ``max_interval``
+        (95 % bootstrap over held-out configurations), and ``chi2_per_n``.
+    shrink : float
+        ``1 − rms_after / rms_before`` on the held-out configurations.
+    shrink_interval : tuple of float
+    equivalent : tuple of tuple of str
+        Sources the data cannot tell apart (parallel signatures after the registration).
+    absorbed : tuple of str
+        Sources the base registration takes up entirely.
+    values : dict
+        ``{source name: parameter list}`` of the chosen model.
+    models : tuple of dict
+        Every scored model: name, k, training and held-out χ², score, weight.
+    n_readings : int
+    train, held : tuple of int
+        Configuration labels.
+    seconds : float
+    notes : tuple of str
+    fitted, nominal_fitted : FittedPose
+        The chosen (else the nominal) model and the registered nominal one.
+    """
+
+    verdict: str
+    sources: tuple
+    where: PoseErrorMap
+    heldout_before: dict
+    heldout_after: dict
+    shrink: float
+    shrink_interval: tuple
+    equivalent: tuple
+    absorbed: tuple
+    values: dict
+    models: tuple
+    n_readings: int
+    train: tuple
+    held: tuple
+    seconds: float
+    notes: tuple = field(default=())
+    fitted: FittedPose | None = field(default=None, repr=False, compare=False)
+    nominal_fitted: FittedPose | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def chosen(self) -> tuple:
+        return tuple(s for s in self.sources if s.chosen)
+
+    def to_json(self) -> dict:
+        """The FRF diagnosis's JSON shape: verdict, effects best first, where, variant."""
+        effects = [{"name": s.name, "location": s.location, "params": s.params,
+                    "description": s.description,
+                    "heldout_before": self.heldout_before, "heldout_after": s.heldout_after,
+                    "shrink": (1 - s.heldout_after["rms"] / self.heldout_before["rms"]
+                               if self.heldout_before["rms"] > 0 else 0.0),
+                    "share": s.share, "confidence": s.confidence, "chosen": s.chosen}
+                   for s in self.sources]
+        return jsonable({"verdict": self.verdict, "effects": effects, "where": self.where.to_dict(),
+                       "variant": self.values or None, "heldout_before": self.heldout_before,
+                       "heldout_after": self.heldout_after, "shrink": self.shrink,
+                       "shrink_interval": list(self.shrink_interval),
+                       "equivalent": [list(g) for g in self.equivalent], "absorbed": list(self.absorbed),
+                       "models": list(self.models), "n_readings": self.n_readings,
+                       "seconds": self.seconds, "notes": list(self.notes)})
+
+    def save(self, directory) -> dict:
+        """Write ``diagnosis.json``, ``sources.csv`` and ``pose_errors.png`` into ``directory``;
+        their paths."""
+        out = Path(directory)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = {"json": out / "diagnosis.json", "csv": out / "sources.csv",
+                 "figure": out / "pose_errors.png"}
+        write_whole(paths["json"], json.dumps(self.to_json(), indent=1))
+        rows = ["name,kind,location,chosen,share,confidence,heldout_rms_m,heldout_max_m,description"]
+        for s in self.sources:
+            rows.append(f"{s.name},{s.kind},{s.location},{int(s.chosen)},{s.share:.4f},"
+                        f"{s.confidence:.4f},{s.heldout_after['rms']:.6g},{s.heldout_after['max']:.6g},"
+                        f"\"{s.description}\"")
+        write_whole(paths["csv"], "\n".join(rows) + "\n")
+        from rmbench.gap.plot import plot_pose_errors
+
+        plot_pose_errors(self, paths["figure"])
+        return {k: str(v) for k, v in paths.items()}
+
+
+def tracker_data(readings, *, robot=None, sigma=None, repeatability: float = 0.2e-3) -> TrackerData:
+    """The diagnosis's input from :class:`~rmbench.io.tracker_csv.TrackerReadings`.
+
+    ``sigma`` (n, 3), m, overrides the readings' own; without either, the noise of a robot of
+    rated RP ``repeatability`` (m) read by the default tracker is used, with its correlation
+    between axes (:func:`rmbench.tracker.simulator.reading_covariance`, needs ``robot``). Time
+    stamps and temperatures come with the readings when they have them.
+    """
+    s = sigma if sigma is not None else readings.sigma
+    cov = None
+    if s is None:
+        if robot is None:
+            raise InputError("readings carry no sigma columns: give the robot for the default noise")
+        cov = default_covariance(robot, readings.q, readings.measured, repeatability=repeatability)
+        s = np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+    return TrackerData(np.asarray(readings.q, float), np.asarray(readings.measured, float),
+                       np.asarray(readings.location, int), np.asarray(s, float),
+                       None if readings.t is None else np.asarray(readings.t, float),
+                       tuple(readings.joints),
+                       None if readings.temperature is None else np.asarray(readings.temperature, float),
+                       cov)
+
+
+def default_covariance(robot, q, measured, *, repeatability: float = 0.2e-3) -> np.ndarray:
+    """Covariance per reading of a robot of rated RP ``repeatability`` (m) read by the default
+    tracker (:func:`rmbench.tracker.simulator.reading_covariance`), shape (n, 3, 3), m²."""
+    from rmbench.tracker.simulator import reading_covariance
+
+    return reading_covariance(robot, q, measured, repeatability=repeatability)
+
+
+def default_sigma(robot, q, measured, *, repeatability: float = 0.2e-3) -> np.ndarray:
+    """σ per reading and axis (the diagonal of :func:`default_covariance`), shape (n, 3), m."""
+    cov = default_covariance(robot, q, measured, repeatability=repeatability)
+    return np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+
+
+# -- the fit -----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class _Fit:
+    sources: tuple
+    values: tuple          # one array per source
+    rotation: np.ndarray   # registration: tracker = R p + t
+    translation: np.ndarray
+    chi2_train: float
+    n_train: int
+    chi2_held: float
+    n_held: int
+    chi2_held_unit: tuple  # per held-out configuration
+    peak_held: float
+
+    @property
+    def k(self) -> int:
+        return sum(s.n_params for s in self.sources)
+
+    @property
+    def score(self) -> float:
+        return bic(self.chi2_held, self.k, self.n_held)
+
+    @property
+    def names(self) -> tuple:
+        return tuple(s.name for s in self.sources)
+
+    @property
+    def name(self) -> str:
+        return " + ".join(self.names) if self.sources else "nominal"
+
+
+class _Engine:
+    """Fits source models to the readings: Gauss-Newton on the sources and the registration."""
+
+    def __init__(self, model: PoseModel, data: TrackerData, train: np.ndarray, held: np.ndarray):
+        self.model, self.data = model, data
+        self.train, self.held = train, held          # reading indices
+        self.white = data.whitening()
+        if data.covariance is not None:   # the base frame's covariance turned into the tracker's
+            self.white = data.whitening(self.register((), [])[0])
+        self.held_units = np.unique(data.location[held])
+
+    def positions(self, sources, values, idx) -> np.ndarray:
+        return self.model.positions(self.data.q[idx], sources, values, drive=self.data.drive(idx))
+
+    def residual(self, sources, values, rot, trans, idx) -> np.ndarray:
+        """Normalised residuals (reading − model) / σ, shape (len(idx), 3)."""
+        p = self.positions(sources, values, idx) @ rot.T + trans
+        return np.einsum("nij,nj->ni", self.white[idx], self.data.measured[idx] - p)
+
+    def error(self, sources, values, rot, trans, idx) -> np.ndarray:
+        """Reading − model, m, shape (len(idx), 3)."""
+        return self.data.measured[idx] - (self.positions(sources, values, idx) @ rot.T + trans)
+
+    def columns(self, sources, values, rot, idx, *, of=None) -> np.ndarray:
+        """∂(model position)/∂(parameter) / σ for the parameters of ``of`` (default: all of
+        ``sources``), by central differences, shape (3 len(idx), n_params)."""
+        of = sources if of is None else of
+        cols = []
+        w = self.white[idx]
+        for s in of:
+            k_src = list(sources).index(s) if s in sources else None
+            for k in range(s.n_params):
+                h = 1e-3 * s.scale[k]
+                vp, vm = _stepped(sources, values, s, k, h, k_src)
+                srcs = sources if k_src is not None else tuple(sources) + (s,)
+                dp = (self.positions(srcs, vp, idx) - self.positions(srcs, vm, idx)) @ rot.T / (2 * h)
+                cols.append(np.einsum("nij,nj->ni", w, dp).ravel())
+        return np.column_stack(cols) if cols else np.zeros((3 * len(idx), 0))
+
+    def registration_columns(self, sources, values, rot, idx) -> np.ndarray:
+        p = self.positions(sources, values, idx) @ rot.T
+        n = len(idx)
+        cols = np.zeros((n, 3, 6))
+        cols[:, :, :3] = np.eye(3)
+        # small rotation ω of the registered points: d p = ω × p = −[p]x ω
+        cols[:, :, 3:] = -_skew(p)
+        return np.einsum("nij,njk->nik", self.white[idx], cols).reshape(3 * n, 6)
+
+    def fit(self, sources, start=None, *, iterations: int = 6) -> _Fit:
+        sources = tuple(sources)
+        values = [np.zeros(s.n_params) for s in sources] if start is None else \
+            [np.array(v, float) for v in start]
+        rot, trans = self.register(sources, values)
+        idx = self.train
+        for _ in range(iterations):
+            r = self.residual(sources, values, rot, trans, idx).ravel()
+            jac = np.hstack([self.columns(sources, values, rot, idx),
+                             self.registration_columns(sources, values, rot, idx)])
+            scale = np.linalg.norm(jac, axis=0)
+            scale[scale == 0] = 1.0
+            step = np.linalg.lstsq(jac / scale, r, rcond=1e-10)[0] / scale
+            off = 0
+            for i, s in enumerate(sources):
+                values[i] = values[i] + step[off: off + s.n_params]
+                off += s.n_params
+            rot = Rotation.from_rotvec(step[off + 3: off + 6]).as_matrix() @ rot
+            trans = trans + step[off: off + 3]
+            if np.max(np.abs(step[:off] / np.concatenate([s.scale for s in sources] or [[1.0]])[:off]),
+                      initial=0.0) < 1e-6 and np.max(np.abs(step[off:]), initial=0.0) < 1e-9:
+                break
+        return self.score(sources, values, rot, trans)
+
+    def register(self, sources, values) -> tuple[np.ndarray, np.ndarray]:
+        """Weighted rigid best fit of the model's positions to the training readings."""
+        from rmbench.tracker.registration import kabsch
+
+        idx = self.train
+        w = 1.0 / np.mean(self.data.sigma[idx] ** 2, axis=1)
+        return kabsch(self.positions(sources, values, idx), self.data.measured[idx], w)
+
+    def score(self, sources, values, rot, trans) -> _Fit:
+        e_tr = self.residual(sources, values, rot, trans, self.train)
+        e_he = self.residual(sources, values, rot, trans, self.held)
+        loc = self.data.location[self.held]
+        per = tuple(float(np.sum(e_he[loc == u] ** 2)) for u in self.held_units)
+        return _Fit(tuple(sources), tuple(np.asarray(v, float) for v in values), rot, trans,
+                    float(np.sum(e_tr ** 2)), e_tr.size, float(np.sum(e_he ** 2)), e_he.size, per,
+                    float(np.max(np.abs(e_he))) if e_he.size else 0.0)
+
+    def screen(self, base: _Fit, candidates) -> list[tuple[float, Source, np.ndarray]]:
+        """Training χ² of ``base`` plus each candidate after one linearised step; sorted."""
+        idx = self.train
+        r = self.residual(base.sources, base.values, base.rotation, base.translation, idx).ravel()
+        j_base = np.hstack([self.columns(base.sources, base.values, base.rotation, idx),
+                            self.registration_columns(base.sources, base.values, base.rotation, idx)])
+        out = []
+        for s in candidates:
+            j_s = self.columns(base.sources, base.values, base.rotation, idx, of=(s,))
+            jac = np.hstack([j_s, j_base])
+            scale = np.linalg.norm(jac, axis=0)
+            scale[scale == 0] = 1.0
+            x = np.linalg.lstsq(jac / scale, r, rcond=1e-10)[0] / scale
+            res = r - jac @ x
+            out.append((float(res @ res), s, x[: s.n_params]))
+        return sorted(out, key=lambda c: c[0])
+
+
+def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = TrackerSettings(),
+                     progress=None) -> TrackerDiagnosis:
+    """Diagnose tracker readings against a nominal robot (module docstring).
+
+    Parameters
+    ----------
+    nominal : str, Path or rmbench.robot.Robot
+        Bundled robot name, MJCF path or loaded robot.
+    data : TrackerData
+        From :func:`tracker_data`.
+
+    Raises
+    ------
+    rmbench.errors.InputError
+        Readings of another number of joints, too few configurations for the registration and a
+        source, non-finite values.
+    """
+    from rmbench.robot import Robot
+    from rmbench.tracker.chain import SerialChain
+    from rmbench.tracker.simulator import nominal_stiffness
+
+    t0 = time.perf_counter()
+    say = progress or (lambda msg: None)
+    robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal)
+    chain = SerialChain.from_kinematics(robot.kinematics, robot.arm_joints)
+    _check(data, chain)
+    compliance = 1.0 / nominal_stiffness(robot)
+    model = PoseModel(chain, compliance)
+    train, held, train_units, held_units = _split(data, settings.heldout)
+    if min(len(train_units), len(held_units)) < 3:
+        raise InputError(f"{len(np.unique(data.location))} configurations: the diagnosis needs at "
+                         f"least 6 (3 to fit the base registration's 6 parameters and a source on, "
+                         f"3 held out)")
+    library = source_library(chain, compliance, harmonics=settings.harmonics, drive=data.drive_kind)
+    if settings.kinds is not None:
+        library = [s for s in library if s.kind in settings.kinds]
+    eng = _Engine(model, data, train, held)
+    nominal_fit = eng.fit(())
+    notes = []
+    absorbed, equivalent = _signatures(eng, nominal_fit, library)
+    library = [s for s in library if s.name not in absorbed]
+    if absorbed:
+        notes.append("taken up by the base registration: " + ", ".join(absorbed))
+    every = np.arange(len(data.q))
+    e_nom = eng.error((), [], nominal_fit.rotation, nominal_fit.translation, every)
+    rms_nom = float(np.sqrt(np.mean(np.sum(e_nom ** 2, axis=1))))
+    if rms_nom > _IMPLAUSIBLE:
+        raise InputError(f"the readings depart from robot {robot.name} by {1e3 * rms_nom:.0f} mm rms "
+                         f"after registration: readings of another robot, another joint order, or "
+                         f"not in rad and m?")
+    where = pose_error_map(chain, compliance, data, eng.error((), [], nominal_fit.rotation,
+                                                              nominal_fit.translation, every))
+    say("nominal model registered; gap map")
+    e_all = eng.residual((), [], nominal_fit.rotation, nominal_fit.translation, every)
+    scored = [nominal_fit]
+    best = nominal_fit
+    if not significant(float(np.sum(e_all ** 2)), e_all.size, p=settings.p_noise,
+                       peak=float(np.max(np.abs(e_all)))):
+        verdict = "no significant gap"
+    else:
+        while len(best.sources) < settings.max_sources:
+            # a model must leave residuals to spare: the registration's 6 parameters and the
+            # sources' fewer than the training residuals
+            room = best.n_train - 6 - best.k
+            free = [s for s in library if s.name not in best.names and s.n_params < room]
+            if not free:
+                break
+            screened = eng.screen(best, free)[: settings.refine]
+            fits = [eng.fit(best.sources + (s,), best.values + (x,)) for _, s, x in screened]
+            scored += fits
+            step_best = min(fits, key=lambda f: f.score)
+            say(f"{len(step_best.sources)} source(s): {step_best.name}")
+            if step_best.score >= best.score:
+                break
+            best = step_best
+            if not significant(best.chi2_held, best.n_held, p=settings.p_noise, peak=best.peak_held):
+                break
+        if best.sources:
+            # each chosen source dropped in turn, refitted: a source the others made redundant goes
+            best = _pruned(eng, best, scored)
+        verdict = ("explained" if not significant(best.chi2_held, best.n_held, p=settings.p_noise,
+                                                  peak=best.peak_held) else "unexplained")
+    weights = selection_weights([f.chi2_held_unit for f in scored],
+                                [3 * np.sum(data.location[held] == u) for u in eng.held_units],
+                                [f.k for f in scored], n_boot=settings.bootstrap)
+    conf = confidences([f.names for f in scored], weights)
+    chosen = best if verdict == "explained" or best.sources else None
+    before = _heldout(eng, nominal_fit, settings.bootstrap)
+    after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
+    shrink, interval = _shrink(eng, nominal_fit, best, settings.bootstrap)
+    results = _ranked(eng, nominal_fit, best if chosen is not None else None, scored, conf)
+    return TrackerDiagnosis(
+        verdict=verdict, sources=tuple(results), where=where, heldout_before=before,
+        heldout_after=after, shrink=shrink, shrink_interval=interval, equivalent=equivalent,
+        absorbed=tuple(absorbed),
+        values={s.name: np.atleast_1d(v).tolist() for s, v in zip(best.sources, best.values)}
+        if chosen is not None else {},
+        models=tuple({"name": f.name, "k": f.k, "chi2_train": f.chi2_train, "n_train": f.n_train,
+                      "chi2_held": f.chi2_held, "n_held": f.n_held, "score": f.score,
+                      "weight": float(w)} for f, w in zip(scored, weights)),
+        n_readings=len(data.q), train=tuple(int(u) for u in train_units),
+        held=tuple(int(u) for u in held_units), seconds=time.perf_counter() - t0, notes=tuple(notes),
+        fitted=FittedPose(model, best.sources, best.values, best.rotation, best.translation)
+        if chosen is not None else FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation),
+        nominal_fitted=FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation))
+
+
+# -- where -------------------------------------------------------------------------------------
+
+def pose_error_map(chain, compliance, data: TrackerData, error: np.ndarray, *,
+                   n_bins: int = 6, harmonics: int = 2) -> PoseErrorMap:
+    """Where the pose error lies (see :class:`PoseErrorMap`); ``error`` (n, 3), m."""
+    e = np.asarray(error, float)
+    norm = np.linalg.norm(e, axis=1)
+    noise2 = np.mean(np.sum(data.sigma ** 2, axis=1))
+    msq = float(np.mean(norm ** 2))
+    tau = chain.gravity_torque(data.q)
+    regressors = {}
+    for j, name in enumerate(chain.names):
+        q = data.q[:, j]
+        regressors[f"q_{name}"] = q
+        if compliance[j] > 0:
+            regressors[f"tau_{name}"] = tau[:, j]
+        for h in range(1, harmonics + 1):
+            regressors[f"sin{h}_{name}"] = np.sin(h * q)
+            regressors[f"cos{h}_{name}"] = np.cos(h * q)
+    centred = e - e.mean(axis=0)
+    ss = float(np.sum(centred ** 2))
+    explains = {}
+    for key, r in regressors.items():
+        x = r - r.mean()
+        xx = float(x @ x)
+        if xx <= 0 or ss <= 0:
+            explains[key] = 0.0
+            continue
+        beta = x @ centred / xx                        # (3,)
+        explains[key] = float(np.sum(np.outer(x, beta) ** 2) / ss)
+    def binned(x):
+        edges = np.linspace(x.min(), x.max(), n_bins + 1)
+        which = np.clip(np.digitize(x, edges[1:-1]), 0, n_bins - 1)
+        rms = np.array([np.sqrt(np.mean(norm[which == b] ** 2)) if np.any(which == b) else np.nan
+                        for b in range(n_bins)])
+        return edges, rms
+
+    bins = {name: binned(data.q[:, j]) for j, name in enumerate(chain.names)}
+    # the workspace: the nominal TCP's place in the base frame, per axis
+    tcp = chain.position(data.q)
+    bins.update({f"tcp_{a}": binned(tcp[:, k]) for k, a in enumerate("xyz")})
+    return PoseErrorMap(rms=np.sqrt(np.mean(e ** 2, axis=0)), rms_total=float(np.sqrt(msq)),
+                        max_total=float(norm.max()) if len(norm) else 0.0,
+                        noise_rms=float(np.sqrt(noise2)),
+                        above_noise=float(max(0.0, 1 - noise2 / msq)) if msq > 0 else 0.0,
+                        explains=explains, bins=bins)
+
+
+# -- helpers -----------------------------------------------------------------------------------
+
+def _check(data: TrackerData, chain) -> None:
+    n = chain.n_joint
+    if data.q.ndim != 2 or data.q.shape[1] != n:
+        raise InputError(f"the readings have {data.q.shape[-1] if data.q.ndim == 2 else '?'} joint "
+                         f"angles per row; the robot has {n} arm joints ({', '.join(chain.names)})")
+    if data.joints and tuple(data.joints) != tuple(chain.names):
+        raise InputError(f"the readings' joints ({', '.join(data.joints)}) are not the robot's "
+                         f"({', '.join(chain.names)})")
+    for name in ("q", "measured", "sigma"):
+        arr = getattr(data, name)
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"readings {name} must be finite, got NaN or infinity")
+    if not np.all(data.sigma > 0):
+        raise InputError("readings sigma must be > 0")
+    if data.covariance is not None and data.covariance.shape != (len(data.q), 3, 3):
+        raise InputError(f"readings covariance must have shape ({len(data.q)}, 3, 3)")
+    for name in ("t", "temperature"):
+        v = getattr(data, name)
+        if v is not None and (v.shape != (len(data.q),) or not np.all(np.isfinite(v))):
+            raise InputError(f"readings {name} must be one finite value per reading")
+
+
+def _split(data: TrackerData, heldout: float):
+    units = np.unique(data.location)
+    if not 0 < heldout < 1:
+        raise InputError(f"heldout must be between 0 and 1, got {heldout}")
+    step = max(2, int(round(1 / heldout))) if heldout <= 0.5 else 2
+    held_units = units[1::step] if heldout <= 0.5 else units[::step]
+    train_units = np.setdiff1d(units, held_units)
+    train = np.flatnonzero(np.isin(data.location, train_units))
+    held = np.flatnonzero(np.isin(data.location, held_units))
+    return train, held, train_units, held_units
+
+
+def _stepped(sources, values, s, k, h, k_src):
+    """Values with parameter k of source s stepped ±h (s appended at zero if not in sources)."""
+    if k_src is None:
+        base = [np.asarray(v, float) for v in values] + [np.zeros(s.n_params)]
+        k_src = len(base) - 1
+    else:
+        base = [np.asarray(v, float) for v in values]
+    vp = [v.copy() for v in base]
+    vm = [v.copy() for v in base]
+    vp[k_src][k] += h
+    vm[k_src][k] -= h
+    return vp, vm
+
+
+def _signatures(eng: _Engine, fit: _Fit, library, *, cos_min: float = 0.995, absorbed_at: float = 1e-3):
+    """Sources the registration takes up, and groups of look-alikes, from their columns at the
+    nominal model after projecting out the registration's."""
+    idx = eng.train
+    reg = eng.registration_columns((), [], fit.rotation, idx)
+    q_reg, _ = np.linalg.qr(reg)
+    absorbed, vecs, names = [], [], []
+    for s in library:
+        cols = eng.columns((), [], fit.rotation, idx, of=(s,))
+        raw = np.linalg.norm(cols, axis=0)
+        proj = cols - q_reg @ (q_reg.T @ cols)
+        left = np.linalg.norm(proj, axis=0)
+        if np.all(left <= absorbed_at * np.maximum(raw, 1e-300)):
+            absorbed.append(s.name)
+            continue
+        v = proj[:, int(np.argmax(left))]
+        vecs.append(v / np.linalg.norm(v))
+        names.append(s.name)
+    groups, used = [], set()
+    if vecs:
+        V = np.array(vecs)
+        cos = np.abs(V @ V.T)
+        for i in range(len(names)):
+            if i in used:
+                continue
+            g = [j for j in range(len(names)) if cos[i, j] >= cos_min]
+            if len(g) > 1:
+                used.update(g)
+                groups.append(tuple(names[j] for j in g))
+    return absorbed, tuple(groups)
+
+
+def _pruned(eng: _Engine, best: _Fit, scored: list) -> _Fit:
+    while len(best.sources) > 1:
+        drops = []
+        for i in range(len(best.sources)):
+            keep = tuple(s for j, s in enumerate(best.sources) if j != i)
+            vals = tuple(v for j, v in enumerate(best.values) if j != i)
+            drops.append(eng.fit(keep, vals))
+        scored += drops
+        cand = min(drops, key=lambda f: f.score)
+        if cand.score >= best.score:
+            break
+        best = cand
+    return best
+
+
+def _heldout(eng: _Engine, fit: _Fit, n_boot: int, seed: int = 0) -> dict:
+    e = eng.error(fit.sources, fit.values, fit.rotation, fit.translation, eng.held)
+    norm = np.linalg.norm(e, axis=1)
+    resid = eng.residual(fit.sources, fit.values, fit.rotation, fit.translation, eng.held)
+    loc = eng.data.location[eng.held]
+    units = eng.held_units
+    sq = np.array([np.sum(norm[loc == u] ** 2) for u in units])
+    cnt = np.array([np.sum(loc == u) for u in units])
+    mx = np.array([np.max(norm[loc == u]) for u in units])
+    rng = np.random.default_rng(seed)
+    rms_b, max_b = [], []
+    for _ in range(n_boot):
+        i = rng.integers(0, len(units), len(units))
+        rms_b.append(np.sqrt(sq[i].sum() / cnt[i].sum()))
+        max_b.append(mx[i].max())
+    out = {"rms": float(np.sqrt(np.mean(norm ** 2))), "max": float(norm.max()),
+           "chi2_per_n": float(np.sum(resid ** 2) / resid.size)}
+    if n_boot:
+        out["rms_interval"] = [float(np.percentile(rms_b, 2.5)), float(np.percentile(rms_b, 97.5))]
+        out["max_interval"] = [float(np.percentile(max_b, 2.5)), float(np.percentile(max_b, 97.5))]
+    return out
+
+
+def _shrink(eng: _Engine, before: _Fit, after: _Fit, n_boot: int, seed: int = 0):
+    loc = eng.data.location[eng.held]
+    units = eng.held_units
+
+    def per_unit(fit):
+        e = eng.error(fit.sources, fit.values, fit.rotation, fit.translation, eng.held)
+        n2 = np.sum(e ** 2, axis=1)
+        return np.array([n2[loc == u].sum() for u in units])
+
+    s0, s1 = per_unit(before), per_unit(after)
+
+    def shrink(i):
+        return 1 - np.sqrt(s1[i].sum() / s0[i].sum()) if s0[i].sum() > 0 else 0.0
+
+    full = shrink(np.arange(len(units)))
+    rng = np.random.default_rng(seed)
+    boots = [shrink(rng.integers(0, len(units), len(units))) for _ in range(n_boot)]
+    return float(full), (float(np.percentile(boots, 2.5)), float(np.percentile(boots, 97.5)))
+
+
+def _ranked(eng: _Engine, nominal: _Fit, chosen: _Fit | None, scored, conf) -> list[SourceResult]:
+    out, seen = [], set()
+    if chosen is not None and chosen.sources:
+        e_full = eng.error(chosen.sources, chosen.values, chosen.rotation, chosen.translation, eng.held)
+        e_nom = eng.error((), [], nominal.rotation, nominal.translation, eng.held)
+        msq_full, msq_nom = np.mean(np.sum(e_full ** 2, 1)), np.mean(np.sum(e_nom ** 2, 1))
+        total = max(msq_nom - msq_full, 0.0)
+        drops = []
+        for i in range(len(chosen.sources)):
+            keep = tuple(s for j, s in enumerate(chosen.sources) if j != i)
+            vals = tuple(v for j, v in enumerate(chosen.values) if j != i)
+            f = eng.fit(keep, vals)
+            e = eng.error(f.sources, f.values, f.rotation, f.translation, eng.held)
+            drops.append(max(np.mean(np.sum(e ** 2, 1)) - msq_full, 0.0))
+        drops = np.array(drops)
+        shares = drops / drops.sum() * total / msq_nom if drops.sum() > 0 and msq_nom > 0 else 0 * drops
+        after = _heldout(eng, chosen, 0)
+        order = np.argsort(-shares)
+        for i in order:
+            s, v = chosen.sources[i], chosen.values[i]
+            out.append(SourceResult(s.name, s.kind, s.location, s.params_dict(v), s.describe(v),
+                                    float(shares[i]), conf.get(s.name, 0.0),
+                                    {"rms": after["rms"], "max": after["max"]}, True))
+            seen.add(s.name)
+    singles = sorted([f for f in scored if len(f.sources) == 1], key=lambda f: f.score)
+    for f in singles:
+        s, v = f.sources[0], f.values[0]
+        if s.name in seen:
+            continue
+        seen.add(s.name)
+        h = _heldout(eng, f, 0)
+        out.append(SourceResult(s.name, s.kind, s.location, s.params_dict(v), s.describe(v), 0.0,
+                                conf.get(s.name, 0.0), {"rms": h["rms"], "max": h["max"]}, False))
+    return out
