@@ -101,7 +101,7 @@ def _demo_tracker_gap(out: Path) -> None:
 
     robot = Robot.load("mh180")
     rng = np.random.default_rng(2026)
-    hidden = (HiddenSource("gear_periodic_error", "j4:h2", (1.2e-4, -0.8e-4)),
+    hidden = (HiddenSource("gear_periodic_error", "j4:h2", (2.4e-4, -1.8e-4)),
               HiddenSource("payload", "tool", (25.0,)))
     truth = TrueRobot(robot, hidden, 1.0, rng)
     q = np.repeat(sobol_points(200, *MH180_JOINT_BOX, rng), 2, axis=0)
@@ -110,7 +110,7 @@ def _demo_tracker_gap(out: Path) -> None:
     write_tracker_csv(csv, TrackerReadings(np.repeat(np.arange(200), 2), tuple(robot.arm_joints), q,
                                            truth.positions(q, t, q, noise=True, rng=rng), None, None,
                                            ("rmbench demo: MH180, j4 gear error and a 25 kg payload",), t))
-    print("\nsim-to-real gap on tracker readings: an MH180 with a j4 gear error (144 µrad, 2nd harmonic) "
+    print("\nsim-to-real gap on tracker readings: an MH180 with a j4 gear error (300 µrad, 2nd harmonic) "
           "and 25 kg the model lacks, 400 readings")
     dg = diagnose_tracker(robot, tracker_data(read_tracker_csv(csv), robot=robot))
     b, a = dg.heldout_before, dg.heldout_after
