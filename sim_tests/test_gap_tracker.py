@@ -178,3 +178,16 @@ def test_cli_refuses_readings_of_another_joint_count_in_one_line(mh180, tmp_path
     assert main(["gap", "diagnose", "--readings", str(path)]) == 2
     err = capsys.readouterr().err
     assert "5 joint columns, robot mh180 has 6 arm joints" in err and err.count("\n") == 1
+
+
+def test_thermal_drift_follows_the_temperature_when_the_readings_carry_it(mh180):
+    """An arm expanding 60 µm/m per hour while warming 2 K per hour: with temperatures the
+    diagnosis names the drift per kelvin, 30 µm/m/K (within 10 %: 240 readings of 0.1 mm noise
+    against a 0.1 mm drift)."""
+    from dataclasses import replace
+
+    data = _readings(mh180, (HiddenSource("thermal_drift", "time", (6e-5,)),), n=120)
+    warm = replace(data, t=None, temperature=20.0 + 2.0 * data.t / 3600.0)
+    dg = diagnose_tracker(mh180, warm)
+    assert [s.name for s in dg.chosen] == ["thermal_drift@temperature"]
+    assert dg.chosen[0].params["per_kelvin"] == pytest.approx(3e-5, rel=0.1)
