@@ -550,7 +550,7 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
     absorbed, equivalent = _signatures(eng, nominal_fit, library)
     library = [s for s in library if s.name not in absorbed]
     if absorbed:
-        notes.append("taken up by the base registration: " + ", ".join(absorbed))
+        notes.append("no signature beyond the base registration: " + ", ".join(absorbed))
     every = np.arange(len(data.q))
     e_nom = eng.error((), [], nominal_fit.rotation, nominal_fit.translation, every)
     rms_nom = float(np.sqrt(np.mean(np.sum(e_nom ** 2, axis=1))))
@@ -558,8 +558,7 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         raise InputError(f"the readings depart from robot {robot.name} by {1e3 * rms_nom:.0f} mm rms "
                          f"after registration: readings of another robot, another joint order, or "
                          f"not in rad and m?")
-    where = pose_error_map(chain, compliance, data, eng.error((), [], nominal_fit.rotation,
-                                                              nominal_fit.translation, every))
+    where = pose_error_map(chain, compliance, data, e_nom)
     say("nominal model registered; gap map")
     e_all = eng.residual((), [], nominal_fit.rotation, nominal_fit.translation, every)
     scored = [nominal_fit]
@@ -588,13 +587,16 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         if best.sources:
             # each chosen source dropped in turn, refitted: a source the others made redundant goes
             best = _pruned(eng, best, scored)
-        verdict = ("explained" if not significant(best.chi2_held, best.n_held, p=settings.p_noise,
-                                                  peak=best.peak_held) else "unexplained")
+        noise = not significant(best.chi2_held, best.n_held, p=settings.p_noise, peak=best.peak_held)
+        if best.sources:
+            verdict = "explained" if noise else "unexplained"
+        else:   # no source helps held out: a gap only if the held-out postures show one
+            verdict = "no significant gap" if noise else "unexplained"
     weights = selection_weights([f.chi2_held_unit for f in scored],
                                 [3 * np.sum(data.location[held] == u) for u in eng.held_units],
                                 [f.k for f in scored], n_boot=settings.bootstrap)
     conf = confidences([f.names for f in scored], weights)
-    chosen = best if verdict == "explained" or best.sources else None
+    chosen = best if best.sources else None
     before = _heldout(eng, nominal_fit, settings.bootstrap)
     after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
     shrink, interval = _shrink(eng, nominal_fit, best, settings.bootstrap)
