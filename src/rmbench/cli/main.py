@@ -20,7 +20,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rmbench.cli import campaign, control, demo, gap, modal, model, tracker
+    from rmbench.cli import campaign, control, demo, gap, modal, model, predict, tracker
 
     parser = _Parser(prog="rmbench", description="Virtual test bench for robotic machining dynamics.")
     parser.add_argument("--version", action="version", version=f"rmbench {__version__}")
@@ -29,6 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
     model.register(sub)
     campaign.register(sub)
     modal.register(sub)
+    predict.register(sub)
     tracker.register(sub)
     control.register(sub)
     gap.register(sub)

@@ -1,0 +1,120 @@
+"""The learning baselines of seed 003 (METHODS.md §9): one estimator per task, ``fit``/``predict``.
+
+* :class:`IDWNeighbours` — inverse-distance-weighted k nearest neighbours in a k-d tree over the
+  standardised inputs, k chosen in 2..20 by leave-one-out error on the training set;
+* ``RandomForest``, ``GradientBoosting``, ``ElasticNet`` — scikit-learn's, on standardised inputs
+  (gradient boosting: scikit-learn's, as XGBoost is not a dependency).
+
+Inputs are (x, y, θ) rows in SI units; targets one task's values, rows with NaN dropped by the caller.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = ["IDWNeighbours", "make_learner", "LEARNERS"]
+
+
+class _Scaled:
+    """Standardises the inputs with the training set's mean and spread."""
+
+    def _scale_fit(self, X):
+        X = np.asarray(X, float)
+        self.mean_ = X.mean(axis=0)
+        sd = X.std(axis=0)
+        self.scale_ = np.where(sd > 0, sd, 1.0)
+        return (X - self.mean_) / self.scale_
+
+    def _scale(self, X):
+        return (np.asarray(X, float) - self.mean_) / self.scale_
+
+
+class IDWNeighbours(_Scaled):
+    """Inverse-distance-weighted k-nearest-neighbour interpolation.
+
+    Parameters
+    ----------
+    k : int, optional
+        Neighbours; by default chosen in ``ks`` by leave-one-out error on the training set.
+    ks : iterable of int
+        Candidates for k (seed 003: 2..20).
+    power : float
+        Weights ``1 / d**power``; a query on a training point returns its value.
+    """
+
+    def __init__(self, k: int | None = None, ks=range(2, 21), power: float = 2.0):
+        self.k, self.ks, self.power = k, tuple(ks), float(power)
+
+    def fit(self, X, y) -> "IDWNeighbours":
+        Z = self._scale_fit(X)
+        self.y_ = np.asarray(y, float)
+        self.tree_ = cKDTree(Z)
+        n = len(Z)
+        if self.k is not None:
+            self.k_ = int(min(self.k, n))
+            return self
+        # leave-one-out: each point from its neighbours but itself
+        ks = [k for k in self.ks if k < n] or [max(n - 1, 1)]
+        d, i = self.tree_.query(Z, k=list(range(1, min(max(ks) + 1, n) + 1)))
+        d, i = d[:, 1:], i[:, 1:]
+        errors = [np.mean((self._weighted(d[:, :k], i[:, :k]) - self.y_) ** 2) for k in ks]
+        self.k_ = ks[int(np.argmin(errors))]
+        return self
+
+    def predict(self, X) -> np.ndarray:
+        Z = self._scale(X)
+        d, i = self.tree_.query(Z, k=list(range(1, self.k_ + 1)))
+        return self._weighted(d, i)
+
+    def _weighted(self, d, i):
+        exact = d[:, 0] <= 1e-12
+        w = 1.0 / np.maximum(d, 1e-12) ** self.power
+        out = np.sum(w * self.y_[i], axis=1) / np.sum(w, axis=1)
+        out[exact] = self.y_[i[exact, 0]]
+        return out
+
+
+class _Sklearn(_Scaled):
+    def __init__(self, make):
+        self._make = make
+
+    def fit(self, X, y):
+        self.model_ = self._make().fit(self._scale_fit(X), np.asarray(y, float))
+        return self
+
+    def predict(self, X) -> np.ndarray:
+        return self.model_.predict(self._scale(X))
+
+
+def _forest():
+    from sklearn.ensemble import RandomForestRegressor
+
+    return RandomForestRegressor(n_estimators=200, random_state=0, n_jobs=1)
+
+
+def _boosting():
+    from sklearn.ensemble import GradientBoostingRegressor
+
+    return GradientBoostingRegressor(random_state=0)
+
+
+def _enet():
+    from sklearn.linear_model import ElasticNetCV
+
+    return ElasticNetCV(l1_ratio=(0.1, 0.5, 0.9, 1.0), cv=3, max_iter=20_000)
+
+
+LEARNERS = ("knn", "rf", "gb", "enet")
+
+
+def make_learner(name: str):
+    """A fresh estimator: ``knn``, ``rf`` (random forest), ``gb`` (gradient boosting), ``enet``."""
+    if name == "knn":
+        return IDWNeighbours()
+    makers = {"rf": _forest, "gb": _boosting, "enet": _enet}
+    if name not in makers:
+        from rmbench.errors import InputError
+
+        raise InputError(f"unknown learner {name!r}; choose from {', '.join(LEARNERS)}")
+    return _Sklearn(makers[name])

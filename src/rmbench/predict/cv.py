@@ -1,0 +1,111 @@
+"""Cross-validated scores of a learner per task (METHODS.md §5, §9).
+
+``R² = 1 − Σ(κ − κ̂)² / Σ(κ − mean κ)²`` over each fold's held-out postures: accuracy is its mean
+over the folds, robustness its sample standard deviation. Splits: ``random`` (k folds of shuffled
+postures) and ``angle`` (each fold holds out every posture of one redundant angle θ, seed 003).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rmbench.errors import InputError
+from rmbench.predict.baselines import make_learner
+from rmbench.predict.data import TrainingSet
+
+__all__ = ["CVScores", "cross_validate", "folds_of"]
+
+
+@dataclass(frozen=True)
+class CVScores:
+    """Cross-validation of one learner.
+
+    Attributes
+    ----------
+    learner, split : str
+    tasks : tuple of str
+    r2_mean, r2_std : ndarray, shape (n_tasks,)
+        NaN for a task that was skipped.
+    r2_folds : ndarray, shape (n_tasks, n_folds)
+    skipped : dict
+        ``{task: reason}``: all NaN, constant, or too few postures for the folds.
+    """
+
+    learner: str
+    split: str
+    tasks: tuple
+    r2_mean: np.ndarray
+    r2_std: np.ndarray
+    r2_folds: np.ndarray
+    skipped: dict
+
+    def to_dict(self) -> dict:
+        ok = np.isfinite(self.r2_mean)
+        return {"learner": self.learner, "split": self.split,
+                "r2_mean": float(np.mean(self.r2_mean[ok])) if ok.any() else None,
+                "r2_std_mean": float(np.mean(self.r2_std[ok])) if ok.any() else None,
+                "tasks": {t: {"r2_mean": float(m), "r2_std": float(s)}
+                          for t, m, s in zip(self.tasks, self.r2_mean, self.r2_std) if np.isfinite(m)},
+                "skipped": self.skipped}
+
+
+def folds_of(X: np.ndarray, split: str, folds: int, seed: int = 0) -> list[np.ndarray]:
+    """Held-out row indices of each fold."""
+    n = len(X)
+    if split == "angle":
+        angles = np.unique(np.round(X[:, 2], 9))
+        if len(angles) < 2:
+            raise InputError("the angle split needs postures at two or more redundant angles")
+        return [np.flatnonzero(np.isclose(X[:, 2], a, atol=1e-9)) for a in angles]
+    if split != "random":
+        raise InputError(f"unknown split {split!r}; use random or angle")
+    if folds < 2 or folds > n:
+        raise InputError(f"{n} postures cannot make {folds} folds (need 2 <= folds <= postures)")
+    order = np.random.default_rng(seed).permutation(n)
+    return [np.sort(part) for part in np.array_split(order, folds)]
+
+
+def cross_validate(ts: TrainingSet, learner: str, *, folds: int = 5, split: str = "random",
+                   seed: int = 0) -> CVScores:
+    """Score ``learner`` (see :data:`rmbench.predict.baselines.LEARNERS`) on every task.
+
+    Raises
+    ------
+    rmbench.errors.InputError
+        Fewer postures than folds, an unknown split or learner.
+    """
+    make_learner(learner)                      # an unknown name fails here, once
+    parts = folds_of(ts.X, split, folds, seed)
+    k = len(parts)
+    r2 = np.full((len(ts.tasks), k), np.nan)
+    skipped = {}
+    for t, task in enumerate(ts.tasks):
+        y = ts.Y[:, t]
+        finite = np.isfinite(y)
+        if not finite.any():
+            skipped[task] = "no finite values (mode never found)"
+            continue
+        if np.ptp(y[finite]) == 0:
+            skipped[task] = "constant: R² undefined"
+            continue
+        for f, test in enumerate(parts):
+            test = test[finite[test]]
+            train = np.setdiff1d(np.flatnonzero(finite), test)
+            if len(test) < 2 or len(train) < 2:
+                continue
+            pred = make_learner(learner).fit(ts.X[train], y[train]).predict(ts.X[test])
+            ss = np.sum((y[test] - y[test].mean()) ** 2)
+            if ss > 0:
+                r2[t, f] = 1.0 - np.sum((y[test] - pred) ** 2) / ss
+        if np.sum(np.isfinite(r2[t])) < 2:
+            skipped[task] = "fewer than two folds with two or more finite held-out values"
+            r2[t] = np.nan
+    mean = np.full(len(ts.tasks), np.nan)
+    std = np.full(len(ts.tasks), np.nan)
+    for t, task in enumerate(ts.tasks):
+        if task not in skipped:
+            scores = r2[t][np.isfinite(r2[t])]
+            mean[t], std[t] = scores.mean(), scores.std(ddof=1)
+    return CVScores(learner, split, ts.tasks, mean, std, r2, skipped)
