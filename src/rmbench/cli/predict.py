@@ -55,4 +55,7 @@ def cmd_cv(args) -> int:
             print(f"  {res.tasks[t]}: R² {res.r2_mean[t]:.3f} ± {res.r2_std[t]:.3f}")
     for task, why in list(res.skipped.items())[:5]:
         print(f"  skipped {task}: {why}")
+    if res.notes:
+        print(f"  {len(res.notes)} parameters' fits needed jitter, e.g. {next(iter(res.notes))}: "
+              f"{next(iter(res.notes.values()))}")
     return 0

@@ -105,13 +105,18 @@ def _enet():
     return ElasticNetCV(l1_ratio=(0.1, 0.5, 0.9, 1.0), cv=3, max_iter=20_000)
 
 
-LEARNERS = ("knn", "rf", "gb", "enet")
+LEARNERS = ("stgp", "knn", "rf", "gb", "enet")
 
 
 def make_learner(name: str):
-    """A fresh estimator: ``knn``, ``rf`` (random forest), ``gb`` (gradient boosting), ``enet``."""
+    """A fresh estimator: ``stgp`` (single-task GP, :mod:`rmbench.predict.gp`), ``knn``, ``rf``
+    (random forest), ``gb`` (gradient boosting), ``enet``."""
     if name == "knn":
         return IDWNeighbours()
+    if name == "stgp":
+        from rmbench.predict.gp import STGP
+
+        return STGP()
     makers = {"rf": _forest, "gb": _boosting, "enet": _enet}
     if name not in makers:
         from rmbench.errors import InputError

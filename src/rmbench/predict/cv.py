@@ -31,6 +31,8 @@ class CVScores:
     r2_folds : ndarray, shape (n_tasks, n_folds)
     skipped : dict
         ``{task: reason}``: all NaN, constant, or too few postures for the folds.
+    notes : dict
+        ``{task: note}``: numerical trouble a fit reported (a GP's covariance needed jitter).
     """
 
     learner: str
@@ -40,6 +42,7 @@ class CVScores:
     r2_std: np.ndarray
     r2_folds: np.ndarray
     skipped: dict
+    notes: dict = None
 
     def to_dict(self) -> dict:
         ok = np.isfinite(self.r2_mean)
@@ -48,7 +51,7 @@ class CVScores:
                 "r2_std_mean": float(np.mean(self.r2_std[ok])) if ok.any() else None,
                 "tasks": {t: {"r2_mean": float(m), "r2_std": float(s)}
                           for t, m, s in zip(self.tasks, self.r2_mean, self.r2_std) if np.isfinite(m)},
-                "skipped": self.skipped}
+                "skipped": self.skipped, "notes": self.notes or {}}
 
 
 def folds_of(X: np.ndarray, split: str, folds: int, seed: int = 0) -> list[np.ndarray]:
@@ -80,7 +83,7 @@ def cross_validate(ts: TrainingSet, learner: str, *, folds: int = 5, split: str 
     parts = folds_of(ts.X, split, folds, seed)
     k = len(parts)
     r2 = np.full((len(ts.tasks), k), np.nan)
-    skipped = {}
+    skipped, notes = {}, {}
     for t, task in enumerate(ts.tasks):
         y = ts.Y[:, t]
         finite = np.isfinite(y)
@@ -95,7 +98,10 @@ def cross_validate(ts: TrainingSet, learner: str, *, folds: int = 5, split: str 
             train = np.setdiff1d(np.flatnonzero(finite), test)
             if len(test) < 2 or len(train) < 2:
                 continue
-            pred = make_learner(learner).fit(ts.X[train], y[train]).predict(ts.X[test])
+            model = make_learner(learner).fit(ts.X[train], y[train])
+            if getattr(model, "jitter_added_", 0.0) > 0:
+                notes[task] = f"covariance not positive definite: jitter up to {model.jitter_added_:.0e} added"
+            pred = model.predict(ts.X[test])
             ss = np.sum((y[test] - y[test].mean()) ** 2)
             if ss > 0:
                 r2[t, f] = 1.0 - np.sum((y[test] - pred) ** 2) / ss
@@ -108,4 +114,4 @@ def cross_validate(ts: TrainingSet, learner: str, *, folds: int = 5, split: str 
         if task not in skipped:
             scores = r2[t][np.isfinite(r2[t])]
             mean[t], std[t] = scores.mean(), scores.std(ddof=1)
-    return CVScores(learner, split, ts.tasks, mean, std, r2, skipped)
+    return CVScores(learner, split, ts.tasks, mean, std, r2, skipped, notes)
