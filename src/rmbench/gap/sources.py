@@ -217,7 +217,7 @@ class PoseModel:
             elif s.kind == "gravity_compliance":
                 comp[s.joint] *= 1.0 + v[0]
             elif s.kind == "payload":
-                chain = _with_mass(chain, float(v[0]), self.chain.tool_translation)
+                chain = chain.with_point_mass(float(v[0]), self.chain.tool_translation)
             elif s.kind == "thermal_drift":
                 if drive is None:
                     raise ValueError("thermal drift needs time stamps or temperatures")
@@ -231,18 +231,6 @@ class PoseModel:
             p = p * (1.0 + np.asarray(expansion))[:, None]
         return p
 
-
-def _with_mass(chain: SerialChain, mass: float, point) -> SerialChain:
-    """The chain with a point mass (kg, either sign: a fit may go below zero) added to the last
-    body at ``point`` (its frame), as :meth:`SerialChain.with_payload` adds a payload."""
-    from dataclasses import replace
-
-    masses, centres = chain.masses.copy(), chain.centres.copy()
-    total = masses[-1] + mass
-    if total > 0:
-        centres[-1] = (masses[-1] * centres[-1] + mass * np.asarray(point, float)) / total
-    masses[-1] = total
-    return replace(chain, masses=masses, centres=centres)
 
 
 def _normal(axis: np.ndarray) -> np.ndarray:

@@ -188,6 +188,11 @@ class SerialChain:
         """
         if not (np.isfinite(mass) and mass >= 0):
             raise InputError(f"payload mass must be finite and >= 0, got {mass!r}")
+        return self.with_point_mass(mass, centre)
+
+    def with_point_mass(self, mass: float, centre) -> "SerialChain":
+        """The chain with a point mass of either sign (kg) added to the last body at ``centre``
+        (its frame, m): a fitted payload correction may come out negative."""
         masses, centres = self.masses.copy(), self.centres.copy()
         total = masses[-1] + mass
         if total > 0:
