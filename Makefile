@@ -35,6 +35,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/gap_blind.py | tee bench/results/gap_blind.txt
 	$(BIN)/python bench/gap_real.py | tee bench/results/gap_real.txt
 	$(BIN)/python bench/gap_tracker.py | tee bench/results/gap_tracker.txt
+	$(BIN)/python bench/predict.py | tee bench/results/predict.txt
 
 clean:
 	rm -rf $(VENV) rmbench_demo

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["IDWNeighbours", "make_learner", "LEARNERS"]
+__all__ = ["IDWNeighbours", "PerTask", "make_learner", "LEARNERS", "MULTI_TASK"]
 
 
 class _Scaled:
@@ -87,6 +87,32 @@ class _Sklearn(_Scaled):
         return self.model_.predict(self._scale(X))
 
 
+class PerTask:
+    """All parameters with one single-task learner per column (NaN rows dropped per column);
+    ``predict(X, return_std=True)`` gives NaN standard deviations (these learners have none)."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def fit(self, X, Y) -> "PerTask":
+        X, Y = np.asarray(X, float), np.asarray(Y, float)
+        self.models_ = []
+        for j in range(Y.shape[1]):
+            ok = np.isfinite(Y[:, j])
+            y = Y[ok, j]
+            if len(y) < 2 or np.ptp(y) == 0:
+                self.models_.append(float(y[0]) if len(y) else np.nan)
+            else:
+                self.models_.append(make_learner(self.name).fit(X[ok], y))
+        return self
+
+    def predict(self, X, return_std: bool = False):
+        X = np.atleast_2d(np.asarray(X, float))
+        mu = np.column_stack([np.full(len(X), m) if isinstance(m, float) else m.predict(X)
+                              for m in self.models_])
+        return (mu, np.full_like(mu, np.nan)) if return_std else mu
+
+
 def _forest():
     from sklearn.ensemble import RandomForestRegressor
 
@@ -105,18 +131,40 @@ def _enet():
     return ElasticNetCV(l1_ratio=(0.1, 0.5, 0.9, 1.0), cv=3, max_iter=20_000)
 
 
-LEARNERS = ("stgp", "knn", "rf", "gb", "enet")
+LEARNERS = ("mtgp-grouped", "mtgp", "mtgp-lowrank", "stgp", "knn", "rf", "gb", "enet")
+# fitted on all parameters at once (one gpytorch batch or one Kronecker model), not task by task
+MULTI_TASK = ("mtgp-grouped", "mtgp", "mtgp-lowrank", "stgp")
+LOW_RANK = 8   # columns of B in the low-rank all-parameter model (K_c = B Bᵀ + diag v)
 
 
-def make_learner(name: str):
-    """A fresh estimator: ``stgp`` (single-task GP, :mod:`rmbench.predict.gp`), ``knn``, ``rf``
-    (random forest), ``gb`` (gradient boosting), ``enet``."""
+def make_learner(name: str, ts=None, tasks=None):
+    """A fresh estimator.
+
+    Single-task (``fit(X, y)``, one per parameter): ``knn``, ``rf`` (random forest), ``gb``
+    (gradient boosting), ``enet``. On all parameters at once (``fit(X, Y)``; :mod:`rmbench.predict.gp`,
+    :mod:`rmbench.predict.mtgp`): ``stgp`` (one single-task GP per column, fitted as one gpytorch
+    batch; needs ``ts`` or ``tasks`` for the column count), ``mtgp-grouped`` (the seed's groups of m ≤ 3,
+    which need the training set ``ts`` for the tasks' names and bands, and the column indices
+    ``tasks`` of ``ts`` that ``Y`` holds), ``mtgp`` (one Kronecker model of all parameters, free
+    K_c) and ``mtgp-lowrank`` (rank-``LOW_RANK`` K_c).
+    """
     if name == "knn":
         return IDWNeighbours()
-    if name == "stgp":
-        from rmbench.predict.gp import STGP
+    if name in MULTI_TASK:
+        from rmbench.predict.mtgp import MTGP, GroupedMTGP, seed_groups
 
-        return STGP()
+        if name == "stgp":                 # one single-task GP per column, fitted as one batch
+            return GroupedMTGP([[j] for j in range(len(tasks if tasks is not None else
+                                                       (ts.tasks if ts is not None else ())))])
+        if name == "mtgp":
+            return MTGP()
+        if name == "mtgp-lowrank":
+            return MTGP(rank=LOW_RANK)
+        if ts is None:
+            return GroupedMTGP([])
+        tasks = list(range(len(ts.tasks))) if tasks is None else list(tasks)
+        return GroupedMTGP(seed_groups([ts.tasks[t] for t in tasks],
+                                       [ts.bands[t] for t in tasks] if ts.bands else None))
     makers = {"rf": _forest, "gb": _boosting, "enet": _enet}
     if name not in makers:
         from rmbench.errors import InputError

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.predict.baselines import make_learner
-from rmbench.predict.data import TrainingSet
+from rmbench.predict.baselines import MULTI_TASK, make_learner
+from rmbench.predict.data import TrainingSet, constant_tasks
 
 __all__ = ["CVScores", "cross_validate", "folds_of"]
 
@@ -33,6 +33,8 @@ class CVScores:
         ``{task: reason}``: all NaN, constant, or too few postures for the folds.
     notes : dict
         ``{task: note}``: numerical trouble a fit reported (a GP's covariance needed jitter).
+    predictions : ndarray, shape (n_postures, n_tasks)
+        Out-of-fold predictions (each posture predicted by the model that did not see it).
     """
 
     learner: str
@@ -43,6 +45,7 @@ class CVScores:
     r2_folds: np.ndarray
     skipped: dict
     notes: dict = None
+    predictions: np.ndarray = None
 
     def to_dict(self) -> dict:
         ok = np.isfinite(self.r2_mean)
@@ -89,24 +92,40 @@ def cross_validate(ts: TrainingSet, learner: str, *, folds: int = 5, split: str 
         finite = np.isfinite(y)
         if not finite.any():
             skipped[task] = "no finite values (mode never found)"
-            continue
-        if np.ptp(y[finite]) == 0:
+        elif constant_tasks(y[finite][:, None])[0]:
             skipped[task] = "constant: R² undefined"
-            continue
+    live = [t for t, task in enumerate(ts.tasks) if task not in skipped]
+    oof = np.full(ts.Y.shape, np.nan)
+    if learner in MULTI_TASK:
+        model = None
         for f, test in enumerate(parts):
-            test = test[finite[test]]
-            train = np.setdiff1d(np.flatnonzero(finite), test)
-            if len(test) < 2 or len(train) < 2:
-                continue
-            model = make_learner(learner).fit(ts.X[train], y[train])
+            train = np.setdiff1d(np.arange(len(ts.X)), test)
+            model = make_learner(learner, ts, live).fit(ts.X[train], ts.Y[train][:, live])
             if getattr(model, "jitter_added_", 0.0) > 0:
-                notes[task] = f"covariance not positive definite: jitter up to {model.jitter_added_:.0e} added"
+                notes[f"fold{f}"] = (f"covariance not positive definite: jitter up to "
+                                     f"{model.jitter_added_:.0e} added")
             pred = model.predict(ts.X[test])
-            ss = np.sum((y[test] - y[test].mean()) ** 2)
-            if ss > 0:
-                r2[t, f] = 1.0 - np.sum((y[test] - pred) ** 2) / ss
+            oof[np.ix_(test, live)] = pred
+            for j, t in enumerate(live):
+                r2[t, f] = _r2(ts.Y[test, t], pred[:, j])
+    else:
+        for t in live:
+            y = ts.Y[:, t]
+            finite = np.isfinite(y)
+            for f, test in enumerate(parts):
+                test = test[finite[test]]
+                train = np.setdiff1d(np.flatnonzero(finite), test)
+                if len(test) < 2 or len(train) < 2:
+                    continue
+                model = make_learner(learner).fit(ts.X[train], y[train])
+                if getattr(model, "jitter_added_", 0.0) > 0:
+                    notes[ts.tasks[t]] = (f"covariance not positive definite: jitter up to "
+                                          f"{model.jitter_added_:.0e} added")
+                oof[test, t] = model.predict(ts.X[test])
+                r2[t, f] = _r2(y[test], oof[test, t])
+    for t in live:
         if np.sum(np.isfinite(r2[t])) < 2:
-            skipped[task] = "fewer than two folds with two or more finite held-out values"
+            skipped[ts.tasks[t]] = "fewer than two folds with two or more finite held-out values"
             r2[t] = np.nan
     mean = np.full(len(ts.tasks), np.nan)
     std = np.full(len(ts.tasks), np.nan)
@@ -114,4 +133,12 @@ def cross_validate(ts: TrainingSet, learner: str, *, folds: int = 5, split: str 
         if task not in skipped:
             scores = r2[t][np.isfinite(r2[t])]
             mean[t], std[t] = scores.mean(), scores.std(ddof=1)
-    return CVScores(learner, split, ts.tasks, mean, std, r2, skipped, notes)
+    return CVScores(learner, split, ts.tasks, mean, std, r2, skipped, notes, oof)
+
+
+def _r2(y: np.ndarray, pred: np.ndarray) -> float:
+    """R² of one fold's held-out values (NaN where fewer than two are finite or they have no spread)."""
+    ok = np.isfinite(y) & np.isfinite(pred)
+    y, pred = y[ok], pred[ok]
+    ss = np.sum((y - y.mean()) ** 2) if len(y) >= 2 else 0.0
+    return 1.0 - np.sum((y - pred) ** 2) / ss if ss > 0 else np.nan

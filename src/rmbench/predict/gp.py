@@ -1,9 +1,26 @@
-"""Single-task Gaussian process (STGP, METHODS.md §5), in gpytorch, float64.
+"""Gaussian-process regression of the modal parameters over the posture (METHODS.md §5), in
+gpytorch, float64.
 
-One exact GP per task: ARD squared-exponential kernel ``σ_f² exp(−½ Σ_d w_d (x_d − x'_d)²)``,
-Gaussian noise σ_n², hyperparameters by maximising the log marginal likelihood (L-BFGS from a few
-starts), on standardised inputs and outputs. A covariance that is not positive definite is retried
-with more jitter and counted in ``retries_``, never silent.
+The model of ``m`` tasks (intrinsic coregionalisation)::
+
+    cov(y_ij, y_kl) = K_t(x_i, x_k) K_c[j, l] + δ_ik δ_jl σ_j²
+
+with an ARD squared-exponential posture kernel ``K_t = exp(−½ Σ_d (x_d − x'_d)² / ℓ_d²)`` shared by
+the tasks, a free task covariance ``K_c = B Bᵀ + diag(v)`` (``B`` of ``rank`` columns: rank m is the
+seed's free-form ``L Lᵀ``, a smaller rank the low-rank variant), one noise variance per task and a
+constant mean per task, on standardised inputs and outputs. Hyperparameters maximise the log
+marginal likelihood (L-BFGS from two starting length scales, the better kept). The single-task GP
+(STGP: ``σ_f² K_t`` + noise) is the case m = 1.
+
+For m > 1 gpytorch evaluates the likelihood of the Kronecker-plus-diagonal covariance through the
+eigendecompositions of the two factors after whitening by the task noises (linear_operator's
+``KroneckerProductAddedDiagLinearOperator``, Rakitsch et al. 2013): O(n³ + m³), so the model of all
+parameters costs about as much as one task. Kronecker inference needs every task at every training
+posture: a posture where any task of a model is NaN is left out of that model (``dropped_``).
+Predictions come from :class:`~rmbench.predict.posterior.KronPosterior` (numpy, same algebra).
+
+A covariance that is not positive definite is retried with more jitter and reported
+(``retries_``, ``jitter_added_``), never silent.
 """
 
 from __future__ import annotations
@@ -12,9 +29,18 @@ import warnings
 
 import numpy as np
 
-from rmbench.errors import RmbenchError
+from rmbench.errors import InputError, RmbenchError
+from rmbench.predict.data import constant_tasks
+from rmbench.predict.posterior import KronPosterior
 
-__all__ = ["STGP"]
+__all__ = ["MTGP", "STGP", "fit_icm"]
+
+# Noise variance floor in standardised units (σ_n ≥ 0.1 % of a task's spread): the modal fit's own
+# scatter is above it for every parameter, and it keeps K_c ⊗ K_t + D well conditioned.
+_NOISE_FLOOR = 1e-6
+# Length scales in standardised input units: an input the parameter does not depend on drives its
+# length scale up without bound (exp overflow, NaN); 100 spreads already mean "flat".
+_LENGTHSCALE_BOUNDS = (1e-2, 1e2)
 
 
 def _torch():
@@ -27,124 +53,263 @@ def _torch():
     return torch, gpytorch
 
 
-class STGP:
-    """Exact single-task GP regression.
+class MTGP:
+    """Kronecker multi-task GP regression.
 
     Parameters
     ----------
+    rank : int, optional
+        Columns of ``B`` in ``K_c = B Bᵀ + diag(v)``; default: the number of tasks (free form).
     iterations : int
-        L-BFGS iterations per start.
-    starts : int
-        Starts of the hyperparameter search (length scales 1, 0.3, 3 × the inputs' spread...).
+        L-BFGS iterations.
     seed : int
-        Seeds torch for reproducible fits.
 
     Attributes
     ----------
-    lengthscales_ : ndarray, shape (n_inputs,)
-        ARD length scales in the inputs' units (1/√w_d).
-    noise_ : float
-        Noise standard deviation σ_n in the targets' units.
+    lengthscales_ : ndarray, shape (3,)
+        ARD length scales in the inputs' units.
+    task_covariance_ : ndarray, shape (m, m)
+        ``K_c`` in the tasks' units (squared).
+    noise_ : ndarray, shape (m,)
+        Noise standard deviation per task, in the tasks' units.
+    dropped_ : int
+        Training postures left out because some task was NaN there.
     retries_ : int
-        Fits retried with more jitter.
-    jitter_added_ : float
-        Largest jitter linear_operator added to a covariance's diagonal during the fit (0: none).
+        Fits retried with more jitter; ``jitter_added_`` the largest jitter linear_operator added.
     """
 
-    def __init__(self, iterations: int = 60, starts: int = 2, seed: int = 0):
-        self.iterations, self.starts, self.seed = int(iterations), int(starts), int(seed)
+    def __init__(self, rank: int | None = None, iterations: int = 100, seed: int = 0):
+        self.rank, self.iterations, self.seed = rank, int(iterations), int(seed)
 
-    def fit(self, X, y) -> "STGP":
-        torch, gpytorch = _torch()
-
-        X = np.asarray(X, float)
-        y = np.asarray(y, float)
-        self.x_mean_, x_sd = X.mean(axis=0), X.std(axis=0)
-        self.x_scale_ = np.where(x_sd > 0, x_sd, 1.0)
-        self.y_mean_, y_sd = y.mean(), y.std()
-        self.y_scale_ = y_sd if y_sd > 0 else 1.0
-        tx = torch.as_tensor((X - self.x_mean_) / self.x_scale_, dtype=torch.float64)
-        ty = torch.as_tensor((y - self.y_mean_) / self.y_scale_, dtype=torch.float64)
-        torch.manual_seed(self.seed)
-        best, self.retries_, self.jitter_added_ = None, 0, 0.0
-        for start in range(max(self.starts, 1)):
-            for jitter in (1e-8, 1e-6, 1e-4):
-                try:
-                    # linear_operator adds jitter itself when a Cholesky fails, with a warning:
-                    # the largest it added is kept in jitter_added_, for the caller to report
-                    with warnings.catch_warnings(record=True) as caught, \
-                            gpytorch.settings.cholesky_jitter(double_value=jitter):
-                        warnings.simplefilter("always", gpytorch.utils.warnings.NumericalWarning)
-                        model, lik, loss = self._fit_once(tx, ty, 0.3 * 3.0 ** start)
-                    self.jitter_added_ = max([self.jitter_added_] + _jitters(caught))
-                    break
-                except (gpytorch.utils.errors.NotPSDError, RuntimeError):
-                    self.retries_ += 1
-            else:
-                continue
-            if best is None or loss < best[2]:
-                best = (model, lik, loss)
-        if best is None:
-            raise RmbenchError("the Gaussian process fit failed at every jitter (covariance not "
-                               "positive definite)")
-        self.model_, self.likelihood_, _ = best
-        self.model_.eval()
-        self.likelihood_.eval()
-        k = self.model_.covar_module
-        self.lengthscales_ = k.base_kernel.lengthscale.detach().numpy().ravel() * self.x_scale_
-        self.noise_ = float(np.sqrt(self.likelihood_.noise.item())) * self.y_scale_
+    def fit(self, X, Y) -> "MTGP":
+        prep = self._prepare(X, Y)
+        if prep is not None:
+            Xs, Ys, rank = prep
+            self._set(Xs, Ys, fit_icm(Xs, Ys[None], rank, iterations=self.iterations,
+                                      seed=self.seed), 0)
         return self
 
-    def _fit_once(self, tx, ty, lengthscale: float):
-        torch, gpytorch = _torch()
+    def _prepare(self, X, Y):
+        """Drop incomplete rows and constant tasks, standardise; None when no task varies."""
+        X, Y = np.asarray(X, float), np.asarray(Y, float)
+        if Y.ndim == 1:
+            Y = Y[:, None]
+        rows = np.all(np.isfinite(Y), axis=1)
+        self.dropped_ = int((~rows).sum())
+        self.rows_ = rows
+        self.retries_, self.jitter_added_ = 0, 0.0
+        X, Y = X[rows], Y[rows]
+        self.n_tasks_ = Y.shape[1]
+        # a task without spread (φL's reference element, fixed at 1) is that constant, not a GP task
+        self.varying_ = np.flatnonzero(~constant_tasks(Y)) if len(Y) else np.arange(0)
+        self.constant_ = Y[0].copy() if len(Y) else np.full(self.n_tasks_, np.nan)
+        self.posterior_ = None
+        Y = Y[:, self.varying_]
+        n, m = Y.shape
+        if m == 0:
+            return None
+        if n < 3:
+            raise InputError(f"{n} postures have every task of this model: a multi-task GP needs three")
+        self.x_mean_, x_sd = X.mean(axis=0), X.std(axis=0)
+        self.x_scale_ = np.where(x_sd > 0, x_sd, 1.0)
+        self.y_mean_, y_sd = Y.mean(axis=0), Y.std(axis=0)
+        self.y_scale_ = np.where(y_sd > 0, y_sd, 1.0)
+        rank = m if self.rank is None else int(min(max(self.rank, 1), m))
+        return (X - self.x_mean_) / self.x_scale_, (Y - self.y_mean_) / self.y_scale_, rank
 
-        class _GP(gpytorch.models.ExactGP):
-            def __init__(self, x, y, lik):
-                super().__init__(x, y, lik)
-                self.mean_module = gpytorch.means.ConstantMean()
-                self.covar_module = gpytorch.kernels.ScaleKernel(
-                    gpytorch.kernels.RBFKernel(ard_num_dims=x.shape[1]))
-
-            def forward(self, x):
-                return gpytorch.distributions.MultivariateNormal(self.mean_module(x),
-                                                                 self.covar_module(x))
-
-        lik = gpytorch.likelihoods.GaussianLikelihood(
-            noise_constraint=gpytorch.constraints.GreaterThan(1e-8)).double()
-        model = _GP(tx, ty, lik).double()
-        model.covar_module.base_kernel.lengthscale = torch.full((1, tx.shape[1]), lengthscale,
-                                                                dtype=torch.float64)
-        lik.noise = 1e-2
-        model.train()
-        lik.train()
-        mll = gpytorch.mlls.ExactMarginalLogLikelihood(lik, model)
-        opt = torch.optim.LBFGS(model.parameters(), lr=0.5, max_iter=self.iterations,
-                                line_search_fn="strong_wolfe")
-
-        def closure():
-            opt.zero_grad()
-            loss = -mll(model(tx), ty)
-            loss.backward()
-            return loss
-
-        opt.step(closure)
-        with torch.no_grad():
-            loss = float(-mll(model(tx), ty))
-        if not np.isfinite(loss):
-            raise RuntimeError("non-finite marginal likelihood")
-        return model, lik, loss
+    def _set(self, Xs, Ys, fitted: dict, b: int) -> None:
+        """Take the ``b``-th model of a (batched) :func:`fit_icm` result."""
+        ls, Kc, noise, mean = (fitted[k][b] for k in ("lengthscales", "Kc", "noise", "mean"))
+        self.retries_, self.jitter_added_ = fitted["retries"], fitted["jitter_added"]
+        self.posterior_ = KronPosterior.build(Xs, Ys, ls, Kc, noise, mean)
+        self.lengthscales_ = ls * self.x_scale_
+        self.task_covariance_ = Kc * np.outer(self.y_scale_, self.y_scale_)
+        self.noise_ = np.sqrt(noise) * self.y_scale_
 
     def predict(self, X, return_std: bool = False):
-        """Predictive mean (n,) and, with ``return_std``, standard deviation of the latent function."""
-        torch, gpytorch = _torch()
+        """Mean, shape (n, m), and with ``return_std`` the latent standard deviation."""
+        X = np.atleast_2d(np.asarray(X, float))
+        mu = np.tile(self.constant_, (len(X), 1))
+        sd = np.zeros_like(mu)
+        if self.posterior_ is not None:
+            v = self.varying_
+            out = self.posterior_.predict((X - self.x_mean_) / self.x_scale_, return_std)
+            if return_std:
+                mu[:, v], sd[:, v] = out[0] * self.y_scale_ + self.y_mean_, out[1] * self.y_scale_
+            else:
+                mu[:, v] = out * self.y_scale_ + self.y_mean_
+        return (mu, sd) if return_std else mu
 
-        tx = torch.as_tensor((np.asarray(X, float) - self.x_mean_) / self.x_scale_, dtype=torch.float64)
-        with torch.no_grad(), gpytorch.settings.fast_pred_var(False):
-            post = self.model_(tx)
-            mean = post.mean.numpy() * self.y_scale_ + self.y_mean_
-            if not return_std:
-                return mean
-            return mean, np.sqrt(post.variance.clamp_min(0).numpy()) * self.y_scale_
+
+class STGP(MTGP):
+    """Single-task GP: :class:`MTGP` of one task; ``fit(X, y)`` with ``y`` of shape (n,), and
+    ``predict`` returns shape (n,).
+
+    Attributes
+    ----------
+    lengthscales_ : ndarray, shape (3,)
+        ARD length scales in the inputs' units.
+    noise_ : float
+        Noise standard deviation σ_n in the target's units.
+    """
+
+    def __init__(self, iterations: int = 100, seed: int = 0):
+        super().__init__(rank=1, iterations=iterations, seed=seed)
+
+    def fit(self, X, y) -> "STGP":
+        y = np.asarray(y, float)
+        if y.ndim != 1:
+            raise InputError(f"STGP fits one task: y must have shape (n,), not {y.shape}")
+        super().fit(X, y[:, None])
+        if self.posterior_ is not None:
+            self.noise_ = float(self.noise_[0])
+        return self
+
+    def predict(self, X, return_std: bool = False):
+        out = super().predict(X, return_std)
+        return (out[0][:, 0], out[1][:, 0]) if return_std else out[:, 0]
+
+
+
+def fit_icm(Xs: np.ndarray, Ys: np.ndarray, rank: int, *, iterations: int = 100, seed: int = 0,
+            lengthscale_starts=(1.0, 0.3)) -> dict:
+    """Hyperparameters of a batch of ICM models by maximum marginal likelihood, in gpytorch.
+
+    Parameters
+    ----------
+    Xs : ndarray, shape (n, d)
+        Standardised inputs, shared by the batch.
+    Ys : ndarray, shape (B, n, m)
+        Standardised targets of ``B`` independent models of ``m`` tasks each.
+    rank : int
+        Columns of ``B`` in ``K_c = B Bᵀ + diag(v)``.
+    lengthscale_starts : sequence of float
+        Starting length scales (standardised units); each model keeps its best start.
+
+    Returns
+    -------
+    dict
+        ``lengthscales`` (B, d), ``Kc`` (B, m, m), ``noise`` (B, m) variances, ``mean`` (B, m),
+        ``nll`` (B,) per datum, ``retries`` and ``jitter_added`` (numerical trouble, reported).
+    """
+    torch, gpytorch = _torch()
+    from linear_operator.utils.errors import NanError, NotPSDError
+
+    B, n, m = Ys.shape
+    best, retries, jitter_added = None, 0, 0.0
+    for start, ls0 in enumerate(lengthscale_starts):
+        torch.manual_seed(seed + start)
+        for jitter in (1e-8, 1e-6, 1e-4):
+            try:
+                # a small covariance (n·m ≤ 800) is factorised by Cholesky, faster than the two
+                # eigendecompositions; a larger one always goes the Kronecker way
+                with warnings.catch_warnings(record=True) as caught, \
+                        gpytorch.settings.cholesky_jitter(double_value=jitter), \
+                        gpytorch.settings.max_cholesky_size(800 if m == 1 else 0):
+                    warnings.simplefilter("always", gpytorch.utils.warnings.NumericalWarning)
+                    out = _fit_batch(torch, gpytorch, Xs, Ys, rank, ls0, iterations)
+                jitter_added = max([jitter_added] + _jitters(caught))
+                break
+            except (NotPSDError, NanError):
+                retries += 1
+        else:
+            continue
+        if best is None:
+            best = out
+        else:
+            better = out["nll"] < best["nll"]
+            for k in best:
+                best[k][better] = out[k][better]
+    if best is None:
+        raise RmbenchError("the multi-task GP fit failed at every jitter (covariance not "
+                           "positive definite)")
+    return best | {"retries": retries, "jitter_added": jitter_added}
+
+
+def _batched_icm_kernel(gpytorch):
+    """gpytorch's MultitaskKernel, except that a kernel with its own batch shape keeps its task
+    covariance's batch: MultitaskKernel.forward repeats it over the inputs' batch dimensions
+    (gpytorch 1.15), which multiplies the batch (B → B²) when kernel and inputs are both batched."""
+    from linear_operator import to_linear_operator
+    from linear_operator.operators import KroneckerProductLinearOperator
+
+    class _Kernel(gpytorch.kernels.MultitaskKernel):
+        def forward(self, x1, x2, diag=False, last_dim_is_batch=False, **params):
+            covar_i = self.task_covar_module.covar_matrix
+            covar_i = covar_i.expand(*x1.shape[:-2], *covar_i.shape[-2:])
+            covar_x = to_linear_operator(self.data_covar_module.forward(x1, x2, **params))
+            res = KroneckerProductLinearOperator(covar_x, covar_i)
+            return res.diagonal(dim1=-1, dim2=-2) if diag else res
+
+    return _Kernel
+
+
+def _fit_batch(torch, gpytorch, Xs, Ys, rank, ls0, iterations) -> dict:
+    from linear_operator.utils.errors import NotPSDError
+
+    B, n, m = Ys.shape
+    _BatchedICMKernel = _batched_icm_kernel(gpytorch)
+    batch = torch.Size([B])
+    tx = torch.as_tensor(np.broadcast_to(Xs, (B,) + Xs.shape).copy(), dtype=torch.float64)
+    ty = torch.as_tensor(Ys, dtype=torch.float64)
+
+    class _ICM(gpytorch.models.ExactGP):
+        def __init__(self, x, y, lik):
+            super().__init__(x, y, lik)
+            self.mean_module = gpytorch.means.MultitaskMean(
+                gpytorch.means.ConstantMean(batch_shape=batch), num_tasks=m)
+            self.covar_module = _BatchedICMKernel(
+                gpytorch.kernels.RBFKernel(ard_num_dims=x.shape[-1], batch_shape=batch,
+                                           lengthscale_constraint=gpytorch.constraints.Interval(
+                                               *_LENGTHSCALE_BOUNDS)),
+                num_tasks=m, rank=rank, batch_shape=batch)
+
+        def forward(self, x):
+            return gpytorch.distributions.MultitaskMultivariateNormal(self.mean_module(x),
+                                                                      self.covar_module(x))
+
+    lik = gpytorch.likelihoods.MultitaskGaussianLikelihood(
+        num_tasks=m, rank=0, batch_shape=batch, has_global_noise=False,
+        noise_constraint=gpytorch.constraints.GreaterThan(_NOISE_FLOOR)).double()
+    model = _ICM(tx, ty, lik).double()
+    model.covar_module.data_covar_module.lengthscale = torch.full((B, 1, Xs.shape[1]), ls0,
+                                                                  dtype=torch.float64)
+    # K_c starts at the tasks' empirical correlation (scaled below the unit variance so that the
+    # noise has room), its leading `rank` eigenpairs in B
+    factors = np.empty((B, m, rank))
+    for b in range(B):
+        corr = np.nan_to_num(np.corrcoef(Ys[b].T), nan=0.0) if m > 1 else np.ones((1, 1))
+        w, v = np.linalg.eigh(0.9 * np.atleast_2d(corr))
+        top = np.argsort(w)[::-1][:rank]
+        factors[b] = v[:, top] * np.sqrt(np.maximum(w[top], 1e-6))
+    task = model.covar_module.task_covar_module
+    task.covar_factor.data = torch.as_tensor(factors, dtype=torch.float64)
+    task.var = torch.full((B, m), 1e-3, dtype=torch.float64)
+    lik.task_noises = torch.full((B, m), 1e-2, dtype=torch.float64)
+    model.train()
+    lik.train()
+    mll = gpytorch.mlls.ExactMarginalLogLikelihood(lik, model)
+    opt = torch.optim.LBFGS(model.parameters(), lr=0.5, max_iter=iterations,
+                            line_search_fn="strong_wolfe")
+
+    def closure():
+        opt.zero_grad()
+        loss = -mll(model(tx), ty).sum()   # the models are independent: the sum separates
+        loss.backward()
+        return loss
+
+    opt.step(closure)
+    with torch.no_grad():
+        nll = -mll(model(tx), ty).reshape(B).numpy().copy()
+        out = {"lengthscales": model.covar_module.data_covar_module.lengthscale.reshape(B, -1).numpy().copy(),
+               "Kc": task.covar_matrix.to_dense().reshape(B, m, m).numpy().copy(),
+               "noise": lik.task_noises.reshape(B, m).numpy().copy(),
+               "mean": torch.stack([mm.constant.reshape(B) for mm in model.mean_module.base_means],
+                                   dim=-1).numpy().copy()}
+    nll[~np.isfinite(nll)] = np.inf
+    if not np.isfinite(nll).any():
+        raise NotPSDError("non-finite marginal likelihood")
+    return out | {"nll": nll}
 
 
 def _jitters(caught) -> list:

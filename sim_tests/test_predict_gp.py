@@ -1,0 +1,265 @@
+"""Gaussian-process posture predictors (issue 15): the Kronecker posterior, MTGP, the seed's grouping,
+the trained predictor and its plain-file persistence."""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+import xarray as xr
+from _posture_grid import grid as _grid
+from _posture_grid import smooth as _smooth
+
+from rmbench.errors import InputError
+from rmbench.predict import (MTGP, STGP, ExtrapolationWarning, GroupedMTGP, PosturePredictor,
+                             TrainingSet, cross_validate, predicted_frf, seed_groups)
+from rmbench.predict.posterior import KronPosterior, rbf
+from rmbench.robot.modes import PARAMS
+
+
+def test_kronecker_posterior_equals_the_dense_gaussian_process():
+    """The eigendecomposition route gives the dense (nm x nm) GP's mean, variance and likelihood to
+    round-off: it is the same algebra, only factorised."""
+    from scipy.stats import multivariate_normal
+
+    rng = np.random.default_rng(1)
+    n, m = 12, 3
+    X, Xs = rng.normal(size=(n, 3)), rng.normal(size=(4, 3))
+    B = rng.normal(size=(m, m))
+    Kc, d, mean = B @ B.T + 0.1 * np.eye(m), np.array([0.05, 0.2, 0.01]), rng.normal(size=m)
+    ls = np.array([0.8, 1.3, 2.0])
+    Y = rng.normal(size=(n, m))
+    post = KronPosterior.build(X, Y, ls, Kc, d, mean)
+    # dense, task-major ordering: index j * n + i
+    K = np.kron(Kc, rbf(X, X, ls)) + np.kron(np.diag(d), np.eye(n))
+    r = (Y - mean).T.ravel()
+    Ks = np.kron(Kc, rbf(Xs, X, ls))                         # (m * 4, m * n)
+    mu = Ks @ np.linalg.solve(K, r) + np.repeat(mean, 4)
+    var = np.repeat(np.diag(Kc), 4) - np.einsum("ij,ji->i", Ks, np.linalg.solve(K, Ks.T))
+    got_mu, got_sd = post.predict(Xs, return_std=True)
+    np.testing.assert_allclose(got_mu.T.ravel(), mu, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(got_sd.T.ravel() ** 2, var, rtol=1e-9, atol=1e-12)
+    ll = multivariate_normal(np.zeros(n * m), K).logpdf(r)
+    assert post.log_likelihood == pytest.approx(ll, rel=1e-10)
+
+
+def test_mtgp_borrows_a_noisy_task_from_a_clean_correlated_one():
+    """Two tasks driven by one posture function, the second observed with noise of 30 % of its
+    spread: the MTGP learns the second through the first and predicts it better than an STGP of
+    the second alone, in at least 4 of 5 random draws (its whole point, seed 000 §5)."""
+    X = _grid()
+    wins = 0
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        f = _smooth(X)
+        Y = np.column_stack([f + 0.001 * rng.normal(size=len(X)),
+                             -2 * f + 0.3 * np.std(2 * f) * rng.normal(size=len(X))])
+        train = rng.choice(len(X), 40, replace=False)
+        test = np.setdiff1d(np.arange(len(X)), train)
+        mt = MTGP().fit(X[train], Y[train]).predict(X[test])[:, 1]
+        st = STGP().fit(X[train], Y[train, 1]).predict(X[test])
+        truth = -2 * f[test]
+        wins += np.mean((mt - truth) ** 2) < np.mean((st - truth) ** 2)
+    assert wins >= 4
+
+
+def test_mtgp_reports_the_task_covariance_in_the_tasks_units():
+    """Task 2 = 3 x task 1 exactly: the fitted K_c has correlation ~1 and a variance ratio ~9."""
+    X = _grid()
+    f = _smooth(X)
+    m = MTGP().fit(X, np.column_stack([f, 3 * f]))
+    K = m.task_covariance_
+    assert K[0, 1] / np.sqrt(K[0, 0] * K[1, 1]) > 0.99
+    assert K[1, 1] / K[0, 0] == pytest.approx(9.0, rel=0.05)
+
+
+def test_a_constant_column_is_predicted_as_its_constant_not_learnt():
+    X = _grid()
+    m = MTGP().fit(X, np.column_stack([_smooth(X), np.ones(len(X))]))
+    mu, sd = m.predict(X[:3] + 0.01, return_std=True)
+    assert np.all(mu[:, 1] == 1.0) and np.all(sd[:, 1] == 0.0) and list(m.varying_) == [0]
+
+
+def test_postures_missing_a_task_are_left_out_of_that_model_and_counted():
+    X = _grid()
+    Y = np.column_stack([_smooth(X), 2 * _smooth(X)])
+    Y[:5, 1] = np.nan
+    m = MTGP().fit(X, Y)
+    assert m.dropped_ == 5 and np.all(np.isfinite(m.predict(X[:5])))
+
+
+def test_a_model_with_fewer_than_three_complete_postures_is_refused():
+    X = _grid()[:5]
+    Y = np.column_stack([_smooth(X), [1.0, np.nan, np.nan, np.nan, 2.0]])
+    with pytest.raises(InputError, match="2 postures have every task"):
+        MTGP().fit(X, Y)
+
+
+def test_seed_groups_follow_the_seeds_rule():
+    """Every parameter in exactly one model of at most 3; eigenvector groups within one mode and
+    eigenvector (1X with 1aX, 1Y with 1aY, real and imaginary apart); natural frequencies and damping
+    ratios across consecutive modes of one band only."""
+    modes = [f"mode{m}" for m in range(10)]
+    bands_of = ["low"] * 6 + ["high"] * 4
+    tasks = [f"{m}:{p}" for m in modes for p in PARAMS]
+    bands = [b for b in bands_of for _ in PARAMS]
+    groups = seed_groups(tasks, bands)
+    flat = sorted(i for g in groups for i in g)
+    assert flat == list(range(len(tasks))) and max(map(len, groups)) <= 3
+    for g in groups:
+        names = [tasks[i] for i in g]
+        kinds = {n.split(":")[1] for n in names}
+        if kinds <= {"f_n"} or kinds <= {"zeta"}:
+            assert len({bands[i] for i in g}) == 1
+        else:
+            assert len({n.split(":")[0] for n in names}) == 1
+            assert len({n.split(":")[1][:4] for n in names}) == 1           # φL or φR
+            assert len({n.rsplit("_", 1)[1] for n in names}) == 1           # re or im
+    assert ["mode0:phiR_1X_re", "mode0:phiR_1aX_re"] in [[tasks[i] for i in g] for g in groups]
+
+
+def test_cross_validation_scores_every_gp_learner_on_a_smooth_dependence():
+    """Noise-free smooth functions on the seed's grid: CV R² above 0.999 for the STGPs, the grouped
+    and the Kronecker MTGP (the grid resolves them; GPs interpolate smooth functions almost exactly)."""
+    X = _grid()
+    Y = np.column_stack([_smooth(X), 0.01 * _smooth(X) ** 2, np.cos(X[:, 0] + X[:, 2])])
+    ts = TrainingSet(X, Y, ("mode0:f_n", "mode1:f_n", "mode0:zeta"), ("low", "low", "low"))
+    for learner in ("stgp", "mtgp-grouped", "mtgp"):
+        cv = cross_validate(ts, learner)
+        assert np.all(cv.r2_mean > 0.999), learner
+        assert np.all(np.isfinite(cv.predictions))
+
+
+def _modal_dataset(n_modes=2):
+    """A modal dataset over the seed's grid: smooth frequencies, damping and eigenvectors."""
+    X = _grid()
+    f = _smooth(X)
+    modal = np.zeros((len(X), n_modes, 16))
+    for m in range(n_modes):
+        modal[:, m, 0] = (m + 1) * f
+        modal[:, m, 1] = 0.02 + 0.001 * np.sin(X[:, 0] * (m + 1))
+        modal[:, m, 2:] = np.cos(np.outer(X[:, 0] + 0.3 * X[:, 2], np.arange(1, 15)) / (m + 2)) * 1e-3
+        modal[:, m, 2:8] *= 1e3          # φL dimensionless, φR in s/kg
+    ds = xr.Dataset({"modal": (("posture", "mode", "param"), modal),
+                     "phiL_1aY": (("posture", "mode"), np.ones((len(X), n_modes), complex))},
+                    coords={"x": ("posture", X[:, 0]), "y": ("posture", X[:, 1]),
+                            "theta": ("posture", X[:, 2]), "mode": np.arange(n_modes),
+                            "mode_band": ("mode", ["low"] * n_modes),
+                            "phiL_ref": ("mode", ["1aY"] * n_modes), "param": list(PARAMS)})
+    return ds
+
+
+def test_saved_predictor_reloads_to_the_same_predictions_without_pickle(tmp_path):
+    ds = _modal_dataset()
+    pred = PosturePredictor("mtgp-grouped").fit(ds)
+    path = pred.save(tmp_path / "p.npz")
+    with np.load(path, allow_pickle=False) as z:          # plain arrays only
+        meta = json.loads(str(z["meta"]))
+    assert meta["model"] == "mtgp-grouped" and meta["params"] == list(PARAMS)
+    X = np.array([[1.55, 0.05, 0.3], [1.8, -0.2, 0.0]])
+    a, b = pred.predict(X), PosturePredictor.load(path).predict(X)
+    np.testing.assert_array_equal(a.modal.values, b.modal.values)
+    np.testing.assert_array_equal(a.modal_std.values, b.modal_std.values)
+
+
+def test_prediction_outside_the_training_hull_warns_and_is_less_certain():
+    """1 m beyond the grid the GP reverts towards its mean: flagged, warned, wider spread."""
+    pred = PosturePredictor("stgp").fit(_modal_dataset(1))
+    with pytest.warns(ExtrapolationWarning, match="1 of 2 postures"):
+        out = pred.predict([[1.6, 0.0, 0.0], [2.9, 0.0, 0.0]])
+    assert list(out.outside_hull.values) == [False, True]
+    sd = out.modal_std.sel(param="f_n").values[:, 0]
+    assert sd[1] > 10 * sd[0]
+
+
+def test_grid_corners_are_inside_the_hull():
+    pred = PosturePredictor("stgp").fit(_modal_dataset(1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ExtrapolationWarning)
+        out = pred.predict(_grid()[[0, -1]])
+    assert not out.outside_hull.values.any()
+
+
+def test_only_gaussian_process_predictors_are_saved(tmp_path):
+    pred = PosturePredictor("knn").fit(_modal_dataset(1))
+    with pytest.raises(InputError, match="would need pickle"):
+        pred.save(tmp_path / "p.npz")
+
+
+def test_a_file_that_is_not_a_predictor_is_refused(tmp_path):
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, meta=np.array("{}"))
+    with pytest.raises(InputError, match="not an rmbench predictor"):
+        PosturePredictor.load(bad)
+    with pytest.raises(InputError, match="predictor not found"):
+        PosturePredictor.load(tmp_path / "none.npz")
+
+
+def test_frf_rebuilt_from_parameters_equals_the_modes_own_synthesis():
+    """Eq. 15 from the 16 parameters (+ φL at 1aY) gives the mode table's own receptance."""
+    from rmbench.robot import Robot, validation_postures
+    from rmbench.robot.modes import mode_table
+
+    op = Robot.load("irb6660", tool="dummy").at(validation_postures()[0])
+    from rmbench.impact import load_config
+    from rmbench.impact.campaign import Campaign
+
+    cfg = load_config("seed_full")
+    band = Campaign.build(cfg).bands["low"]
+    nominal = op.coordinate_map(("1X", "1Y", "1aX", "1aY"), s_1a=band.s_1a)
+    table = mode_table(op.linear.modes(), nominal, nominal, band)
+    prm = table.params()[None]                                   # (1, mode, 16)
+    ds = xr.Dataset({"modal": (("posture", "mode", "param"), prm),
+                     "phiL_1aY": (("posture", "mode"), np.ones((1, len(table)), complex))},
+                    coords={"mode": np.arange(len(table)), "param": list(PARAMS)})
+    freq = np.linspace(4, 40, 200)
+    np.testing.assert_allclose(predicted_frf(ds, freq, 0), table.frf(freq), rtol=1e-10,
+                               atol=1e-12 * np.abs(table.frf(freq)).max())
+
+
+def test_grouped_mtgp_predicts_every_column():
+    X = _grid()
+    Y = np.column_stack([_smooth(X), 2 * _smooth(X), np.cos(X[:, 2])])
+    g = GroupedMTGP([[0, 1], [2]]).fit(X, Y)
+    mu, sd = g.predict(X[:4], return_std=True)
+    assert mu.shape == sd.shape == (4, 3) and np.all(np.isfinite(mu)) and np.all(sd >= 0)
+
+
+def test_cli_trains_saves_and_predicts_at_a_posture(tmp_path, capsys):
+    from rmbench.cli.main import main
+
+    path = tmp_path / "m.nc"
+    _modal_dataset().to_netcdf(path, engine="h5netcdf", invalid_netcdf=True)
+    pred = tmp_path / "p.npz"
+    assert main(["predict", "train", str(path), "--model", "stgp", "--out", str(pred)]) == 0
+    capsys.readouterr()
+    frf = tmp_path / "h.nc"
+    assert main(["predict", "at", str(pred), "--posture", "1600,0,10", "--frf", str(frf), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    mode0 = out["postures"][0]["modes"][0]
+    X = np.array([[1.6, 0.0, np.radians(10)]])
+    assert mode0["params"]["f_n"] == pytest.approx(_smooth(X)[0], rel=1e-3)   # smooth: GP near-exact
+    assert mode0["std"]["f_n"] >= 0 and not out["postures"][0]["outside_hull"]
+    H = xr.load_dataset(frf, engine="h5netcdf").H
+    assert H.shape[1:] == (H.sizes["freq"], 4, 4) and np.all(np.isfinite(H.values))
+
+
+def test_cli_warns_about_a_posture_outside_the_training_grid(tmp_path, capsys):
+    from rmbench.cli.main import main
+
+    path = tmp_path / "m.nc"
+    _modal_dataset(1).to_netcdf(path, engine="h5netcdf", invalid_netcdf=True)
+    pred = tmp_path / "p.npz"
+    assert main(["predict", "train", str(path), "--model", "stgp", "--out", str(pred)]) == 0
+    capsys.readouterr()
+    assert main(["predict", "at", str(pred), "--posture", "2500,0,0"]) == 0
+    out = capsys.readouterr().out
+    assert "warning: 1 of 1 postures lie outside" in out and "[outside the training hull]" in out
+
+
+def test_cli_refuses_a_missing_predictor_in_one_line(tmp_path, capsys):
+    from rmbench.cli.main import main
+
+    assert main(["predict", "at", str(tmp_path / "none.npz"), "--posture", "1600,0,0"]) == 2
+    err = capsys.readouterr().err
+    assert "predictor not found" in err and err.count("\n") == 1

@@ -1,0 +1,279 @@
+"""A trained posture predictor: modal parameters and FRF matrices at any posture (issue 15).
+
+    pred = PosturePredictor("mtgp-grouped").fit(xr.open_dataset("modal.nc"))
+    out = pred.predict([[1.8, 0.2, 0.0]])       # x, y (m), θ (rad) per row
+    out.modal, out.modal_std                     # (posture, mode, param), like a modal fit
+    H = predicted_frf(out, freq)                 # (posture, freq, 4, 4), m/N (Eq. 15)
+    pred.save("pred.npz"); PosturePredictor.load("pred.npz")
+
+The prediction is laid out like a modal dataset (``modal``, ``modal_std``, ``phiL_1aY``,
+``mode_band``, ``phiL_ref``), so the modal stage's tools read it. A posture outside the training
+postures' convex hull is an extrapolation: it is flagged (``outside_hull``) and warned about, and its
+standard deviations say how far to trust it.
+
+A saved predictor is one ``.npz`` of plain arrays with its metadata as JSON text in it: loaded with
+``allow_pickle=False``, never unpickled. The Gaussian-process learners can be saved; the tree and
+linear baselines only cross-validate.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from scipy.spatial import ConvexHull, QhullError
+
+from rmbench._version import __version__
+from rmbench.errors import InputError
+from rmbench.modal.campaign_fit import mode_vectors
+from rmbench.modal.mdof import synthesize
+from rmbench.predict.baselines import MULTI_TASK, PerTask, make_learner
+from rmbench.predict.data import constant_tasks, frequency_ordered, training_set
+from rmbench.predict.gp import MTGP
+from rmbench.predict.mtgp import GroupedMTGP
+from rmbench.robot.modes import PARAMS
+
+__all__ = ["PosturePredictor", "ExtrapolationWarning", "predicted_frf", "SAVEABLE"]
+
+SAVEABLE = MULTI_TASK
+_FORMAT = 1
+
+
+class ExtrapolationWarning(UserWarning):
+    """A posture outside the convex hull of the training postures."""
+
+
+class PosturePredictor:
+    """Modal parameters as functions of the posture, learnt from a modal dataset.
+
+    Parameters
+    ----------
+    model : str
+        ``mtgp-grouped`` (the seed's grouped MTGPs), ``mtgp`` (one Kronecker model of all
+        parameters), ``mtgp-lowrank`` or ``stgp`` (these can be saved); ``knn``, ``rf``, ``gb``,
+        ``enet`` (in memory only, no standard deviations).
+
+    Attributes
+    ----------
+    tasks_ : tuple of str
+        ``"mode{m}:{param}"`` per learnt column.
+    train_seconds_ : float
+    """
+
+    def __init__(self, model: str = "mtgp-grouped", order: str = "frequency"):
+        make_learner(model)                # an unknown name fails here
+        if order not in ("frequency", "tracked"):
+            raise InputError(f"unknown mode order {order!r}; use frequency or tracked")
+        self.model, self.order = model, order
+
+    def fit(self, ds: xr.Dataset) -> "PosturePredictor":
+        """Learn every parameter of a modal dataset (``rmbench modal fit``); with ``order =
+        "frequency"`` (default) the modes of each band are learnt in order of frequency
+        (:func:`~rmbench.predict.data.frequency_ordered`), else as the modal stage tracked them."""
+        if self.order == "frequency":
+            ds = frequency_ordered(ds)
+        ts = training_set(ds)
+        if len(ts.X) < 3:
+            raise InputError(f"{len(ts.X)} usable postures: a Gaussian process needs at least three")
+        found = np.isfinite(ts.Y).any(axis=0)
+        self.live_ = np.flatnonzero(found)
+        t0 = time.perf_counter()
+        learner = (make_learner(self.model, ts, self.live_) if self.model in MULTI_TASK
+                   else PerTask(self.model))
+        self.learner_ = learner.fit(ts.X, ts.Y[:, self.live_])
+        self.train_seconds_ = time.perf_counter() - t0
+        modal = ds["modal"]
+        self.tasks_ = ts.tasks
+        self.modes_ = np.asarray(modal["mode"].values, int)
+        self.params_ = tuple(str(v) for v in modal["param"].values)
+        self.mode_band_ = np.asarray(modal["mode_band"].values if "mode_band" in modal.coords
+                                     else [""] * len(self.modes_), str)
+        self.phiL_ref_ = np.asarray(modal["phiL_ref"].values if "phiL_ref" in modal.coords
+                                    else ["1aY"] * len(self.modes_), str)
+        self.X_train_ = ts.X
+        self.constant_ = np.array([ts.Y[np.isfinite(ts.Y[:, j]), j][0]
+                                   if constant_tasks(ts.Y[:, j:j + 1])[0] and found[j] else np.nan
+                                   for j in range(len(ts.tasks))])
+        self.source_ = str(ds.attrs.get("upstream", ""))
+        self._hull()
+        return self
+
+    def _hull(self) -> None:
+        X = self.X_train_
+        self._x_mean, sd = X.mean(axis=0), X.std(axis=0)
+        self._x_scale = np.where(sd > 0, sd, 1.0)
+        try:
+            self._facets = ConvexHull((X - self._x_mean) / self._x_scale).equations
+        except QhullError:              # flat training set (one θ, say): every query is outside
+            self._facets = None
+
+    def outside_hull(self, X) -> np.ndarray:
+        """Whether each posture (x, y, θ row) lies outside the training postures' convex hull."""
+        Z = (np.atleast_2d(np.asarray(X, float)) - self._x_mean) / self._x_scale
+        if self._facets is None:
+            return np.ones(len(Z), bool)
+        return (Z @ self._facets[:, :-1].T + self._facets[:, -1]).max(axis=1) > 1e-9
+
+    def predict(self, X) -> xr.Dataset:
+        """Parameters and their standard deviations at postures ``X`` (n, 3): x, y (m), θ (rad).
+
+        Warns (:class:`ExtrapolationWarning`) for postures outside the training hull.
+        """
+        X = np.atleast_2d(np.asarray(X, float))
+        if X.ndim != 2 or X.shape[1] != 3 or not np.all(np.isfinite(X)):
+            raise InputError(f"postures must be finite (x, y, θ) rows, got shape {X.shape}")
+        mu_live, sd_live = self.learner_.predict(X, return_std=True)
+        n, n_tasks = len(X), len(self.tasks_)
+        mu = np.tile(self.constant_, (n, 1))
+        sd = np.zeros((n, n_tasks))
+        sd[:, np.isnan(self.constant_)] = np.nan
+        mu[:, self.live_], sd[:, self.live_] = mu_live, sd_live
+        outside = self.outside_hull(X)
+        if outside.any():
+            warnings.warn(f"{int(outside.sum())} of {n} postures lie outside the training postures' "
+                          "hull: the predictions there extrapolate (see modal_std)",
+                          ExtrapolationWarning, stacklevel=2)
+        n_modes, n_p = len(self.modes_), len(self.params_)
+        main = mu[:, :n_modes * n_p].reshape(n, n_modes, n_p)
+        main_sd = sd[:, :n_modes * n_p].reshape(n, n_modes, n_p)
+        ay = (mu[:, n_modes * n_p:n_modes * (n_p + 1)] + 1j * mu[:, n_modes * (n_p + 1):]
+              if n_tasks > n_modes * n_p else np.ones((n, n_modes), complex))
+        return xr.Dataset(
+            {"modal": (("posture", "mode", "param"), main),
+             "modal_std": (("posture", "mode", "param"), main_sd),
+             "phiL_1aY": (("posture", "mode"), ay),
+             "outside_hull": ("posture", outside)},
+            coords={"posture": np.arange(n), "x": ("posture", X[:, 0]), "y": ("posture", X[:, 1]),
+                    "theta": ("posture", X[:, 2]), "mode": self.modes_,
+                    "mode_band": ("mode", self.mode_band_), "phiL_ref": ("mode", self.phiL_ref_),
+                    "param": list(self.params_)},
+            attrs={"kind": "modal_prediction", "model": self.model, "rmbench_version": __version__,
+                   "modal_std_is": "standard deviation of the latent function (no noise)"})
+
+    # -- plain-file persistence -------------------------------------------------------------------
+    def save(self, path) -> Path:
+        """Write the predictor to one ``.npz`` (arrays + JSON metadata; no pickle), atomically."""
+        path = Path(path)
+        if self.model not in SAVEABLE:
+            raise InputError(f"only the Gaussian-process learners ({', '.join(SAVEABLE)}) are saved "
+                             f"as plain arrays; {self.model!r} would need pickle")
+        learner = self.learner_
+        models = learner.models_ if isinstance(learner, GroupedMTGP) else [learner]
+        groups = learner.groups if isinstance(learner, GroupedMTGP) else [list(range(len(self.live_)))]
+        arrays = {"X_train": self.X_train_, "live": self.live_, "constant": self.constant_}
+        for i, m in enumerate(models):
+            arrays.update({f"m{i}/{k}": v for k, v in _state(m).items()})
+        meta = {"format": _FORMAT, "rmbench_version": __version__, "model": self.model,
+                "order": self.order,
+                "tasks": list(self.tasks_), "modes": self.modes_.tolist(), "params": list(self.params_),
+                "mode_band": self.mode_band_.tolist(), "phiL_ref": self.phiL_ref_.tolist(),
+                "groups": [list(map(int, g)) for g in groups], "train_seconds": self.train_seconds_,
+                "source": self.source_}
+        arrays["meta"] = np.array(json.dumps(meta))
+        tmp = path.with_name(path.name + ".part")
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+        tmp.replace(path)
+        return path
+
+    @classmethod
+    def load(cls, path) -> "PosturePredictor":
+        """Read a predictor written by :meth:`save` (arrays only; nothing is unpickled)."""
+        path = Path(path)
+        if not path.is_file():
+            raise InputError(f"predictor not found: {path}")
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                a = {k: z[k] for k in z.files}
+            meta = json.loads(str(a.pop("meta")))
+            if not isinstance(meta, dict) or meta.get("format") != _FORMAT:
+                raise ValueError(f"format {meta.get('format') if isinstance(meta, dict) else '?'}")
+            self = cls(meta["model"], meta.get("order", "frequency"))
+            self.tasks_ = tuple(meta["tasks"])
+            self.modes_ = np.asarray(meta["modes"], int)
+            self.params_ = tuple(meta["params"])
+            self.mode_band_ = np.asarray(meta["mode_band"], str)
+            self.phiL_ref_ = np.asarray(meta["phiL_ref"], str)
+            self.train_seconds_ = float(meta["train_seconds"])
+            self.source_ = str(meta.get("source", ""))
+            self.X_train_ = np.asarray(a["X_train"], float)
+            self.live_ = np.asarray(a["live"], int)
+            self.constant_ = np.asarray(a["constant"], float)
+            models = [_from_state({k.split("/", 1)[1]: v for k, v in a.items()
+                                   if k.startswith(f"m{i}/")}) for i in range(len(meta["groups"]))]
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise InputError(f"{path}: not an rmbench predictor ({type(err).__name__}: {err})") from None
+        if meta["model"] in ("mtgp", "mtgp-lowrank"):
+            self.learner_ = models[0]
+        else:
+            g = GroupedMTGP(meta["groups"])
+            g.models_, g.n_tasks_ = models, len(self.live_)
+            self.learner_ = g
+        self._hull()
+        return self
+
+
+_STATE_SCALARS = ("n_tasks_", "dropped_")
+_STATE_ARRAYS = ("varying_", "constant_", "x_mean_", "x_scale_", "y_mean_", "y_scale_")
+
+
+def _state(m: MTGP) -> dict:
+    """Plain arrays of a fitted MTGP (see :func:`_from_state`)."""
+    out = {k: np.asarray(getattr(m, k)) for k in _STATE_SCALARS + _STATE_ARRAYS if hasattr(m, k)}
+    if m.posterior_ is not None:
+        out.update({f"post/{k}": v for k, v in m.posterior_.arrays().items()})
+    return out
+
+
+def _from_state(a: dict) -> MTGP:
+    from rmbench.predict.posterior import KronPosterior
+
+    m = MTGP()
+    for k in _STATE_SCALARS:
+        setattr(m, k, int(a[k]))
+    for k in _STATE_ARRAYS:
+        if k in a:
+            setattr(m, k, np.asarray(a[k]))
+    m.varying_ = m.varying_.astype(int)
+    post = {k[5:]: v for k, v in a.items() if k.startswith("post/")}
+    m.posterior_ = KronPosterior.from_arrays(post) if post else None
+    return m
+
+
+def predicted_frf(pred: xr.Dataset, freq, posture: int | None = None) -> np.ndarray:
+    """Receptance matrices rebuilt from predicted (or fitted) modal parameters (Eq. 15).
+
+    Every mode of every band contributes at every frequency, so each band's matrix carries the
+    other band's modes as residual terms.
+
+    Parameters
+    ----------
+    pred : xarray.Dataset
+        A prediction (or a modal fit): ``modal``, ``phiL_1aY``.
+    freq : array_like, shape (n_freq,), Hz
+    posture : int, optional
+        One posture; by default all.
+
+    Returns
+    -------
+    ndarray, shape (n_posture, n_freq, 4, 4) or (n_freq, 4, 4), complex, m/N; rows and columns
+    1X, 1Y, 1aX, 1aY.
+    """
+    if tuple(pred["param"].values) != PARAMS:
+        raise InputError("the FRF matrix needs all 16 parameters per mode (DATA.md order)")
+    freq = np.asarray(freq, float)
+    which = range(pred.sizes["posture"]) if posture is None else [posture]
+    out = []
+    for p in which:
+        prm = pred.modal.values[p]
+        ok = np.isfinite(prm[:, 0]) & np.isfinite(prm[:, 1])
+        vecs = [mode_vectors(pred, p, i) for i in np.flatnonzero(ok)]
+        wn, z = 2 * np.pi * prm[ok, 0], prm[ok, 1]
+        poles = -z * wn + 1j * wn * np.sqrt(1 - z**2)
+        out.append(synthesize(freq, poles, np.array([v[0] for v in vecs]).reshape(-1, 4),
+                              np.array([v[1] for v in vecs]).reshape(-1, 4)))
+    return out[0] if posture is not None else np.stack(out)
