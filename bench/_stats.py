@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
+
+RMBENCH = str(Path(sys.executable).with_name("rmbench"))
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -24,3 +31,15 @@ def rate(flags) -> str:
         return "-"
     lo, hi = wilson(k, n)
     return f"{k}/{n} = {100 * k / n:.1f} % (95 %: {100 * lo:.0f}-{100 * hi:.0f})"
+
+
+def blind_cases(args, *extra: str) -> list[dict]:
+    """Run ``rmbench gap blind`` (``--cases``, ``--seed`` from ``args``, ``extra`` options) into the
+    JSON-lines file ``args.lines`` (a killed run resumes from it) and return its first
+    ``args.cases`` cases as dicts."""
+    lines = Path(args.lines)
+    lines.parent.mkdir(parents=True, exist_ok=True)
+    subprocess.run([RMBENCH, "gap", "blind", "--cases", str(args.cases), "--seed", str(args.seed),
+                    *extra, "--out", str(lines), "--json"], check=True, stdout=subprocess.DEVNULL)
+    cases = [json.loads(s) for s in lines.read_text().splitlines() if s.strip()]
+    return [c for c in cases if c["index"] < args.cases]

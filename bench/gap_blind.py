@@ -36,23 +36,17 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from _stats import RMBENCH, blind_cases  # noqa: E402
 from _stats import rate as _rate  # noqa: E402
 
 from rmbench.gap.blind import case_from_dict, summarise  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-RMBENCH = str(Path(sys.executable).with_name("rmbench"))
 
 
 def run_cases(args) -> list:
-    lines = Path(args.lines)
-    lines.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [RMBENCH, "gap", "blind", "--cases", str(args.cases), "--seed", str(args.seed),
-           "--method", "mixed", "--time-share", str(args.time_share), "--out", str(lines),
-           "--workers", str(args.workers), "--json"]
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    cases = [case_from_dict(json.loads(s)) for s in lines.read_text().splitlines() if s.strip()]
-    return [c for c in cases if c.index < args.cases]
+    return [case_from_dict(c) for c in blind_cases(
+        args, "--method", "mixed", "--time-share", str(args.time_share), "--workers", str(args.workers))]
 
 
 def speed(args) -> tuple[float, str]:

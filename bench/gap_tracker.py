@@ -34,22 +34,15 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _stats import rate  # noqa: E402
+from _stats import RMBENCH, blind_cases, rate  # noqa: E402
 
 from rmbench.gap.tracker_blind import summarise_tracker  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-RMBENCH = str(Path(sys.executable).with_name("rmbench"))
 
 
 def run_cases(args) -> list:
-    lines = Path(args.lines)
-    lines.parent.mkdir(parents=True, exist_ok=True)
-    subprocess.run([RMBENCH, "gap", "blind", "--data", "tracker", "--cases", str(args.cases),
-                    "--seed", str(args.seed), "--out", str(lines), "--json"], check=True,
-                   stdout=subprocess.DEVNULL)
-    cases = [json.loads(s) for s in lines.read_text().splitlines() if s.strip()]
-    return [c for c in cases if c["index"] < args.cases]
+    return blind_cases(args, "--data", "tracker")
 
 
 def speed() -> tuple[float, str]:

@@ -28,7 +28,7 @@ from rmbench.gap.model import ModelBench
 from rmbench.gap.residual import mode_residuals
 from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, _peak, per_posture_chi2
 from rmbench.gap.jsonable import jsonable, write_whole
-from rmbench.gap.selection import confidences, selection_weights, significant
+from rmbench.gap.selection import SearchSettings, confidences, selection_weights, significant
 from rmbench.gap.where import GapMap, gap_map
 
 __all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
@@ -37,15 +37,13 @@ _DB = 20 / np.log(10)
 
 
 @dataclass(frozen=True)
-class DiagnosisSettings:
-    """How hard the diagnosis searches.
+class DiagnosisSettings(SearchSettings):
+    """How hard the diagnosis searches: :class:`~rmbench.gap.selection.SearchSettings` (held-out
+    share of the postures, every other one in (θ, x, y) order at 0.5; refinement by
+    re-simulation; noise test; bootstrap; kinds) and
 
     Attributes
     ----------
-    heldout : float
-        Share of the postures held out of every fit (every other posture in (θ, x, y) order).
-    refine : int
-        Candidates refined by re-simulation after the screening.
     pairs_of : int
         When no single effect explains the gap, this many second effects (the best of a screening
         on top of each of the two best singles) are paired with each and refined.
@@ -54,22 +52,11 @@ class DiagnosisSettings:
     max_held : int
         Most held-out postures the candidates are scored on (spread evenly); postures beyond
         ``max_train + max_held`` enter the gap map and the significance test only.
-    p_noise : float
-        A held-out χ² whose p-value against the noise falls below this is a gap.
-    bootstrap : int
-        Resamples of the held-out postures for the shrink's interval.
-    kinds : tuple of str or None
-        Restrict the library to these kinds.
     """
 
-    heldout: float = 0.5
-    refine: int = 6
     pairs_of: int = 3
     max_train: int = 16
     max_held: int = 32
-    p_noise: float = 1e-3
-    bootstrap: int = 400
-    kinds: tuple | None = None
 
 
 @dataclass(frozen=True)

@@ -12,11 +12,38 @@ close more of the held-out gap than its parameters are worth.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
 from scipy.stats import norm
 
-__all__ = ["significant", "bic", "selection_weights", "confidences"]
+__all__ = ["SearchSettings", "significant", "bic", "selection_weights", "confidences"]
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """What every gap search shares (FRF data and tracker readings).
+
+    Attributes
+    ----------
+    heldout : float
+        Share of the postures or configurations held out of every fit (every other one at 0.5).
+    refine : int
+        Candidates refined after each screening.
+    p_noise : float
+        A held-out χ² whose p-value against the noise falls below this is a gap.
+    bootstrap : int
+        Resamples of the held-out postures or configurations for the shrink's interval.
+    kinds : tuple of str or None
+        Restrict the library to these kinds.
+    """
+
+    heldout: float = 0.5
+    refine: int = 6
+    p_noise: float = 1e-3
+    bootstrap: int = 400
+    kinds: tuple | None = None
 
 
 def significant(chi2: float, n: int, *, p: float = 1e-3, peak: float | None = None) -> bool:

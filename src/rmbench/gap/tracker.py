@@ -34,7 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from rmbench.errors import InputError
 from rmbench.gap.jsonable import jsonable, write_whole
-from rmbench.gap.selection import bic, confidences, selection_weights, significant
+from rmbench.gap.selection import SearchSettings, bic, confidences, selection_weights, significant
 from rmbench.gap.sources import PoseModel, Source, source_library
 from rmbench.tracker.chain import _skew
 
@@ -102,34 +102,20 @@ class TrackerData:
 
 
 @dataclass(frozen=True)
-class TrackerSettings:
-    """How hard the diagnosis searches.
+class TrackerSettings(SearchSettings):
+    """How hard the diagnosis searches: :class:`~rmbench.gap.selection.SearchSettings` (held-out
+    share of the configurations, refinement, noise test, bootstrap, kinds) and
 
     Attributes
     ----------
-    heldout : float
-        Share of the configurations held out (every other one in label order at 0.5).
-    refine : int
-        Candidates refined after each screening.
     max_sources : int
         Most sources in a model.
     harmonics : int
         Gear-error harmonics per joint in the library.
-    p_noise : float
-        A held-out χ² whose p-value against the noise falls below this is a gap.
-    bootstrap : int
-        Resamples of the held-out configurations.
-    kinds : tuple of str or None
-        Restrict the library to these kinds.
     """
 
-    heldout: float = 0.5
-    refine: int = 6
     max_sources: int = 4
     harmonics: int = 2
-    p_noise: float = 1e-3
-    bootstrap: int = 400
-    kinds: tuple | None = None
 
 
 @dataclass(frozen=True)
