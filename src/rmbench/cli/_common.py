@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json"]
+__all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json", "load_dataset"]
 
 
 def command_group(sub, name: str, help: str):
@@ -60,6 +61,19 @@ def resolve_posture(robot, args):
         return parse_posture(args.posture)
     ref = custom_numeric(robot.spec, "rmbench_reference_q")
     return ref if ref is not None else parse_posture("1800,-200,0")
+
+
+def load_dataset(path, what: str = "dataset"):
+    """A netCDF file read into memory, or a one-line error naming what is wrong with it."""
+    import xarray as xr
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{what} not found: {path}")
+    try:
+        return xr.load_dataset(path)
+    except (OSError, ValueError) as err:
+        raise InputError(f"{path}: not a readable netCDF dataset ({err})") from None
 
 
 def print_json(obj) -> None:

@@ -20,7 +20,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rmbench.cli import campaign, control, demo, gap, modal, model, predict, tracker
+    from rmbench.cli import campaign, control, demo, gap, modal, model, predict, rcsa, tracker
 
     parser = _Parser(prog="rmbench", description="Virtual test bench for robotic machining dynamics.")
     parser.add_argument("--version", action="version", version=f"rmbench {__version__}")
@@ -30,6 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     campaign.register(sub)
     modal.register(sub)
     predict.register(sub)
+    rcsa.register(sub)
     tracker.register(sub)
     control.register(sub)
     gap.register(sub)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rmbench.cli._common import command_group, print_json
+from rmbench.cli._common import command_group, load_dataset, print_json
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -64,15 +64,7 @@ def _modal(args):
 
 
 def _open_modal(path):
-    import xarray as xr
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"modal dataset not found: {path}")
-    try:
-        return xr.load_dataset(path)
-    except (OSError, ValueError) as err:
-        raise InputError(f"{path}: not a readable netCDF dataset ({err})") from None
+    return load_dataset(path, "modal dataset")
 
 
 def cmd_cv(args) -> int:

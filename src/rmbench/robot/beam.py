@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-__all__ = ["timoshenko_matrices", "cantilever_frequencies"]
+__all__ = ["timoshenko_matrices", "section_matrices", "cantilever_frequencies"]
 
 
 def timoshenko_matrices(length: float, n_el: int, *, E: float, G: float, kappa: float, rho: float,
@@ -26,22 +26,46 @@ def timoshenko_matrices(length: float, n_el: int, *, E: float, G: float, kappa: 
     """
     area = math.pi * diameter**2 / 4
     inertia = math.pi * diameter**4 / 64
+    return section_matrices(length, n_el, ei=E * inertia, kappa_ga=kappa * G * area, rho_a=rho * area,
+                            rho_i=rho * inertia)
+
+
+def section_matrices(length: float, n_el: int, *, ei: float, kappa_ga: float, rho_a: float,
+                     rho_i: float) -> tuple[np.ndarray, np.ndarray]:
+    """Free-free stiffness and mass matrices of a uniform Timoshenko beam given its section values.
+
+    Parameters
+    ----------
+    length : float
+        Beam length, m.
+    n_el : int
+        Number of elements.
+    ei, kappa_ga : float
+        Bending stiffness EI (N·m²) and shear stiffness κGA (N).
+    rho_a, rho_i : float
+        Mass per length ρA (kg/m) and rotary inertia per length ρI (kg·m).
+
+    Returns
+    -------
+    K, M : ndarray, shape (2(n_el+1), 2(n_el+1))
+        As :func:`timoshenko_matrices`.
+    """
     le = length / n_el
-    phi = 12 * E * inertia / (kappa * G * area * le**2)
-    k = E * inertia / ((1 + phi) * le**3) * np.array([
+    phi = 12 * ei / (kappa_ga * le**2)
+    k = ei / ((1 + phi) * le**3) * np.array([
         [12, 6 * le, -12, 6 * le],
         [6 * le, (4 + phi) * le**2, -6 * le, (2 - phi) * le**2],
         [-12, -6 * le, 12, -6 * le],
         [6 * le, (2 - phi) * le**2, -6 * le, (4 + phi) * le**2]])
     p2 = phi**2
-    mt = rho * area * le / (210 * (1 + phi) ** 2) * np.array([
+    mt = rho_a * le / (210 * (1 + phi) ** 2) * np.array([
         [70 * p2 + 147 * phi + 78, (35 * p2 + 77 * phi + 44) * le / 4,
          35 * p2 + 63 * phi + 27, -(35 * p2 + 63 * phi + 26) * le / 4],
         [0, (7 * p2 + 14 * phi + 8) * le**2 / 4, (35 * p2 + 63 * phi + 26) * le / 4,
          -(7 * p2 + 14 * phi + 6) * le**2 / 4],
         [0, 0, 70 * p2 + 147 * phi + 78, -(35 * p2 + 77 * phi + 44) * le / 4],
         [0, 0, 0, (7 * p2 + 14 * phi + 8) * le**2 / 4]])
-    mr = rho * inertia / (30 * (1 + phi) ** 2 * le) * np.array([
+    mr = rho_i / (30 * (1 + phi) ** 2 * le) * np.array([
         [36, -(15 * phi - 3) * le, -36, -(15 * phi - 3) * le],
         [0, (10 * p2 + 5 * phi + 4) * le**2, (15 * phi - 3) * le, (5 * p2 - 5 * phi - 1) * le**2],
         [0, 0, 36, (15 * phi - 3) * le],

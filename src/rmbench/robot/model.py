@@ -299,12 +299,22 @@ class OperatingPoint:
         """Rows mapping generalised displacements to coordinates, shape (n_coords, n_dof).
 
         Coordinates are ``"1X"``, ``"1Y"`` (tool tip), ``"1aX"``, ``"1aY"`` (point ``s_1a`` up the
-        tool), or ``"SITE:D"`` for any site and base direction D in X, Y, Z. The same rows map
-        forces in those coordinates to generalised forces (transposed).
+        tool), ``"1rX"``, ``"1rY"`` (rotation of the tool tip, rad), or ``"SITE:D"`` for any site and
+        base direction D in X, Y, Z. The same rows map forces in those coordinates to generalised
+        forces (transposed); for a rotation that force is the conjugate moment (N·m).
+
+        A rotation ``1rD`` is the slope of the D-displacement along the tool axis, positive when
+        the tip moves further along +D than the points above it (METHODS.md §3:
+        ``θ_D ≈ (u_D,1 − u_D,1a)/S``); its moment is the couple of +F at the tip and −F above it.
+        In right-handed rotations φ about the base axes, with the tool axis a pointing up the tool,
+        ``θ_D = (e_D × a)·φ``: for a vertical tool ``θ_X = −φ_Y`` and ``θ_Y = +φ_X``.
         """
         s = self.robot.bands["high"].s_1a if s_1a is None else float(s_1a)
         rows = []
         for c in coords:
+            if c in ("1rX", "1rY"):
+                rows.append(self._slope_row(c[-1]))
+                continue
             if c in ("1X", "1Y", "1Z"):
                 site, off, axis = self.robot.tcp, 0.0, c[-1]
             elif c in ("1aX", "1aY", "1aZ"):
@@ -318,6 +328,14 @@ class OperatingPoint:
                 raise RmbenchError(f"unknown direction in coordinate {c!r}; use X, Y or Z")
             rows.append(_DIRECTIONS[axis] @ self.point_jacobian(site, off))
         return np.array(rows)
+
+    def _slope_row(self, axis: str) -> np.ndarray:
+        m, d = self.robot.model, self.data
+        sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, self.robot.tcp)
+        jacr = np.zeros((3, m.nv))
+        mujoco.mj_jac(m, d, None, jacr, d.site_xpos[sid], int(m.site_bodyid[sid]))
+        tool_axis = d.site_xmat[sid].reshape(3, 3)[:, 2]
+        return np.cross(_DIRECTIONS[axis], tool_axis) @ jacr
 
     def frf(self, freq, coords=COORDS, *, s_1a: float | None = None) -> np.ndarray:
         """Exact receptance matrix, m/N, shape (n_freq, n_coords, n_coords): row response, column force."""

@@ -31,7 +31,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from rmbench.errors import ModelError
+from rmbench.robot.beam import section_matrices
 
 __all__ = ["ToolGeometry", "TOOLS", "tool_xml"]
 
@@ -130,6 +133,35 @@ class ToolGeometry:
         d2 = big_l - 2 * ei * deflection / big_l**2
         c2 = big_l**2 / (2 * ei * (big_l - d2))
         return big_l / ei - c2, c2, d2
+
+    def overhang_matrices(self, n_el: int = 20) -> tuple[np.ndarray, np.ndarray]:
+        """Free-free Timoshenko finite-element matrices of the overhang in one lateral plane.
+
+        The overhang is RCSA's tool substructure A (METHODS.md §4): node 0 at the holder face
+        (point 2), node ``n_el`` at the tip (point 1); rotations are slopes dw/dx with x running
+        from the holder face to the tip, the convention of METHODS.md §3. Section values are those
+        of the simulated tool: the equivalent bending section, the fluted mass per length and
+        the shank's rotary inertia per length (ρA D²/16).
+
+        Returns
+        -------
+        K, M : ndarray, shape (2(n_el+1), 2(n_el+1))
+            Stiffness (N/m, N, N·m) and mass (kg, kg·m, kg·m²) matrices, DOFs ``[w_0, θ_0, ...]``.
+            Structural damping is the loss factor: K(1 + iη).
+        """
+        return self.overhang_segment(self.overhang, n_el)
+
+    def overhang_segment(self, length: float, n_el: int) -> tuple[np.ndarray, np.ndarray]:
+        """Like :meth:`overhang_matrices` for a piece of the overhang of the given length, m."""
+        return section_matrices(length, n_el, ei=self.ei, kappa_ga=self.kappa_ga,
+                                rho_a=self.mass_per_length,
+                                rho_i=self.mass_per_length * self.diameter**2 / 16)
+
+    def shank_mass(self) -> tuple[float, float]:
+        """Mass (kg) and rotary inertia about its centre (kg·m²) of the shank held in the holder."""
+        shank = self.length - self.overhang
+        mass = self.density * math.pi * self.diameter**2 / 4 * shank
+        return mass, mass * (self.diameter**2 / 16 + shank**2 / 12)
 
     def static_tip_compliance(self) -> float:
         """Tip deflection per tip force of the overhang clamped rigidly, m/N (Timoshenko)."""

@@ -1,0 +1,180 @@
+"""RCSA (issue 16): tool change and robot-supported part, scored against the simulated assemblies.
+
+1. Finite-difference rotations (METHODS.md §3) against the simulator's exact rotational
+   receptances at validation posture 2: exact translations at several spacings S (truncation), and
+   the time-domain campaigns' measured translations at the seed's S (noise).
+2. Tool change (METHODS.md §4), dummy rod -> 2-flute end mill: reference-tool time-domain campaigns
+   (hand-held hammer, the seed's sensors and spacings) at the three validation postures, target-tool
+   campaigns at validation posture 1 for the contact fit; the target's tip FRFs (H_1x1x, H_1x1y,
+   H_1y1x, H_1y1y) predicted at postures 2 and 3 and scored at every peak of both bands against
+   the simulated robot carrying the end mill (same joint commands). Repeated over independent
+   campaign seeds (noise, hammer scatter, sensor calibration); both rotation methods.
+3. Contact identification: the fitted target contact against the one built into the simulator,
+   from exact and from measured FRFs.
+4. Robot-supported plate (METHODS.md §6): RCSA from the simulated robot and part FRFs against the
+   simulated assembly: main low mode, amplitude reductions, rigid joint, 20 mm sensor offset.
+
+Last line: ``{"tool_peak_err_max", "tool_peak_freq_err_max", "contact_param_err_max",
+"part_low_mode_err", "reduction_err_pp"}`` (tool errors: worst over seeds, postures 2-3, the seed's
+finite-difference method; contact: worst of the fitted k_t, c_t over seeds).
+
+usage: python bench/rcsa.py [--work DIR] [--seeds N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
+
+from rmbench.impact import load_config, run_campaign  # noqa: E402
+from rmbench.rcsa import (FULL_COORDS, POINT_COORDS, campaign_receptance,  # noqa: E402
+                          full_receptance, identify_contact)
+from rmbench.rcsa.support import support_study  # noqa: E402
+from rmbench.rcsa.tool_change import predict_campaign_tool  # noqa: E402
+from rmbench.robot import Posture, Robot, validation_postures  # noqa: E402
+from rmbench.robot.tool import TOOLS  # noqa: E402
+
+VP = [[1800.0, -200.0, 0.0], [1800.0, 200.0, 0.0], [1800.0, 200.0, 60.0]]
+REF, TGT = TOOLS["dummy"], TOOLS["endmill"]
+
+
+def campaign(work: Path, name: str, tool: str, postures, seed: int) -> xr.Dataset:
+    out = work / f"{name}_s{seed}.nc"
+    if not out.exists():
+        cfg = load_config("seed_full").with_overrides(name=name, seed=seed, robot_tool=tool,
+                                                      grid={"kind": "list", "postures": postures})
+        run_campaign(cfg, out, workers=2, progress=False)
+    return xr.load_dataset(out)
+
+
+def fd_table(ref_ds: xr.Dataset) -> None:
+    print("1. Finite-difference rotations against the exact ones, validation posture 2 "
+          "(largest error of each entry relative to its peak over the band)")
+    op = Robot.load("irb6660", tool="dummy").at(validation_postures()[1])
+    print(f"  {'band':<6}{'input':<26}{'S mm':>6}{'L_xx':>8}{'N_xx':>8}{'P_xx':>8}{'P_yy':>8}{'L_xy':>8}")
+    for band, f, s_list in (("low", np.arange(4.0, 40.01, 0.125), (0.005, 0.0334)),
+                            ("high", np.arange(600.0, 1400.1, 2.0), (0.005, 0.010, 0.013, 0.020, 0.030))):
+        exact = op.frf(f, FULL_COORDS)
+        rows = [(f"exact translations", s, full_receptance(op.frf(f, POINT_COORDS, s_1a=s), s)) for s in s_list]
+        t = campaign_receptance(ref_ds, 1, band)
+        rows.append(("measured (time domain)", float(ref_ds.attrs[f"sensor_spacing_{band}"]), t.values))
+        ex = op.frf(t.freq.values, FULL_COORDS)
+        for label, s, tt in rows:
+            e = exact if tt.shape == exact.shape else ex
+            err = np.max(np.abs(tt - e), axis=0) / np.max(np.abs(e), axis=0)
+            print(f"  {band:<6}{label:<26}{1e3 * s:>6.1f}" + "".join(
+                f"{100 * err[i, j]:>7.1f}%" for i, j in ((0, 1), (1, 0), (1, 1), (3, 3), (0, 3))))
+    print("  (the tool's tip segment is rigid for 13.8 mm: below that S the difference is exact; "
+          "above it the bending hinge truncates; noise grows as 1/S, 1/S² in P)\n")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", help="folder for the campaigns (reused when present)")
+    ap.add_argument("--seeds", type=int, default=5, help="independent campaign draws (default 5)")
+    args = ap.parse_args()
+    work = Path(args.work or tempfile.mkdtemp(prefix="rcsa_"))
+    work.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    seeds = [2024 + k for k in range(args.seeds)]
+    refs = {s: campaign(work, "ref", "dummy", VP, s) for s in seeds}
+    tgts = {s: campaign(work, "tgt", "endmill", VP[:1], s) for s in seeds}
+    print(f"campaigns: {len(seeds)} seeds x (3 reference + 1 target postures), {time.perf_counter() - t0:.0f} s\n")
+
+    fd_table(refs[seeds[0]])
+
+    print("2. Tool change dummy -> endmill: every peak of the four tip entries in both bands, "
+          "target contact fitted at validation posture 1")
+    print(f"  {'method':<11}{'seed':>6}{'posture':>9}{'peaks':>7}{'amp err max':>13}{'freq err max':>14}"
+          f"{'k_t fit':>10}{'c_t fit':>10}")
+    worst = {}
+    rates = {m: [] for m in ("difference", "beam")}
+    fits = []
+    for method in ("difference", "beam"):
+        for s in seeds:
+            for i in (1, 2):
+                r = predict_campaign_tool(refs[s], i, TGT, calibration=(tgts[s], 0), method=method)
+                amp = max(abs(p.amp_err) for p in r.peaks)
+                fr = max(abs(p.freq_err) for p in r.peaks)
+                k = r.bands["high"].target_contact
+                worst.setdefault(method, []).append((amp, fr))
+                rates[method].append(amp <= 0.10 and fr <= 0.01)
+                if i == 1:
+                    fits.append((method, k))
+                print(f"  {method:<11}{s:>6}{i + 1:>9}{len(r.peaks):>7}{100 * amp:>12.2f}%{100 * fr:>13.2f}%"
+                      f"{k.k_t / TGT.k_t - 1:>+10.3f}{k.c_t / TGT.c_t - 1:>+10.3f}")
+    for m, w in worst.items():
+        a = np.array(w)
+        print(f"  {m}: worst amplitude {100 * a[:, 0].max():.2f} %, worst frequency {100 * a[:, 1].max():.2f} %; "
+              f"cases within 10 % and 1 %: {sum(rates[m])}/{len(rates[m])}")
+    # catalogue contact and no shank change, first seed: what each ingredient is worth
+    s = seeds[0]
+    for label, kw in (("catalogue contact", {}), ("catalogue contact, no shank change", {"shank": False})):
+        a = [predict_campaign_tool(refs[s], i, TGT, **kw) for i in (1, 2)]
+        amp = max(abs(p.amp_err) for r in a for p in r.peaks)
+        fr = max(abs(p.freq_err) for r in a for p in r.peaks)
+        print(f"  seed {s}, {label}: worst amplitude {100 * amp:.2f} %, frequency {100 * fr:.2f} %")
+    print()
+
+    print("3. Contact identification at validation posture 1 (relative error against the simulator's "
+          f"k_t {TGT.k_t:.3g}, k_r {TGT.k_r:.3g}, c_t {TGT.c_t:.3g}, c_r {TGT.c_r:.3g})")
+    ref_op = Robot.load("irb6660", tool="dummy").at(refs[s]["q_cmd"].values[0])
+    tgt_op = Robot.load("irb6660", tool="endmill").at(refs[s]["q_cmd"].values[0])
+    f = np.arange(600.0, 1400.1, 2.0)
+    for label, free in (("k_t, c_t (default)", ("k_t", "c_t")), ("k_t, k_r, c_t", ("k_t", "k_r", "c_t")),
+                        ("all four", ("k_t", "k_r", "c_t", "c_r"))):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fit = identify_contact(ref_op.frf(f, FULL_COORDS), tgt_op.frf(f, ("1X", "1Y")), f, REF, TGT, free=free)
+        c = fit.contact
+        print(f"  exact FRFs, free {label:<20} k_t {c.k_t / TGT.k_t - 1:+.3f}  k_r {c.k_r / TGT.k_r - 1:+.3f}  "
+              f"c_t {c.c_t / TGT.c_t - 1:+.3f}  c_r {c.c_r / TGT.c_r - 1:+.3f}  at bound {list(fit.at_bound)}")
+    kt = np.array([k.k_t / TGT.k_t - 1 for m, k in fits if m == "difference"])
+    ct = np.array([k.c_t / TGT.c_t - 1 for m, k in fits if m == "difference"])
+    print(f"  measured FRFs (difference method), over {len(kt)} seeds: k_t {100 * kt.min():+.1f} .. "
+          f"{100 * kt.max():+.1f} %, c_t {100 * ct.min():+.1f} .. {100 * ct.max():+.1f} %")
+    print("  k_r and c_r stay at the reference's values: the rotational contact's compliance is ~2 % of the "
+          "overhang's bending compliance, so a 0.1 % beam-model error moves a fitted k_r by a factor of 2-27\n")
+
+    print("4. Robot-supported plate (irb6660 at 1800, 0, 0; plate 450 x 100 x 6 mm C45, K_x 2e7 N/m, "
+          "preload 100 N)")
+    robot = Robot.load("irb6660")
+    q = robot.ik(Posture.from_mm_deg(1800, 0, 0)).q
+    t1 = time.perf_counter()
+    d = support_study(robot, q).to_dict()
+    print(f"  part modes {', '.join(f'{x:.1f}' for x in d['part_modes_hz'][:3])} Hz (seed 212, 567); "
+          f"robot's largest low peak {d['robot_low_mode_hz']:.2f} Hz")
+    print(f"  assembled main low mode: simulated {d['low_mode_sim_hz']:.3f} Hz, RCSA {d['low_mode_rcsa_hz']:.3f} Hz, "
+          f"error {100 * d['low_mode_err']:+.4f} % (seed: 29 -> 38 Hz, RCSA error 0.25 %)")
+    for k in range(2):
+        print(f"  reduction at part mode {k + 1}: simulated {100 * d['reduction_sim'][k]:.3f} %, RCSA "
+              f"{100 * d['reduction_rcsa'][k]:.3f} %, rigid joint {100 * d['reduction_rcsa_rigid'][k]:.3f} % "
+              f"(seed: {['99.96/99.96', '99.87/99.94'][k]} % measured/predicted)")
+    print(f"  largest difference RCSA vs simulated assembly: {100 * d['rcsa_vs_sim_max_rel']:.3f} % of the peak "
+          "(the preload's shift of the robot's equilibrium)")
+    print(f"  sensor 20 mm off the joint fed to Eq. 6: up to {d['offset_db_near_part_mode_2']:.1f} dB off within "
+          f"±10 % of part mode 2 (worst {d['offset_worst_db']:.1f} dB at {d['offset_worst_hz']:.1f} Hz); "
+          f"Eqs. 12-14 with the sensor as its own coordinate: {100 * d['eq12_14_at_sensor_max_rel']:.3f} % of the peak")
+    print(f"  ({time.perf_counter() - t1:.1f} s)\n")
+
+    a = np.array(worst["difference"])
+    print(json.dumps({
+        "tool_peak_err_max": round(float(a[:, 0].max()), 4),
+        "tool_peak_freq_err_max": round(float(a[:, 1].max()), 5),
+        "contact_param_err_max": round(float(max(np.abs(kt).max(), np.abs(ct).max())), 4),
+        "part_low_mode_err": round(abs(float(d["low_mode_err"])), 6),
+        "reduction_err_pp": round(float(d["reduction_err_pp"]), 6)}))
+
+
+if __name__ == "__main__":
+    main()

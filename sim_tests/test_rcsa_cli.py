@@ -1,0 +1,89 @@
+"""``rmbench rcsa``: tool change on campaign files, the supported part, and one-line errors."""
+
+import json
+
+import mujoco
+import pytest
+
+from rmbench.impact import load_config, run_campaign
+from rmbench.robot import Posture, Robot
+from rmbench.robot.catalog import models_dir
+
+POSTURES = [[1800.0, -200.0, 0.0], [1800.0, 200.0, 0.0]]
+
+
+def _campaign(path, tool, postures):
+    cfg = load_config("seed_full").with_overrides(name=f"rcsa-{tool}", method="linear", robot_tool=tool,
+                                                  grid={"kind": "list", "postures": postures})
+    run_campaign(cfg, path, workers=1, progress=False)
+    return path
+
+
+@pytest.fixture(scope="module")
+def campaigns(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rcsa")
+    return (_campaign(d / "ref.nc", "dummy", POSTURES), _campaign(d / "tgt.nc", "endmill", POSTURES[:1]))
+
+
+def test_tool_change_json_scores_every_peak_against_the_simulated_target(cli, campaigns):
+    ref, tgt = campaigns
+    code, out, _ = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--posture", "1800,200,0", "--calibration", str(tgt), "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert d["posture_index"] == 1 and d["contact_source"].startswith("identified")
+    entries = {p["entry"] for p in d["peaks"]}
+    assert entries == {"1X/1X", "1X/1Y", "1Y/1X", "1Y/1Y"}
+    assert d["peak_amp_err_max"] < 0.10 and d["peak_freq_err_max"] < 0.01
+
+
+def test_tool_change_writes_figure_and_receptances(cli, campaigns, tmp_path):
+    ref, _ = campaigns
+    fig, nc = tmp_path / "t.png", tmp_path / "t.nc"
+    code, out, _ = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill", "--index", "0",
+                       "--method", "beam", "--out", str(fig), "--save", str(nc))
+    assert code == 0 and fig.stat().st_size > 10_000 and nc.is_file()
+    assert "largest errors" in out
+
+
+def test_unmeasured_posture_names_the_nearest(cli, campaigns):
+    ref, _ = campaigns
+    code, _, err = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--posture", "1700,0,0")
+    assert code == 2 and "was not measured; nearest is index" in err and "Traceback" not in err
+
+
+def test_calibration_with_the_wrong_tool_is_refused(cli, campaigns):
+    ref, _ = campaigns
+    code, _, err = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--calibration", str(ref))
+    assert code == 2 and "not the target" in err
+
+
+def test_missing_reference_file_is_one_line(cli, tmp_path):
+    code, _, err = cli("rcsa", "tool", "--reference", str(tmp_path / "none.nc"), "--target-tool", "endmill")
+    assert code == 2 and "not found" in err
+
+
+def test_part_json_reports_low_mode_and_reductions(cli):
+    code, out, _ = cli("rcsa", "part", "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert abs(d["low_mode_err"]) < 0.01 and d["reduction_err_pp"] < 0.1
+
+
+def test_part_rejects_a_bad_contact_stiffness(cli):
+    code, _, err = cli("rcsa", "part", "--k-x", "-5")
+    assert code == 2 and "--k-x must be positive" in err
+
+
+def test_shipped_scene_loads_and_holds_its_preload():
+    # models/mjcf/scenes/plate_support_irb6660.xml = `rmbench rcsa part --scene` at the defaults
+    xml = (models_dir() / "scenes" / "plate_support_irb6660.xml").read_text()
+    robot = Robot(xml, name="scene", tool="dummy")
+    q = Robot.load("irb6660").ik(Posture.from_mm_deg(1800, 0, 0)).q
+    op = robot.at(q)
+    t = mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_TENDON, "part_contact")
+    force = robot.model.tendon_stiffness[t] * (op.data.ten_length[t] - robot.model.tendon_lengthspring[t, 0])
+    assert abs(force - 100.0) < 1.0  # 6-digit joint coefficients in the file: well under 1 N
+    assert sum(robot.model.joint(i).name.startswith("part_mode_") for i in range(robot.model.njnt)) == 6

@@ -1,0 +1,203 @@
+"""A tool change on a campaign: predict the target tool at a measured posture, score it on the bench.
+
+Computation only: :func:`predict_campaign_tool` takes an impact campaign of the reference tool
+(DATA.md) and returns, per band, the target tool's predicted tip receptances; where the campaign
+came from the bench it also simulates the robot carrying the target tool at the same joint
+commands (the ground truth) and scores every peak.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import xarray as xr
+
+from rmbench.errors import InputError, ModelError
+from rmbench.rcsa.contact import Contact
+from rmbench.rcsa.coupling import change_tool
+from rmbench.rcsa.identify import ContactFit, identify_contact
+from rmbench.rcsa.receptance import FULL_COORDS, POINT_COORDS, campaign_receptance
+from rmbench.rcsa.validate import peak_errors
+from rmbench.robot.tool import TOOLS, ToolGeometry
+
+__all__ = ["CampaignToolChange", "predict_campaign_tool", "tool_geometry", "posture_index", "TIP_ENTRIES"]
+
+#: The four tip entries scored: (row, column) in ``FULL_COORDS`` and their labels.
+TIP_ENTRIES = (((0, 0), "1X/1X"), ((0, 2), "1X/1Y"), ((2, 0), "1Y/1X"), ((2, 2), "1Y/1Y"))
+
+
+@dataclass(frozen=True)
+class CampaignToolChange:
+    """Target-tool predictions at one posture of a campaign.
+
+    Attributes
+    ----------
+    index : int
+        Posture index in the reference campaign.
+    posture_mm_deg : tuple of float
+    method : str
+        ``"difference"`` (the seed's finite differences and Eq. 4) or ``"beam"``.
+    bands : dict of str to ToolChange
+    truth : dict of str to ndarray
+        Per band, the simulated target tool's full tip receptance (bench data only), (n_freq, 4, 4).
+    peaks : list of PeakError
+        Every true peak of the four tip entries in every band (bench data only).
+    contact_fit : ContactFit or None
+    contact_source : str
+    """
+
+    index: int
+    posture_mm_deg: tuple[float, float, float]
+    method: str
+    bands: dict
+    truth: dict = field(default_factory=dict)
+    peaks: list = field(default_factory=list)
+    contact_fit: ContactFit | None = None
+    contact_source: str = "catalogue"
+
+    def to_dict(self) -> dict:
+        out = {"posture_index": self.index, "posture_mm_deg": list(self.posture_mm_deg),
+               "method": self.method, "contact_source": self.contact_source,
+               "reference_tool": next(iter(self.bands.values())).reference.name,
+               "target_tool": next(iter(self.bands.values())).target.name,
+               "target_contact": next(iter(self.bands.values())).target_contact.to_dict(),
+               "ill_conditioned_hz": {b: [float(f) for f in tc.freq[tc.ill_conditioned]]
+                                      for b, tc in self.bands.items()}}
+        if self.contact_fit is not None:
+            f = self.contact_fit
+            out["contact_fit"] = {"rms": f.rms, "rms_start": f.rms_start, "lines": f.n_lines,
+                                  "at_bound": list(f.at_bound), "rel_std": f.rel_std}
+        if self.peaks:
+            out["peaks"] = [{"entry": p.entry, "f_true_hz": p.f_true, "f_pred_hz": p.f_pred,
+                             "amp_err": p.amp_err, "freq_err": p.freq_err} for p in self.peaks]
+            out["peak_amp_err_max"] = float(np.nanmax([abs(p.amp_err) for p in self.peaks]))
+            out["peak_freq_err_max"] = float(np.nanmax([abs(p.freq_err) for p in self.peaks]))
+        return out
+
+
+def tool_geometry(name: str) -> ToolGeometry:
+    """A bundled tool by name."""
+    if name not in TOOLS:
+        raise InputError(f"unknown tool {name!r}; bundled tools: {', '.join(sorted(TOOLS))}")
+    return TOOLS[name]
+
+
+def posture_index(data: xr.Dataset, posture) -> int:
+    """Index of a measured posture (within 0.1 mm and 0.01°), or an error naming the nearest."""
+    d = np.hypot(data["x"].values - posture.x, data["y"].values - posture.y)
+    dt = np.abs(data["theta"].values - posture.theta)
+    hit = np.flatnonzero((d < 1e-4) & (dt < np.radians(0.01)))
+    if not len(hit):
+        k = int(np.argmin(d + dt))
+        raise InputError(f"posture ({1e3 * posture.x:g}, {1e3 * posture.y:g}, {np.degrees(posture.theta):g}) "
+                         f"was not measured; nearest is index {k} ({1e3 * data['x'].values[k]:g}, "
+                         f"{1e3 * data['y'].values[k]:g}, {np.degrees(data['theta'].values[k]):g})")
+    return int(hit[0])
+
+
+def _point_matrix(data: xr.Dataset, index: int, band: str) -> tuple[np.ndarray, np.ndarray]:
+    lines = np.flatnonzero(data["band"].values == band)
+    h = data["H"].isel(posture=index, freq=lines).transpose("freq", "out", "inp")
+    return data["freq"].values[lines], h.sel(out=list(POINT_COORDS), inp=list(POINT_COORDS)).values
+
+
+def _truth(data: xr.Dataset, index: int, target: ToolGeometry, freqs: dict) -> dict:
+    """The simulated robot carrying the target tool at the campaign's joint commands."""
+    from rmbench.robot import Robot
+
+    try:
+        robot = Robot.load(str(data.attrs["robot"]), tool=target.name)
+    except (ModelError, KeyError):
+        return {}
+    op = robot.at(np.asarray(data["q_cmd"].values[index], float))
+    return {band: op.frf(f, FULL_COORDS) for band, f in freqs.items()}
+
+
+def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
+                          contact: Contact | None = None, calibration: tuple[xr.Dataset, int] | None = None,
+                          method: str = "difference", shank: bool = True,
+                          bands: tuple[str, ...] | None = None) -> CampaignToolChange:
+    """Predict the target tool's tip receptances at posture ``index`` of a reference campaign.
+
+    Parameters
+    ----------
+    data : xarray.Dataset
+        Impact campaign of the reference tool (``tool`` attribute names a bundled tool).
+    index : int
+    target : ToolGeometry
+    contact : Contact, optional
+        The target tool's contact. Default: identified from ``calibration`` if given, else the
+        target tool's catalogue value.
+    calibration : (Dataset, int), optional
+        A campaign of the target tool and a posture index in it that the reference campaign also
+        measured: the target contact is fitted there (high band).
+    method : str
+        ``"difference"``: rotations by finite differences, Eq. 4 (the seed's way). ``"beam"``:
+        the translations at 1 and 1a couple through the reference tool's beam model.
+    shank : bool
+        Account for the shank change.
+    bands : tuple of str, optional
+        Bands to predict (default all in the dataset).
+    """
+    if method not in ("difference", "beam"):
+        raise InputError(f"method must be 'difference' or 'beam', got {method!r}")
+    ref_name = str(data.attrs.get("tool", ""))
+    reference = tool_geometry(ref_name) if ref_name in TOOLS else None
+    if reference is None:
+        raise InputError(f"the reference campaign's tool {ref_name!r} is not a bundled tool; "
+                         f"RCSA needs its geometry ({', '.join(sorted(TOOLS))})")
+    bands = bands or tuple(dict.fromkeys(str(b) for b in data["band"].values))
+    source, fit = "catalogue", None
+    if contact is not None:
+        source = "given"
+    elif calibration is not None:
+        cal, j = calibration
+        if str(cal.attrs.get("tool", "")) != target.name:
+            raise InputError(f"the calibration campaign carries tool {cal.attrs.get('tool')!r}, "
+                             f"not the target {target.name!r}")
+        from rmbench.robot import Posture
+
+        p = Posture(float(cal["x"].values[j]), float(cal["y"].values[j]), float(cal["theta"].values[j]))
+        i_ref = posture_index(data, p)
+        fit = _fit_contact(data, i_ref, cal, j, reference, target, method, shank)
+        contact, source = fit.contact, f"identified at posture {i_ref}"
+    out, freqs = {}, {}
+    s_key = {b: float(data.attrs[f"sensor_spacing_{b}"]) for b in bands}
+    for band in bands:
+        if method == "difference":
+            t_ref = campaign_receptance(data, index, band)
+            f, t_in, s = t_ref["freq"].values, t_ref.values, None
+        else:
+            campaign_receptance(data, index, band)  # same checks of the posture and the matrix
+            f, t_in = _point_matrix(data, index, band)
+            s = s_key[band]
+        out[band] = change_tool(t_in, f, reference, target, target_contact=contact, s_1a=s, shank=shank)
+        freqs[band] = f
+    truth, peaks = {}, []
+    if "H_exact" in data:
+        truth = _truth(data, index, target, freqs)
+        for band, t in truth.items():
+            rows = [e[0] for e in TIP_ENTRIES]
+            peaks += peak_errors(freqs[band], np.stack([out[band].t[:, i, j] for i, j in rows], 1),
+                                 np.stack([t[:, i, j] for i, j in rows], 1), [e[1] for e in TIP_ENTRIES])
+    posture = (1e3 * float(data["x"].values[index]), 1e3 * float(data["y"].values[index]),
+               float(np.degrees(data["theta"].values[index])))
+    return CampaignToolChange(index, posture, method, out, truth, peaks, fit, source)
+
+
+def _fit_contact(data, i_ref, cal, j, reference, target, method, shank) -> ContactFit:
+    band = "high"
+    if method == "difference":
+        t_ref = campaign_receptance(data, i_ref, band)
+        f, t_in, s = t_ref["freq"].values, t_ref.values, None
+    else:
+        f, t_in = _point_matrix(data, i_ref, band)
+        s = float(data.attrs["sensor_spacing_high"])
+    f2, h2 = _point_matrix(cal, j, band)
+    if len(f2) != len(f) or not np.allclose(f2, f):
+        raise InputError("the calibration campaign's high-band lines differ from the reference campaign's")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return identify_contact(t_in, h2[:, :2, :2], f, reference, target, s_1a=s, shank=shank)
