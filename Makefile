@@ -37,6 +37,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/gap_tracker.py | tee bench/results/gap_tracker.txt
 	$(BIN)/python bench/predict.py | tee bench/results/predict.txt
 	$(BIN)/python bench/rcsa.py | tee bench/results/rcsa.txt
+	$(BIN)/python bench/lobes.py | tee bench/results/lobes.txt
 
 clean:
 	rm -rf $(VENV) rmbench_demo

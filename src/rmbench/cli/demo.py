@@ -87,6 +87,7 @@ def cmd_demo(args) -> int:
     print(f"wrote {out / 'demo_modal.nc'}")
     _demo_predict(out, args.workers)
     _demo_rcsa(out, ds)
+    _demo_lobes(out, fit)
     _demo_control(out)
     _demo_gap(out, args.workers)
     _demo_tracker_gap(out)
@@ -123,6 +124,29 @@ def _demo_rcsa(out: Path, ds) -> None:
           + ", ".join(f"{100 * a:.2f}/{100 * b:.2f} %" for a, b in zip(d["reduction_sim"], d["reduction_rcsa"]))
           + " (simulated/RCSA)")
     print(f"  wrote {plot_support(st, out / 'rcsa_supported_plate.png')}")
+
+
+def _demo_lobes(out: Path, fit) -> None:
+    """Stability lobes at (1800, 200, 0) from the campaign's fitted modes against the exact modes."""
+    from rmbench.robot import Posture, Robot
+    from rmbench.stability import ALUMINIUM_6061, Structure, lobes, lowest_envelope
+    from rmbench.stability.plot import plot_lobes
+
+    print("\nstability lobes at (1800, 200, 0), aluminium 6061 slot, 2 teeth (FDM, both bands, lowest "
+          "envelope): from the campaign's fitted modes and from the exact modes")
+    op = Robot.load("irb6660", tool="dummy").at(Posture.from_mm_deg(1800, 200, 0))
+    speeds, depths = np.linspace(5000, 20000, 40), np.linspace(0, 10e-3, 100)
+    env = {}
+    for name, make in (("fitted", lambda b: Structure.from_modal(fit, 1, band=b)),
+                       ("exact", lambda b: Structure.from_mode_table(op.modes(b)))):
+        env[name] = lowest_envelope(*(lobes(make(b), ALUMINIUM_6061, speeds, depths, every=5)
+                                      for b in ("low", "high")))
+    ok = np.isfinite(env["fitted"].a_lim) & np.isfinite(env["exact"].a_lim)
+    err = np.abs(env["fitted"].a_lim[ok] / env["exact"].a_lim[ok] - 1)
+    print(f"  lowest critical depth {1e3 * np.nanmin(env['exact'].a_lim):.3f} mm (exact), "
+          f"{1e3 * np.nanmin(env['fitted'].a_lim):.3f} mm (fitted); fitted vs exact over {ok.sum()} speeds: "
+          f"median {100 * np.median(err):.2f} %, max {100 * err.max():.2f} %")
+    print(f"  wrote {plot_lobes(env, out / 'lobes.png', title='IRB6660 stand-in, dummy tool, (1800, 200, 0)')}")
 
 
 def _demo_predict(out: Path, workers) -> None:

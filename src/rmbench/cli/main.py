@@ -20,7 +20,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rmbench.cli import campaign, control, demo, gap, modal, model, predict, rcsa, tracker
+    from rmbench.cli import campaign, control, demo, gap, lobes, modal, model, predict, rcsa, tracker
 
     parser = _Parser(prog="rmbench", description="Virtual test bench for robotic machining dynamics.")
     parser.add_argument("--version", action="version", version=f"rmbench {__version__}")
@@ -31,6 +31,8 @@ def build_parser() -> argparse.ArgumentParser:
     modal.register(sub)
     predict.register(sub)
     rcsa.register(sub)
+    lobes.register(sub)
+    lobes.register_mill(sub)
     tracker.register(sub)
     control.register(sub)
     gap.register(sub)

@@ -1,0 +1,196 @@
+"""Milling stability (METHODS.md §10): cutting model, state-space tool tip, FDM, SDM, zero order."""
+
+import numpy as np
+import pytest
+
+from rmbench.errors import InputError
+from rmbench.robot import Posture, Robot
+from rmbench.stability import (ALUMINIUM_6061, BENCHMARK, Cutting, Structure, fdm_spectral_radius, lobes,
+                               lowest_envelope, sdm_spectral_radius)
+
+BENCH = Structure.sdof(0.03993, 922.0, 0.011)
+SPEEDS = np.linspace(5000.0, 25000.0, 21)
+DEPTHS = np.linspace(0.0, 10e-3, 41)
+
+
+@pytest.fixture(scope="module")
+def bench_fdm():
+    return lobes(BENCH, BENCHMARK, SPEEDS, DEPTHS, method="fdm")
+
+
+def test_benchmark_lobes_by_fdm_and_sdm_agree_within_2_percent(bench_fdm):
+    # two independent discretisations of the same delay equation (Ding 2010; Insperger-Stépán)
+    sdm = lobes(BENCH, BENCHMARK, SPEEDS, DEPTHS, method="sdm")
+    both = np.isfinite(bench_fdm.a_lim) & np.isfinite(sdm.a_lim)
+    assert both.sum() >= 18
+    assert np.max(np.abs(sdm.a_lim[both] / bench_fdm.a_lim[both] - 1)) < 0.02
+
+
+def test_fdm_converges_with_the_number_of_steps(bench_fdm):
+    # 20 steps over the cut (the default) against 80: the entry and exit sit on step ends, so the
+    # first-order interpolation converges smoothly (0.54 % at worst, at the lowest speed)
+    fine = lobes(BENCH, BENCHMARK, SPEEDS[::4], DEPTHS, method="fdm", steps=80)
+    assert np.max(np.abs(bench_fdm.a_lim[::4] / fine.a_lim - 1)) < 0.01
+
+
+def test_no_cut_is_stable_and_a_deep_cut_is_not():
+    rho = fdm_spectral_radius(BENCH, BENCHMARK, [10000.0], [0.0, 0.05])[0]
+    assert rho[0] < 1 < rho[1]
+
+
+def test_zero_order_method_misses_the_flip_lobes_of_low_immersion(bench_fdm):
+    # at a/D = 0.05 the cut is intermittent: FDM finds flip (period-doubling) lobes the averaged
+    # zero-order model cannot, so its limit lies above FDM's somewhere in the range
+    zoa = lobes(BENCH, BENCHMARK, SPEEDS, DEPTHS, method="zoa")
+    ok = np.isfinite(zoa.a_lim) & np.isfinite(bench_fdm.a_lim)
+    assert np.max(zoa.a_lim[ok] / bench_fdm.a_lim[ok]) > 1.3
+
+
+def test_slot_milling_zero_order_is_close_to_fdm_on_a_robot_low_band():
+    # continuous cutting: the zero-order average is a good model (within 5 %)
+    op = Robot.load("irb6660", tool="endmill").at(Posture.from_mm_deg(1800, 200, 0))
+    st = Structure.from_mode_table(op.modes("low"))
+    speeds = np.array([6000.0, 9000.0, 12000.0])
+    f = lobes(st, ALUMINIUM_6061, speeds, DEPTHS, method="fdm")
+    z = lobes(st, ALUMINIUM_6061, speeds, DEPTHS, method="zoa")
+    assert np.max(np.abs(z.a_lim / f.a_lim - 1)) < 0.05
+
+
+def test_structure_from_modes_reproduces_the_mode_table_frf():
+    op = Robot.load("irb6660", tool="dummy").at(Posture.from_mm_deg(1800, -200, 0))
+    table = op.modes("high")
+    freq = np.linspace(600, 1400, 50)
+    assert np.allclose(Structure.from_mode_table(table).frf(freq), table.frf(freq)[:, :2, :2], rtol=1e-9,
+                       atol=1e-9 * np.abs(table.frf(freq)).max())
+
+
+def test_cross_terms_of_an_oblique_mode_move_the_critical_depth():
+    # one mode whose shape points 45° off the feed: its FRF matrix has cross terms as large as the
+    # direct ones; the common shortcut of keeping only Φ_xx and Φ_yy misjudges the limit
+    pole = 2 * np.pi * 900 * (-0.02 + 1j * np.sqrt(1 - 0.02**2))
+    v = np.array([1.0, 1.0]) / np.sqrt(2)
+    scale = 1 / (2j * 0.5 * pole.imag)          # modal mass 0.5 kg
+    full = Structure.from_modes([pole], [v * scale], [v])
+    direct = Structure.from_modes([pole, pole], [v * [1, 0] * scale, v * [0, 1] * scale], [v * [1, 0], v * [0, 1]])
+    speeds = np.array([6000.0, 9000.0, 12000.0])
+    cut = Cutting(6e8, 2e8, 2, 0.5, down=True)
+    depths = np.linspace(0, 0.05, 51)
+    a = lobes(full, cut, speeds, depths).a_lim
+    b = lobes(direct, cut, speeds, depths).a_lim
+    a, b = (np.where(np.isfinite(x), x, depths[-1]) for x in (a, b))   # stable to 50 mm: 50 mm
+    assert np.max(np.abs(b / a - 1)) > 0.2
+
+
+def test_average_directional_matrix_is_the_mean_of_the_periodic_one():
+    c = Cutting(6e8, 2e8, 3, 0.4, down=False)
+    phase = np.linspace(0, 2 * np.pi, 200001)[:-1]
+    assert np.allclose(c.directional(phase).mean(axis=0), c.average_directional(), rtol=1e-4, atol=1e3)
+
+
+def test_lowest_envelope_takes_the_smaller_depth():
+    a = lobes(BENCH, BENCHMARK, SPEEDS[:3], DEPTHS)
+    env = lowest_envelope(a, type(a)(a.speed_rpm, a.a_lim * 0.5, "x"))
+    assert np.allclose(env.a_lim, a.a_lim * 0.5)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"teeth": 0}, "at least one tooth"),
+    ({"immersion": 0.0}, "immersion"),
+    ({"immersion": 1.5}, "immersion"),
+    ({"k_t": -1.0}, "K_t"),
+])
+def test_bad_cutting_conditions_are_named(kwargs, match):
+    base = {"k_t": 6e8, "k_n": 2e8, "teeth": 2, "immersion": 0.5}
+    with pytest.raises(InputError, match=match):
+        Cutting(**{**base, **kwargs})
+
+
+def test_non_positive_speeds_are_refused():
+    with pytest.raises(InputError, match="speeds must be positive"):
+        lobes(BENCH, BENCHMARK, [0.0, 1000.0], DEPTHS)
+
+
+def test_a_modal_set_without_modes_in_the_band_is_refused():
+    import xarray as xr
+
+    ds = xr.Dataset({"modal": (("posture", "mode", "param"), np.full((1, 1, 16), np.nan))},
+                    coords={"mode_band": ("mode", ["low"]),
+                            "param": ["f_n", "zeta", "phiL_1X_re", "phiL_1X_im", "phiL_1aX_re", "phiL_1aX_im",
+                                      "phiL_1Y_re", "phiL_1Y_im", "phiR_1X_re", "phiR_1X_im", "phiR_1aX_re",
+                                      "phiR_1aX_im", "phiR_1Y_re", "phiR_1Y_im", "phiR_1aY_re", "phiR_1aY_im"]})
+    with pytest.raises(InputError, match="no complete mode"):
+        Structure.from_modal(ds, 0, band="high")
+
+
+def test_cli_benchmark_json(cli):
+    import json
+
+    code, out, _ = cli("lobes", "--benchmark", "--speeds", "8000,12000,5", "--depths", "21", "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert len(d["speed_rpm"]) == 5 and all(a is None or 0 < a < 0.01 for a in d["a_lim_m"])
+
+
+def test_cli_robot_lobes_figure(cli, tmp_path):
+    fig = tmp_path / "l.png"
+    code, out, _ = cli("lobes", "--robot", "irb6660", "--tool", "endmill", "--posture", "1800,200,0",
+                       "--band", "low", "--speeds", "6000,12000,4", "--depths", "21", "--out", str(fig))
+    assert code == 0 and fig.stat().st_size > 5000 and "lowest critical depth" in out
+
+
+def test_cli_bad_cutting_string_is_one_line(cli):
+    code, _, err = cli("lobes", "--benchmark", "--cutting", "600,200,2,0.05,sideways")
+    assert code == 2 and "--cutting" in err
+
+
+@pytest.fixture(scope="module")
+def milling_case():
+    from rmbench.stability.milling import mill  # noqa: F401
+
+    op = Robot.load("irb6660", tool="endmill").at(Posture.from_mm_deg(1800, 200, 0))
+    a = lobes(Structure.from_operating_point(op), ALUMINIUM_6061, [9000.0], DEPTHS, every=5).a_lim[0]
+    return op, a
+
+
+def test_virtual_milling_is_stable_well_below_the_fdm_limit(milling_case):
+    from rmbench.stability.milling import mill
+
+    op, a = milling_case
+    run = mill(op, ALUMINIUM_6061, 9000.0, 0.6 * a)
+    assert not run.chatter and run.kind == "stable"
+
+
+def test_virtual_milling_chatters_well_above_the_fdm_limit(milling_case):
+    from rmbench.stability.milling import mill
+
+    op, a = milling_case
+    run = mill(op, ALUMINIUM_6061, 9000.0, 1.4 * a)
+    assert run.chatter and run.off_harmonic > 0.5  # energy away from the tooth-passing harmonics
+
+
+def test_chatter_metric_separates_periodic_from_wandering_samples():
+    from rmbench.stability.milling import chatter_metrics
+
+    dt, period = 1e-4, 5e-3
+    t = np.arange(20000) * dt
+    periodic = np.column_stack([np.sin(2 * np.pi * t / period), np.cos(4 * np.pi * t / period)]) * 1e-5
+    growing = periodic + 1e-6 * np.exp(t / 0.5)[:, None] * np.sin(2 * np.pi * 333.3 * t)[:, None]
+    a, b = chatter_metrics(periodic, dt, period), chatter_metrics(growing, dt, period)
+    assert a["metric"] < 1e-3 and a["off_harmonic"] < 0.01
+    assert b["growth"] > 1.0 and b["metric"] > 10 * a["metric"]
+
+
+def test_milling_grid_resumes_from_its_file(tmp_path):
+    from rmbench.stability.milling import mill_grid
+
+    out = tmp_path / "m.jsonl"
+    p = Posture.from_mm_deg(1800, 200, 0)
+    first = mill_grid("irb6660", "endmill", p, ALUMINIUM_6061, [9000.0], [1e-3], out=out, periods=20)
+    lines = out.read_text().splitlines()
+    again = mill_grid("irb6660", "endmill", p, ALUMINIUM_6061, [9000.0], [1e-3], out=out, periods=20)
+    assert out.read_text().splitlines() == lines and again == first
+
+
+def test_cli_mill_rejects_negative_depths(cli):
+    code, _, err = cli("mill", "--speeds", "9000", "--depths", "-1")
+    assert code == 2 and "--depths must be positive" in err

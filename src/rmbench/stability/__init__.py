@@ -1,0 +1,21 @@
+"""Milling stability (METHODS.md §10; issue 17).
+
+Stability lobes of 2-DOF milling with multi-mode, cross-coupled tool-tip dynamics: the
+full-discretisation method (Ding et al. 2010), the semi-discretisation method (Insperger & Stépán)
+as its independent check, and the zero-order approximation (Altintas & Budak) with the full
+oriented FRF matrix::
+
+    from rmbench.stability import BENCHMARK, Structure, lobes
+    d = lobes(Structure.sdof(0.03993, 922, 0.011), BENCHMARK, speeds_rpm, depths_m, method="fdm")
+    d.speed_rpm, d.a_lim                     # critical depth of the lowest lobe per speed, m
+"""
+
+from rmbench.stability.cutting import ALUMINIUM_6061, BENCHMARK, Cutting
+from rmbench.stability.fdm import fdm_spectral_radius
+from rmbench.stability.lobes import METHODS, Lobes, lobes, lowest_envelope
+from rmbench.stability.sdm import sdm_spectral_radius
+from rmbench.stability.structure import Structure
+from rmbench.stability.zoa import zoa_lobes
+
+__all__ = ["Cutting", "BENCHMARK", "ALUMINIUM_6061", "Structure", "Lobes", "lobes", "lowest_envelope",
+           "METHODS", "fdm_spectral_radius", "sdm_spectral_radius", "zoa_lobes"]

@@ -1,0 +1,127 @@
+"""Stability lobes: the critical depth of cut per spindle speed, by FDM, SDM or the zero-order method.
+
+:func:`lobes` scans a depth grid for the first unstable depth at every speed and refines each
+crossing by multisection (8 depths per round, so three rounds narrow a grid cell 729-fold).
+:func:`lowest_envelope` combines lobes computed apart (a robot's low and high bands, as the seed
+did).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rmbench.errors import InputError
+from rmbench.stability.cutting import Cutting
+from rmbench.stability.fdm import check_grid, fdm_radius_pairs, fdm_spectral_radius
+from rmbench.stability.sdm import sdm_spectral_radius
+from rmbench.stability.structure import Structure
+
+__all__ = ["Lobes", "lobes", "lowest_envelope", "METHODS"]
+
+METHODS = ("fdm", "sdm", "zoa")
+
+
+@dataclass(frozen=True)
+class Lobes:
+    """A stability-lobe diagram.
+
+    Attributes
+    ----------
+    speed_rpm : ndarray, shape (n_speed,)
+    a_lim : ndarray, shape (n_speed,)
+        Critical axial depth of the lowest lobe, m (inf where no depth in the range is unstable).
+    method : str
+    radius : ndarray or None, shape (n_speed, n_depth)
+        Spectral radius on the scan grid (FDM, SDM).
+    depths : ndarray or None, m
+    """
+
+    speed_rpm: np.ndarray
+    a_lim: np.ndarray
+    method: str
+    radius: np.ndarray | None = field(default=None, repr=False)
+    depths: np.ndarray | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict:
+        return {"method": self.method, "speed_rpm": self.speed_rpm.tolist(),
+                "a_lim_m": [None if not np.isfinite(a) else float(a) for a in self.a_lim]}
+
+
+def lobes(structure: Structure, cutting: Cutting, speeds_rpm, depths, *, method: str = "fdm",
+          steps: int = 20, refine: int = 3, every: int = 1) -> Lobes:
+    """Critical depth per speed.
+
+    Parameters
+    ----------
+    structure : Structure
+    cutting : Cutting
+    speeds_rpm : ndarray, shape (n_speed,), rev/min
+    depths : ndarray, shape (n_depth,), m
+        Scan grid, increasing; the first unstable grid depth brackets the limit.
+    method : str
+        ``"fdm"``, ``"sdm"`` or ``"zoa"`` (the zero-order method ignores ``depths``' resolution).
+    steps : int
+        Steps per tooth period over the cut (FDM, SDM).
+    refine : int
+        Multisection rounds on each bracket, 8 depths each (FDM, SDM): 729 times finer than the grid.
+    every : int
+        Scan only every ``every``-th depth of the grid first (the refinement then resolves the
+        crossing as finely): ``every`` times fewer eigenvalue problems, at the risk of missing an
+        unstable island thinner than ``every`` grid steps below the first crossing.
+    """
+    if method not in METHODS:
+        raise InputError(f"unknown stability method {method!r}; use {', '.join(METHODS)}")
+    speeds, depths = check_grid(speeds_rpm, depths)
+    if len(depths) < 2 or np.any(np.diff(depths) <= 0):
+        raise InputError("depths must increase, at least two of them")
+    if method == "zoa":
+        from rmbench.stability.zoa import zoa_lobes
+
+        return Lobes(speeds, zoa_lobes(structure, cutting, speeds, a_max=depths[-1]), "zoa")
+    if every < 1:
+        raise InputError(f"every must be at least 1, got {every}")
+    depths = depths[::every] if depths[::every][-1] == depths[-1] else np.append(depths[::every], depths[-1])
+    if method == "fdm":
+        rho = fdm_spectral_radius(structure, cutting, speeds, depths, steps=steps)
+
+        def radius(rpm, dep):
+            return fdm_radius_pairs(structure, cutting, rpm, dep, steps=steps)
+    else:
+        rho = sdm_spectral_radius(structure, cutting, speeds, depths, steps=steps)
+
+        def radius(rpm, dep):
+            return np.concatenate([sdm_spectral_radius(structure, cutting, [r], [x], steps=steps)[0]
+                                   for r, x in zip(rpm, dep)])
+    a_lim = np.full(len(speeds), np.inf)
+    lo, hi = np.full(len(speeds), np.nan), np.full(len(speeds), np.nan)
+    for k, r in enumerate(rho):
+        bad = np.flatnonzero(r >= 1)
+        if len(bad):
+            j = bad[0]
+            lo[k], hi[k] = (depths[j - 1], depths[j]) if j > 0 else (depths[0], depths[0])
+    live = np.flatnonzero(np.isfinite(lo) & (hi > lo))
+    for _ in range(refine if len(live) else 0):
+        frac = np.linspace(0, 1, 10)[1:-1]
+        trial = lo[live, None] + (hi - lo)[live, None] * frac[None]          # (n_live, 8)
+        rr = radius(np.repeat(speeds[live], 8), trial.ravel()).reshape(len(live), 8)
+        for n, k in enumerate(live):
+            unstable = np.flatnonzero(rr[n] >= 1)
+            if len(unstable):
+                u = unstable[0]
+                lo[k], hi[k] = (trial[n, u - 1] if u > 0 else lo[k]), trial[n, u]
+            else:
+                lo[k] = trial[n, -1]
+    found = np.isfinite(lo)
+    a_lim[found] = 0.5 * (lo[found] + hi[found])
+    return Lobes(speeds, a_lim, method, rho, depths)
+
+
+def lowest_envelope(*diagrams: Lobes) -> Lobes:
+    """The lowest critical depth at each speed over diagrams on the same speeds."""
+    speeds = diagrams[0].speed_rpm
+    for d in diagrams[1:]:
+        if d.speed_rpm.shape != speeds.shape or not np.allclose(d.speed_rpm, speeds):
+            raise InputError("lobes combined into an envelope must share their speeds")
+    return Lobes(speeds, np.min([d.a_lim for d in diagrams], axis=0), "+".join(sorted({d.method for d in diagrams})))
