@@ -194,3 +194,38 @@ def test_milling_grid_resumes_from_its_file(tmp_path):
 def test_cli_mill_rejects_negative_depths(cli):
     code, _, err = cli("mill", "--speeds", "9000", "--depths", "-1")
     assert code == 2 and "--depths must be positive" in err
+
+
+def test_point_receptance_inverts_the_finite_differences():
+    from rmbench.rcsa import full_receptance
+    from rmbench.rcsa.receptance import point_receptance
+
+    h = np.random.default_rng(0).standard_normal((3, 4, 4)) + 1j
+    assert np.allclose(point_receptance(full_receptance(h, 0.02), 0.02), h)
+
+
+def test_tool_change_chain_from_the_reference_frfs_gives_the_target_lobes():
+    # the chain's own error (the tool's beam model, RCSA, the blind modal fit of the target) without
+    # the predictor: the reference tool's exact 4x4 receptances at validation posture 2 go in
+    from rmbench.rcsa import POINT_COORDS
+    from rmbench.robot import validation_postures
+    from rmbench.robot.tool import TOOLS
+    from rmbench.stability.chain import tool_structures
+
+    p = validation_postures()[1]
+    ref = Robot.load("irb6660", tool="dummy").at(p)
+    tgt = Robot.load("irb6660", tool="endmill").at(p)
+    bands = {"low": (np.arange(4.0, 40.01, 0.125), 0.0334), "high": (np.arange(600.0, 1400.1, 2.0), 0.020)}
+    h_ref = {b: ref.frf(f, POINT_COORDS, s_1a=s) for b, (f, s) in bands.items()}
+    _, st = tool_structures(h_ref, bands, TOOLS["dummy"], TOOLS["endmill"],
+                            n_modes={b: len(tgt.modes(b)) for b in bands})
+    speeds = np.linspace(6000.0, 18000.0, 7)
+    got = lowest_envelope(*(lobes(s, ALUMINIUM_6061, speeds, DEPTHS, every=5) for s in st.values()))
+    exact = lowest_envelope(*(lobes(Structure.from_mode_table(tgt.modes(b)), ALUMINIUM_6061, speeds, DEPTHS, every=5)
+                              for b in bands))
+    assert np.max(np.abs(got.a_lim / exact.a_lim - 1)) < 0.02   # measured 1.2 %
+
+
+def test_cli_predictor_lobes_need_a_posture(cli, tmp_path):
+    code, _, err = cli("lobes", "--modal", str(tmp_path / "p.npz"))
+    assert code == 2 and "needs --posture" in err

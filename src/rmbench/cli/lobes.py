@@ -15,9 +15,14 @@ def register(sub) -> None:
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--benchmark", action="store_true",
                      help="the published 1-DOF benchmark (2 teeth, 922 Hz, a/D 0.05, down-milling)")
-    src.add_argument("--modal", help="modal dataset (netCDF) from `rmbench modal fit`")
+    src.add_argument("--modal", help="modal dataset (netCDF) from `rmbench modal fit`, or a predictor (.npz) "
+                                     "from `rmbench predict train` (then --posture, and --tool for a new tool by RCSA)")
     src.add_argument("--robot", help="the simulator's exact modes of a bundled robot (name or MJCF path)")
-    p.add_argument("--tool", default=None, help="tool on --robot (default: the robot's own)")
+    p.add_argument("--tool", default=None,
+                   help="tool on --robot (default: the robot's own); with a predictor, the target tool put on by RCSA")
+    p.add_argument("--reference-tool", default="dummy", help="the tool a predictor was trained with (default dummy)")
+    p.add_argument("--spacing-mm", default="33.4,20",
+                   help="sensor spacing S of the low and high bands of a predictor's campaign, mm (default 33.4,20)")
     p.add_argument("--posture", help="x,y,theta in mm, mm, degrees (--robot; --modal: a fitted posture)")
     p.add_argument("--index", type=int, default=None, help="posture index in --modal (default 0)")
     p.add_argument("--band", choices=("low", "high", "both", "all"), default=None,
@@ -75,6 +80,8 @@ def _structures(args) -> tuple[dict, str]:
     if band == "all" and args.modal:
         raise InputError("--band all needs --robot (a modal dataset holds the bands' modes only)")
     bands = ("low", "high") if band == "both" else (band,)
+    if args.modal and str(args.modal).endswith(".npz"):
+        return _predicted(args, bands), f"predictor {args.modal} at {args.posture}, tool {args.tool or args.reference_tool}"
     if args.modal:
         ds = load_dataset(args.modal, "modal dataset")
         if "modal" not in ds:
@@ -105,6 +112,35 @@ def _structures(args) -> tuple[dict, str]:
             raise InputError(f"no mode of {robot.name} in the {b} band at {posture.label()}")
         out[b] = Structure.from_mode_table(table)
     return out, f"{robot.name} with {robot.tool} at {posture.label()} (exact modes)"
+
+
+def _predicted(args, bands) -> dict:
+    """Target-tool structures per band from a predictor: predict, rebuild, RCSA, fit (stability.chain)."""
+    import warnings
+
+    from rmbench.predict import PosturePredictor
+    from rmbench.rcsa.tool_change import tool_geometry
+    from rmbench.robot import parse_posture
+    from rmbench.stability.chain import predicted_tool_structures
+
+    if not args.posture:
+        raise InputError("a predictor needs --posture")
+    try:
+        s_low, s_high = (1e-3 * float(v) for v in args.spacing_mm.split(","))
+    except ValueError:
+        raise InputError(f"--spacing-mm must be two numbers (low, high band), got {args.spacing_mm!r}") from None
+    pred = PosturePredictor.load(args.modal)
+    p = parse_posture(args.posture)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = pred.predict([[p.x, p.y, p.theta]])
+    for w in caught:
+        print(f"warning: {w.message}")
+    lines = {"low": (np.arange(4.0, 40.01, 0.125), s_low), "high": (np.arange(600.0, 1400.1, 2.0), s_high)}
+    ref = tool_geometry(args.reference_tool)
+    tgt = tool_geometry(args.tool) if args.tool else ref
+    _, _, structures = predicted_tool_structures(out, {b: lines[b] for b in bands}, ref, tgt)
+    return structures
 
 
 def cmd_lobes(args) -> int:

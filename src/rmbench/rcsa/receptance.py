@@ -23,7 +23,8 @@ import xarray as xr
 
 from rmbench.errors import InputError
 
-__all__ = ["FULL_COORDS", "POINT_COORDS", "difference_matrix", "full_receptance", "campaign_receptance"]
+__all__ = ["FULL_COORDS", "POINT_COORDS", "difference_matrix", "full_receptance", "point_receptance",
+           "campaign_receptance"]
 
 #: Coordinates of the full matrix (Eq. 3 order): tip displacement and rotation in X, then in Y.
 FULL_COORDS = ("1X", "1rX", "1Y", "1rY")
@@ -67,6 +68,16 @@ def full_receptance(h: np.ndarray, s: float) -> np.ndarray:
         raise InputError(f"the measured matrix must be 4x4 (1X, 1Y, 1aX, 1aY), got shape {h.shape[-2:]}")
     d = difference_matrix(s)
     return d @ h @ d.T
+
+
+def point_receptance(t: np.ndarray, s: float) -> np.ndarray:
+    """The inverse of :func:`full_receptance`: translations at 1 and 1a, ``POINT_COORDS``, (..., 4, 4).
+
+    Exact for a rigid tip segment between 1 and 1a (u_1a = u_1 − S θ); how a predicted target tool
+    is handed to a 4x4 modal fit.
+    """
+    d = np.linalg.inv(difference_matrix(s))
+    return d @ np.asarray(t) @ d.T
 
 
 def campaign_receptance(data: xr.Dataset, index: int, band: str, *, variable: str = "H") -> xr.DataArray:
