@@ -10,7 +10,8 @@ import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json", "load_dataset"]
+__all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json", "load_dataset",
+           "add_report_option", "report_path"]
 
 
 def command_group(sub, name: str, help: str):
@@ -34,6 +35,25 @@ def add_robot_options(p, *, posture: bool = True) -> None:
                        help="x,y,theta in mm, mm, degrees (default: 1800,-200,0, or the robot's reference posture)")
         p.add_argument("--joints", default=None,
                        help="arm joint commands in degrees, comma-separated (instead of --posture)")
+
+
+def add_report_option(p, what: str = "the results") -> None:
+    p.add_argument("--report", default=None, metavar="HTML",
+                   help=f"write {what} as one self-contained interactive HTML report")
+
+
+def report_path(args, option: str = "--report"):
+    """The ``--report`` file checked before any work starts (an .html file in an existing
+    folder), or None."""
+    r = getattr(args, option.lstrip("-").replace("-", "_"), None)
+    if r is None:
+        return None
+    path = Path(r)
+    if path.suffix.lower() not in (".html", ".htm"):
+        raise InputError(f"{option} must name an .html file, got {r}")
+    if not path.resolve().parent.is_dir():
+        raise InputError(f"folder for {option} does not exist: {path.parent}")
+    return path
 
 
 def load_robot(args):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rmbench.cli._common import command_group, print_json
+from rmbench.cli._common import add_report_option, command_group, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -46,7 +46,8 @@ def register(sub) -> None:
     where.add_argument("--posture", help="x,y,theta in mm, mm, degrees")
     where.add_argument("--index", type=int, help="posture position in the dataset")
     plot.add_argument("--band", choices=("low", "high"), default=None)
-    plot.add_argument("--out", required=True, help="PNG file")
+    plot.add_argument("--out", default=None, help="PNG file")
+    add_report_option(plot, "the whole campaign (this posture shown first)")
     plot.set_defaults(func=cmd_plot)
 
 
@@ -142,6 +143,9 @@ def cmd_plot(args) -> int:
     from rmbench.impact.plot import plot_frf_matrix
     from rmbench.robot import parse_posture
 
+    report = report_path(args)
+    if args.out is None and report is None:
+        raise InputError("give --out PNG, --report HTML, or both")
     ds = open_campaign(args.data)
     if args.index is not None:
         if not 0 <= args.index < ds.sizes["posture"]:
@@ -155,8 +159,15 @@ def cmd_plot(args) -> int:
             raise InputError(f"posture {args.posture} is not in {args.data}")
     if not bool(ds.ok.values[index]):
         raise InputError(f"posture {index} failed in this campaign: {ds.reason.values[index]}")
-    plot_frf_matrix(ds, index, args.out, band=args.band)
-    print(f"wrote {args.out}")
+    if args.out:
+        plot_frf_matrix(ds, index, args.out, band=args.band)
+        print(f"wrote {args.out}")
+    if report:
+        from rmbench.report import Page, campaign_sections, dataset_meta
+
+        page = Page(f"Impact campaign {Path(args.data).name}", dataset_meta(ds, args.data))
+        campaign_sections(page, ds, start=index)
+        print(f"wrote {page.write(report)}")
     return 0
 
 

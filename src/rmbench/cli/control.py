@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rmbench.cli._common import add_robot_options, command_group, load_robot, print_json, resolve_posture
+from rmbench.cli._common import (add_report_option, add_robot_options, command_group, load_robot, print_json,
+                                 report_path, resolve_posture)
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -45,6 +46,7 @@ def register(sub) -> None:
     r.add_argument("--plot", default=None, metavar="PNG", help="uncontrolled vs controlled sensitivity")
     r.add_argument("--out", default=None, metavar="NC", help="write both runs as netCDF")
     r.add_argument("--json", action="store_true")
+    add_report_option(r, "sensitivity, stroke and force use, time traces at the mode and the controller")
     r.set_defaults(func=cmd_run)
 
     t = csub.add_parser("tune", help="tuning run: weights x postures from a TOML file, in parallel")
@@ -126,6 +128,7 @@ def cmd_run(args) -> int:
     from rmbench.control import Controller, eccentric_test, excitation_frequencies, reduction_at, sine_sweep
     from rmbench.control.experiments import cluster
 
+    report = report_path(args)
     ctrl = Controller.load(args.controller)
     op = _operating_point(args)
     modes = op.linear.modes()
@@ -175,6 +178,25 @@ def cmd_run(args) -> int:
 
         plot_sensitivity({"uncontrolled": open_, "controlled": closed}, args.plot,
                          title=f"{args.test}: {', '.join(ctrl.axes)} controller")
+    if report:
+        from rmbench.control.experiments import traced_runs
+        from rmbench.report import Page
+        from rmbench.report.control import control_sections
+
+        traces, f0 = None, None
+        if result["axes"]:
+            a0 = next(iter(result["axes"]))
+            f0 = result["axes"][a0]["mode_hz"]
+            traces = traced_runs(op, ctrl, a0 if args.test == "sweep" else None, f0, amplitude=args.amplitude)
+        page = Page(f"Proof-mass suppressor: {args.test} test", {
+            "controller": args.controller, "robot": args.robot, "test": args.test,
+            "reduction": ", ".join(f"{a}: {100 * r['reduction']:.1f} % at {r['mode_hz']:.2f} Hz"
+                                   for a, r in result["axes"].items()),
+            "time traces": f"{'sine' if args.test == 'sweep' else 'eccentric mass'} at {f0:.2f} Hz" if traces else "none"})
+        control_sections(page, {"uncontrolled": open_, "controlled": closed}, controller=ctrl, traces=traces)
+        page.write(report)
+        if not args.json:
+            print(f"wrote {report}")
     if args.json:
         print_json(result)
     else:

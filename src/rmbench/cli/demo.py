@@ -5,7 +5,9 @@ design) on the IRB6660 stand-in, with its exact ground truth beside it: mode tab
 plots of measured vs exact FRF matrices, and the MDOF modal fit of the measured FRFs scored
 against the exact modes; posture prediction (48 grid postures fitted and learnt by the seed's
 grouped multi-task GPs, a never-hammered posture predicted); then the MH180 stand-in's proof-mass suppressor: an H∞ controller
-designed on its linearisation and run closed loop in MuJoCo against a 20 N sine at its mode.
+designed on its linearisation and run closed loop in MuJoCo against a 20 N sine at its mode; the
+RCSA tool change and supported plate; lobes; the gap diagnoses. It ends by writing one HTML report
+of everything it ran (``report.html``).
 """
 
 from __future__ import annotations
@@ -30,8 +32,13 @@ def cmd_demo(args) -> int:
     from rmbench.robot import Robot, validation_postures
     from rmbench.robot.plot import plot_tip_frfs
 
+    from rmbench import __version__
+    from rmbench.report import Page
+
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    page = Page("rmbench demo", {"rmbench": __version__, "folder": str(out.resolve()),
+                                 "robots": "IRB6660 stand-in (dummy tool), MH180 stand-in (suppressor)"})
     robot = Robot.load("irb6660", tool="dummy")
     print(f"rmbench demo: the {robot.name} stand-in with the {robot.tool} tool")
     curves = {"low": [], "high": []}
@@ -85,16 +92,23 @@ def cmd_demo(args) -> int:
               f"MAC phiR/phiL min {np.nanmin(fit.mac_phiR):.4f}/{np.nanmin(fit.mac_phiL):.4f}")
     save(fit, out / "demo_modal.nc")
     print(f"wrote {out / 'demo_modal.nc'}")
-    _demo_predict(out, args.workers)
-    _demo_rcsa(out, ds)
-    _demo_lobes(out, fit)
-    _demo_control(out)
-    _demo_gap(out, args.workers)
-    _demo_tracker_gap(out)
+    from rmbench.report import campaign_sections, modal_sections
+
+    page.part("Impact campaign and modal fit (3 validation postures, time domain)")
+    campaign_sections(page, ds, fit=fit)
+    modal_sections(page, fit, ds)
+    _demo_predict(out, args.workers, page)
+    _demo_rcsa(out, ds, page)
+    _demo_lobes(out, fit, page)
+    _demo_control(out, page)
+    _demo_gap(out, args.workers, page)
+    _demo_tracker_gap(out, page)
+    report = page.write(out / "report.html")
+    print(f"\nreport of everything above (open it in a browser): {report}")
     return 0
 
 
-def _demo_rcsa(out: Path, ds) -> None:
+def _demo_rcsa(out: Path, ds, page) -> None:
     """RCSA: the end mill predicted from the campaign's dummy-tool FRFs; a robot supporting a plate."""
     from rmbench.rcsa import campaign_receptance
     from rmbench.rcsa.plot import plot_support, plot_tool_change
@@ -112,9 +126,13 @@ def _demo_rcsa(out: Path, ds) -> None:
         print(f"  {band:>4} band: {len(peaks)} peaks of H_1x1x, H_1x1y, H_1y1x, H_1y1y; largest errors "
               f"amplitude {100 * max(abs(p.amp_err) for p in peaks):.2f} %, "
               f"frequency {100 * max(abs(p.freq_err) for p in peaks):.2f} %")
-    path = plot_tool_change(res, out / "rcsa_tool_change.png",
-                            reference={b: campaign_receptance(ds, 1, b).values for b in res.bands})
+    reference = {b: campaign_receptance(ds, 1, b).values for b in res.bands}
+    path = plot_tool_change(res, out / "rcsa_tool_change.png", reference=reference)
     print(f"  wrote {path}")
+    from rmbench.report.machining import support_sections, tool_change_sections
+
+    page.part("RCSA")
+    tool_change_sections(page, res, reference=reference)
     robot = Robot.load("irb6660")
     st = support_study(robot, robot.ik(Posture.from_mm_deg(1800, 0, 0)).q)
     d = st.to_dict()
@@ -124,9 +142,10 @@ def _demo_rcsa(out: Path, ds) -> None:
           + ", ".join(f"{100 * a:.2f}/{100 * b:.2f} %" for a, b in zip(d["reduction_sim"], d["reduction_rcsa"]))
           + " (simulated/RCSA)")
     print(f"  wrote {plot_support(st, out / 'rcsa_supported_plate.png')}")
+    support_sections(page, st)
 
 
-def _demo_lobes(out: Path, fit) -> None:
+def _demo_lobes(out: Path, fit, page) -> None:
     """Stability lobes at (1800, 200, 0) from the campaign's fitted modes against the exact modes."""
     from rmbench.robot import Posture, Robot
     from rmbench.stability import ALUMINIUM_6061, Structure, lobes, lowest_envelope
@@ -147,9 +166,15 @@ def _demo_lobes(out: Path, fit) -> None:
           f"{1e3 * np.nanmin(env['fitted'].a_lim):.3f} mm (fitted); fitted vs exact over {ok.sum()} speeds: "
           f"median {100 * np.median(err):.2f} %, max {100 * err.max():.2f} %")
     print(f"  wrote {plot_lobes(env, out / 'lobes.png', title='IRB6660 stand-in, dummy tool, (1800, 200, 0)')}")
+    from rmbench.report.machining import lobes_sections
+
+    page.part("Milling stability")
+    lobes_sections(page, env, title="Lobes at (1800, 200, 0): fitted against exact modes",
+                   note="Aluminium 6061 slot, 2 teeth, FDM over both bands, lowest envelope; from the "
+                        "campaign's fitted modes and from the simulator's exact modes.")
 
 
-def _demo_predict(out: Path, workers) -> None:
+def _demo_predict(out: Path, workers, page) -> None:
     """Posture prediction: hammer 48 grid postures, fit, learn, predict a posture never hammered."""
     import warnings
 
@@ -188,9 +213,17 @@ def _demo_predict(out: Path, workers) -> None:
         near = cand[np.argmin(np.abs(cand - f))] if len(cand) else np.nan
         print(f"  mode {k} ({b}): f_n {f:8.3f} ± {s:.3f} Hz; nearest exact mode {near:8.3f} Hz "
               f"({100 * (f / near - 1):+.2f} %)")
+    from rmbench.predict import cross_validate, training_set
+    from rmbench.predict.data import frequency_ordered
+    from rmbench.report.predict import cv_sections, predictor_sections
+
+    page.part("Posture prediction (48 grid postures)")
+    predictor_sections(page, pred)
+    ts = training_set(frequency_ordered(fit))
+    cv_sections(page, ts, [cross_validate(ts, "knn")])     # the fast baseline; GPs' CV takes minutes
 
 
-def _demo_tracker_gap(out: Path) -> None:
+def _demo_tracker_gap(out: Path, page) -> None:
     """An MH180 with a gear error on j4 and a heavier tool than its model: read by a tracker,
     diagnosed, the accuracy it costs before and after."""
     from rmbench.gap import diagnose_tracker, tracker_data
@@ -221,9 +254,13 @@ def _demo_tracker_gap(out: Path) -> None:
         print(f"  * {s.name}: {s.description}, {100 * s.share:.0f} % of the error, confidence {s.confidence:.2f}")
     dg.save(out / "demo_tracker_gap")
     print(f"  wrote {out / 'demo_tracker_gap'}: diagnosis.json, sources.csv, pose_errors.png")
+    from rmbench.report.gap import gap_sections
+
+    page.part("Sim-to-real gap on tracker readings (MH180)")
+    gap_sections(page, out / "demo_tracker_gap")
 
 
-def _demo_gap(out: Path, workers) -> None:
+def _demo_gap(out: Path, workers, page) -> None:
     """A robot whose third joint is 20 % softer than its model: measured, diagnosed, fixed."""
     import warnings
 
@@ -256,9 +293,13 @@ def _demo_gap(out: Path, workers) -> None:
     paths = dg.save(out / "demo_gap")
     print(f"  wrote {out / 'demo_gap'}: diagnosis.json, effects.csv, {len(paths.get('figures', []))} figures"
           + (", variant.xml (the updated model)" if paths.get("variant") else ""))
+    from rmbench.report.gap import gap_sections
+
+    page.part("Sim-to-real gap on FRF data (j3 20 % softer)")
+    gap_sections(page, out / "demo_gap")
 
 
-def _demo_control(out: Path) -> None:
+def _demo_control(out: Path, page) -> None:
     from rmbench.control import design, excitation_frequencies, reduction_at, robot_plant, sine_sweep
     from rmbench.control.plot import plot_sensitivity
     from rmbench.robot.suppressor import reference_point
@@ -278,3 +319,9 @@ def _demo_control(out: Path) -> None:
           f"{100 * red:.1f} % reduction at the mode (seed: 75.2 %)")
     plot_sensitivity(runs, out / "demo_control_sweep.png", title="MH180 stand-in: 20 N sine sweep")
     print(f"  figure {out / 'demo_control_sweep.png'}")
+    from rmbench.control.experiments import traced_runs
+    from rmbench.report.control import control_sections
+
+    page.part("Proof-mass suppressor (MH180)")
+    control_sections(page, {"uncontrolled": runs["uncontrolled"], "controlled": runs["H-infinity"]},
+                     controller=d.controller, traces=traced_runs(op, d.controller, "tangential", f0))

@@ -8,7 +8,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from rmbench.cli._common import command_group, print_json
+from rmbench.cli._common import add_report_option, command_group, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -29,6 +29,7 @@ def register(sub) -> None:
     d.add_argument("--out", default=None, help="directory for figures, tables and the updated variant MJCF")
     d.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     d.add_argument("--json", action="store_true", help="print the diagnosis as JSON")
+    add_report_option(d, "the verdict, ranked effects, gap maps and before/after overlays")
     d.set_defaults(func=cmd_diagnose)
 
     b = g.add_parser("blind", help="withheld-effect check: inject hidden effects, diagnose them blind, score")
@@ -46,7 +47,28 @@ def register(sub) -> None:
     b.set_defaults(func=cmd_blind)
 
 
+def _report(args, dg, paths) -> None:
+    """The diagnosis's report, read back from its saved folder (a temporary one without --out)."""
+    import tempfile
+
+    from rmbench.report import Page
+    from rmbench.report.gap import gap_sections
+
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = args.out if paths else tmp
+        if not paths:
+            dg.save(tmp)
+        page = Page(f"Gap diagnosis of {Path(args.data or args.readings).name}",
+                    {"data": args.data or args.readings, "robot": args.robot or "", "tool": args.tool or "",
+                     "saved in": args.out or ""})
+        gap_sections(page, folder)
+        page.write(args.report)
+    if not args.json:
+        print(f"wrote {args.report}")
+
+
 def cmd_diagnose(args) -> int:
+    report_path(args)
     if args.readings is not None:
         return _diagnose_readings(args)
     from rmbench.gap import diagnose
@@ -70,6 +92,8 @@ def cmd_diagnose(args) -> int:
         if issubclass(w.category, GapDataWarning):
             print(f"rmbench: warning: {w.message}", file=sys.stderr)
     paths = dg.save(args.out) if args.out else {}
+    if args.report:
+        _report(args, dg, paths)
     if args.json:
         print_json(dg.to_json(paths.get("variant")))
         return 0
@@ -108,6 +132,8 @@ def _diagnose_readings(args) -> int:
     data = tracker_data(readings, robot=robot, repeatability=1e-3 * args.repeatability)
     dg = diagnose_tracker(robot, data, progress=say)
     paths = dg.save(args.out) if args.out else {}
+    if args.report:
+        _report(args, dg, paths)
     if args.json:
         print_json(dg.to_json())
         return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rmbench.cli._common import load_dataset, print_json
+from rmbench.cli._common import add_report_option, load_dataset, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -42,6 +42,7 @@ def register(sub) -> None:
                         "aluminium 6061 slot with 2 teeth: 880,52,2,1,down)")
     p.add_argument("--json", action="store_true", help='print {"speed_rpm": [...], "a_lim_m": [...]}')
     p.add_argument("--out", help="figure of the lobes (.png)")
+    add_report_option(p, "the lobes (each band and their envelope)")
     p.set_defaults(func=cmd_lobes)
 
 
@@ -165,6 +166,7 @@ def cmd_lobes(args) -> int:
     every = args.every if args.every is not None else (1 if args.benchmark else 5)
     if every < 1:
         raise InputError(f"--every must be at least 1, got {every}")
+    report = report_path(args)
     per_band = {b: lobes(s, cutting, speeds, depths, method=args.method, steps=args.steps, every=every)
                 for b, s in structures.items()}
     env = lowest_envelope(*per_band.values()) if len(per_band) > 1 else next(iter(per_band.values()))
@@ -172,6 +174,15 @@ def cmd_lobes(args) -> int:
         from rmbench.stability.plot import plot_lobes
 
         plot_lobes({**({"envelope": env} if len(per_band) > 1 else {}), **per_band}, args.out, title=what)
+    if report:
+        from rmbench.report import Page
+        from rmbench.report.machining import lobes_sections
+
+        page = Page(f"Stability lobes: {what}", {"method": args.method, "cutting": str(cutting),
+                                                 "speeds (rpm)": f"{speeds[0]:.0f}-{speeds[-1]:.0f}, {len(speeds)}",
+                                                 "depths (mm)": f"0-{1e3 * depth_max:g}, {len(depths)}"})
+        lobes_sections(page, {**({"envelope": env} if len(per_band) > 1 else {}), **per_band}, title=what)
+        page.write(report)
     if args.json:
         d = env.to_dict()
         d["bands"] = {b: l.to_dict()["a_lim_m"] for b, l in per_band.items()} if len(per_band) > 1 else None
@@ -191,6 +202,8 @@ def cmd_lobes(args) -> int:
         print(f"  {speeds[i]:8.0f} rev/min  a_lim {'> range' if not np.isfinite(a) else f'{1e3 * a:7.3f} mm'}")
     if args.out:
         print(f"wrote {args.out}")
+    if report:
+        print(f"wrote {report}")
     return 0
 
 

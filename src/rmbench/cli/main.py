@@ -20,7 +20,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rmbench.cli import campaign, control, demo, gap, lobes, modal, model, predict, rcsa, tracker
+    from rmbench.cli import campaign, control, demo, gap, lobes, modal, model, predict, rcsa, report, tracker
 
     parser = _Parser(prog="rmbench", description="Virtual test bench for robotic machining dynamics.")
     parser.add_argument("--version", action="version", version=f"rmbench {__version__}")
@@ -36,6 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     tracker.register(sub)
     control.register(sub)
     gap.register(sub)
+    report.register(sub)
     demo.register(sub)
     return parser
 

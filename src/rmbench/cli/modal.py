@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rmbench.cli._common import command_group, print_json
+from rmbench.cli._common import add_report_option, command_group, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -23,13 +23,15 @@ def register(sub) -> None:
     fit.add_argument("--csv", default=None, help="also write the parameters as CSV")
     fit.add_argument("--uff", default=None, help="also write UFF55 modal files into this directory")
     fit.add_argument("--json", action="store_true", help="print the modes as JSON (one posture: its modes)")
+    add_report_option(fit, "the campaign with the fitted overlays, parameter maps and a stabilisation diagram")
     fit.set_defaults(func=cmd_fit)
 
     plot = msub.add_parser("plot", help="stabilisation diagram and measured vs fitted FRF matrix of one posture")
     plot.add_argument("data", help="campaign dataset or UFF58 directory")
     plot.add_argument("--index", type=int, default=0, help="posture position")
     plot.add_argument("--band", choices=("low", "high"), default="high")
-    plot.add_argument("--out", required=True, help="PNG file (the FRF matrix goes beside it, *_frf.png)")
+    plot.add_argument("--out", default=None, help="PNG file (the FRF matrix goes beside it, *_frf.png)")
+    add_report_option(plot, "the campaign and the stabilisation diagrams of this posture")
     plot.set_defaults(func=cmd_plot)
 
 
@@ -54,6 +56,7 @@ def cmd_fit(args) -> int:
 
     if args.modes is not None and args.modes < 1:
         raise InputError(f"--modes must be at least 1, got {args.modes}")
+    report = report_path(args)
     ds = _load(args.data)
     bands = ("low", "high") if args.band == "both" else (args.band,)
     res = fit_campaign(ds, bands=bands, n_modes=args.modes, workers=args.workers)
@@ -66,6 +69,13 @@ def cmd_fit(args) -> int:
             write_modal_csv(res, args.csv)
         if args.uff:
             write_uff55(res, args.uff)
+    if report:
+        from rmbench.report import Page, campaign_sections, dataset_meta, modal_sections
+
+        page = Page(f"Modal fit of {Path(args.data).name}", {**dataset_meta(res, args.out), "campaign": args.data})
+        campaign_sections(page, ds, fit=res)
+        modal_sections(page, res, ds)
+        page.write(report)
     if args.json:
         print_json(_as_json(res))
         return 0
@@ -83,6 +93,8 @@ def cmd_fit(args) -> int:
               f"MAC phiR p05 {np.nanpercentile(res.mac_phiR, 5):.4f}, phiL p05 {np.nanpercentile(res.mac_phiL, 5):.4f}")
     if args.out:
         print(f"wrote {args.out}")
+    if report:
+        print(f"wrote {report}")
     return 0
 
 
@@ -128,6 +140,9 @@ def cmd_plot(args) -> int:
     from rmbench.modal import ModalFit, ModalFitWarning
     from rmbench.modal.plot import plot_fit
 
+    report = report_path(args)
+    if args.out is None and report is None:
+        raise InputError("give --out PNG, --report HTML, or both")
     ds = _load(args.data)
     if not 0 <= args.index < ds.sizes["posture"]:
         raise InputError(f"--index {args.index} is outside 0..{ds.sizes['posture'] - 1}")
@@ -140,12 +155,22 @@ def cmd_plot(args) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ModalFitWarning)   # the verdict is printed below
         fit = ModalFit().fit(freq, h, coherence=coh)
-    out = Path(args.out)
-    plot_fit(fit, freq, h, out, out.with_name(out.stem + "_frf.png"))
+    if args.out:
+        out = Path(args.out)
+        plot_fit(fit, freq, h, out, out.with_name(out.stem + "_frf.png"))
     print(f"{fit.n_modes_} modes at {', '.join(f'{f:.2f}' for f in fit.f_n_)} Hz; "
           + ("fit ok" if fit.fit_ok_ else f"needs a look: {fit.fit_reason_}"))
     for note in fit.quality_.notes:
         if note not in fit.fit_reason_:
             print(f"  note: {note}")
-    print(f"wrote {out} and {out.with_name(out.stem + '_frf.png')}")
+    if args.out:
+        print(f"wrote {out} and {out.with_name(out.stem + '_frf.png')}")
+    if report:
+        from rmbench.report import Page, campaign_sections, dataset_meta
+        from rmbench.report.campaign import stabilisation_section
+
+        page = Page(f"Campaign {Path(args.data).name}, posture {args.index}", dataset_meta(ds, args.data))
+        stabilisation_section(page, ds, args.index)
+        campaign_sections(page, ds, start=args.index)
+        print(f"wrote {page.write(report)}")
     return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rmbench.cli._common import command_group, load_dataset, print_json
+from rmbench.cli._common import add_report_option, command_group, load_dataset, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -27,6 +27,7 @@ def register(sub) -> None:
     cv.add_argument("--json", action="store_true", help="print the scores as JSON")
     cv.add_argument("--order", choices=("frequency", "tracked"), default="frequency",
                     help="learn each band's modes in order of frequency (default), or as tracked")
+    add_report_option(cv, "the out-of-fold scatter, residuals and R² per parameter")
     cv.set_defaults(func=cmd_cv)
 
     tr = g.add_parser("train", help="learn every modal parameter over the posture; save the predictor")
@@ -50,9 +51,10 @@ def register(sub) -> None:
     pl.add_argument("--model", choices=LEARNERS, default="mtgp-grouped")
     pl.add_argument("--predictor", help="also draw parameter maps over the workspace from this predictor")
     pl.add_argument("--mode", type=int, default=0, help="mode of the maps (default 0)")
-    pl.add_argument("--out", required=True, help="output folder for the figures")
+    pl.add_argument("--out", default=None, help="output folder for the figures")
     pl.add_argument("--order", choices=("frequency", "tracked"), default="frequency",
                     help="learn each band's modes in order of frequency (default), or as tracked")
+    add_report_option(pl, "the cross-validation and (with --predictor) the maps of every mode")
     pl.set_defaults(func=cmd_plot)
 
 
@@ -72,8 +74,20 @@ def cmd_cv(args) -> int:
 
     from rmbench.predict import cross_validate, training_set
 
+    report = report_path(args)
     ts = training_set(_modal(args))
     res = cross_validate(ts, args.model, folds=args.folds, split=args.split, seed=args.seed)
+    if report:
+        from rmbench.report import Page
+        from rmbench.report.predict import cv_sections
+
+        page = Page(f"Cross-validation of {args.model} on {Path(args.modal).name}",
+                    {"modal dataset": args.modal, "learner": args.model, "split": args.split, "folds": args.folds,
+                     "seed": args.seed})
+        cv_sections(page, ts, [res])
+        page.write(report)
+        if not args.json:
+            print(f"wrote {report}")
     if args.json:
         print_json(res.to_dict())
         return 0
@@ -176,14 +190,28 @@ def cmd_plot(args) -> int:
     from rmbench.predict import PosturePredictor, cross_validate, training_set
     from rmbench.predict.plot import plot_cv, plot_maps
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    report = report_path(args)
+    if args.out is None and report is None:
+        raise InputError("give --out FOLDER, --report HTML, or both")
+    pred = PosturePredictor.load(args.predictor) if args.predictor else None
+    if pred is not None and args.mode not in pred.modes_:
+        raise InputError(f"no mode {args.mode} in the predictor (modes {list(pred.modes_)})")
     ts = training_set(_modal(args))
     cv = cross_validate(ts, args.model)
-    print(f"wrote {plot_cv(ts, cv, out / f'cv_{args.model}.png')}")
-    if args.predictor:
-        pred = PosturePredictor.load(args.predictor)
-        if args.mode not in pred.modes_:
-            raise InputError(f"no mode {args.mode} in the predictor (modes {list(pred.modes_)})")
-        print(f"wrote {plot_maps(pred, out / f'map_mode{args.mode}_f_n.png', mode=args.mode)}")
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        print(f"wrote {plot_cv(ts, cv, out / f'cv_{args.model}.png')}")
+        if pred is not None:
+            print(f"wrote {plot_maps(pred, out / f'map_mode{args.mode}_f_n.png', mode=args.mode)}")
+    if report:
+        from rmbench.report import Page
+        from rmbench.report.predict import cv_sections, predictor_sections
+
+        page = Page(f"Posture prediction on {Path(args.modal).name}",
+                    {"modal dataset": args.modal, "learner": args.model, "predictor": args.predictor or ""})
+        if pred is not None:
+            predictor_sections(page, pred)
+        cv_sections(page, ts, [cv])
+        print(f"wrote {page.write(report)}")
     return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rmbench.cli._common import command_group, load_dataset, print_json
+from rmbench.cli._common import add_report_option, command_group, load_dataset, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -32,6 +32,7 @@ def register(sub) -> None:
     t.add_argument("--json", action="store_true", help="print the result as JSON")
     t.add_argument("--out", help="figure of predicted (and simulated) FRFs (.png)")
     t.add_argument("--save", help="write the predicted full tip receptances (netCDF)")
+    add_report_option(t, "the predicted (and simulated) FRFs and the peak errors")
     t.set_defaults(func=cmd_tool)
 
     pt = g.add_parser("part", help="a robot supporting a thin-walled plate: simulated assembly against RCSA")
@@ -46,6 +47,7 @@ def register(sub) -> None:
     pt.add_argument("--json", action="store_true", help="print the result as JSON")
     pt.add_argument("--out", help="figure of the FRFs (.png)")
     pt.add_argument("--scene", help="also write the scene's MJCF")
+    add_report_option(pt, "the FRFs of part, robot, assembly and RCSA")
     pt.set_defaults(func=cmd_part)
 
 
@@ -59,6 +61,7 @@ def cmd_tool(args) -> int:
     from rmbench.rcsa.tool_change import posture_index, predict_campaign_tool, tool_geometry
     from rmbench.robot import parse_posture
 
+    report = report_path(args)
     data = load_dataset(args.reference, "reference campaign")
     for key in ("H", "x", "band"):
         if key not in data:
@@ -90,6 +93,16 @@ def cmd_tool(args) -> int:
 
         ref = {b: campaign_receptance(data, index, b).values for b in res.bands}
         plot_tool_change(res, args.out, reference=ref)
+    if report:
+        from rmbench.rcsa import campaign_receptance
+        from rmbench.report import Page
+        from rmbench.report.machining import tool_change_sections
+
+        page = Page(f"RCSA tool change: {args.target_tool} from {Path(args.reference).name}",
+                    {"reference campaign": args.reference, "posture index": index, "method": args.method,
+                     "contact": res.contact_source, "warnings": "; ".join(notes)})
+        tool_change_sections(page, res, reference={b: campaign_receptance(data, index, b).values for b in res.bands})
+        page.write(report)
     if args.json:
         d = res.to_dict()
         d["warnings"] = notes
@@ -120,6 +133,8 @@ def cmd_tool(args) -> int:
         print(f"wrote {args.out}")
     if args.save:
         print(f"wrote {args.save}")
+    if report:
+        print(f"wrote {report}")
     return 0
 
 
@@ -136,6 +151,7 @@ def cmd_part(args) -> int:
         raise InputError(f"--k-x must be a number in N/m or 'inf', got {args.k_x!r}") from None
     if not k_x > 0:
         raise InputError(f"--k-x must be positive, got {args.k_x}")
+    report = report_path(args)
     robot = Robot.load(args.robot)
     q = robot.ik(parse_posture(args.posture)).q
     contact = None if args.contact_mm is None else 1e-3 * args.contact_mm
@@ -151,6 +167,16 @@ def cmd_part(args) -> int:
         from rmbench.rcsa.plot import plot_support
 
         plot_support(study, args.out)
+    if report:
+        from rmbench.report import Page
+        from rmbench.report.machining import support_sections
+
+        page = Page("Robot-supported thin-walled plate", {"robot": args.robot, "posture": args.posture,
+                                                          "K_x (N/m)": args.k_x, "preload (N)": args.preload})
+        support_sections(page, study)
+        page.write(report)
+        if not args.json:
+            print(f"wrote {report}")
     d = study.to_dict()
     if args.json:
         print_json(d)

@@ -24,7 +24,8 @@ import xarray as xr
 from rmbench.control.closed_loop import Hardware, LoopDiverged, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import Controller
 
-__all__ = ["sine_sweep", "eccentric_test", "excitation_frequencies", "reduction_at", "settle_time", "cluster"]
+__all__ = ["sine_sweep", "eccentric_test", "traced_runs", "excitation_frequencies", "reduction_at", "settle_time",
+           "cluster"]
 
 
 def settle_time(zeta: float, f_n: float, *, decay: float = 0.01, floor: float = 2.0) -> float:
@@ -244,3 +245,33 @@ def _run(tasks, workers, scheduler, progress, what):
         return out
 
 
+def traced_runs(op, ctrl: Controller, axis: str | None, f0: float, *, amplitude: float = 20.0,
+                duration: float | None = None) -> dict:
+    """Uncontrolled and controlled closed-loop runs at ``f0`` Hz, kept whole for their time traces.
+
+    Parameters
+    ----------
+    op : OperatingPoint
+    ctrl : Controller
+    axis : str or None
+        Axis of a sine of ``amplitude`` N; None: the eccentric mass spinning at ``f0``.
+    duration : float, optional
+        Seconds (default the longer of 2 s and 25 periods).
+
+    Returns
+    -------
+    dict
+        ``{"uncontrolled": LoopRecord, "controlled": LoopRecord}``; a run that diverged is left out.
+    """
+    duration = duration if duration is not None else max(2.0, 25.0 / f0)
+    if axis is None:
+        kw = {"spindle_hz": f0}
+    else:
+        kw = {"shaker": {axis: lambda t: amplitude * np.sin(2 * np.pi * f0 * t)}, "record_axes": (axis,)}
+    out = {}
+    for name, k in (("uncontrolled", None), ("controlled", ctrl)):
+        try:
+            out[name] = run_loop(op, k, duration, **kw)
+        except LoopDiverged:
+            pass                              # the sweep's table already reports the failed runs
+    return out

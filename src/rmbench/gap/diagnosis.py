@@ -179,13 +179,14 @@ class Diagnosis:
                 "variant": variant_path, "seconds": self.seconds, "notes": list(self.notes)}
 
     def save(self, directory: str | Path) -> dict:
-        """Write ``diagnosis.json``, ``effects.csv``, ``gap_modes.csv``, the figures and the
+        """Write ``diagnosis.json``, ``effects.csv``, ``gap_modes.csv`` (and
+        ``gap_modes_after.csv``, the updated model's gap, when there is one), the figures and the
         updated variant (``variant.xml``, when there is one) into ``directory``.
 
         Returns
         -------
         dict
-            ``{"json", "effects", "modes", "variant", "figures"}`` paths.
+            ``{"json", "effects", "modes", "modes_after", "variant", "figures"}`` paths.
         """
         import csv
         import json
@@ -211,15 +212,21 @@ class Diagnosis:
                             f"{e.heldout_after['gap']:.4g}", f"{e.heldout_before['f_err']:.4g}",
                             f"{e.heldout_after['f_err']:.4g}", f"{e.heldout_before['frf_db']:.4g}",
                             f"{e.heldout_after['frf_db']:.4g}"])
-        with open(d / "gap_modes.csv", "w", newline="") as fh:
-            w = csv.writer(fh, lineterminator="\n")
-            cols = ["posture", "x", "y", "theta", "band", "mode", "f_meas", "f_model", "zeta_meas",
-                    "zeta_model", "df", "dzeta", "dscale", "mac", "significant"]
-            w.writerow(cols + ["z_f", "z_zeta", "z_scale", "z_shape"])
-            for r in self.where.records:
-                w.writerow([r[c] for c in cols] + [f"{v:.4g}" for v in r["z"].values()])
+        cols = ["posture", "x", "y", "theta", "band", "mode", "f_meas", "f_model", "zeta_meas",
+                "zeta_model", "df", "dzeta", "dscale", "mac", "significant"]
+        for name, gm in (("gap_modes.csv", self.where), ("gap_modes_after.csv", self.where_after)):
+            if gm is None:
+                (d / name).unlink(missing_ok=True)      # an earlier diagnosis's, in the same folder
+                continue
+            with open(d / name, "w", newline="") as fh:
+                w = csv.writer(fh, lineterminator="\n")
+                w.writerow(cols + ["z_f", "z_zeta", "z_scale", "z_shape"])
+                for r in gm.records:
+                    w.writerow([r[c] for c in cols] + [f"{v:.4g}" for v in r["z"].values()])
         out["effects"] = str(d / "effects.csv")
         out["modes"] = str(d / "gap_modes.csv")
+        if self.where_after is not None:
+            out["modes_after"] = str(d / "gap_modes_after.csv")
         out["figures"] = [str(p) for p in plot_diagnosis(self, d)]
         write_whole(d / "diagnosis.json", json.dumps(jsonable(self.to_json(out.get("variant"))), indent=2))
         out["json"] = str(d / "diagnosis.json")
