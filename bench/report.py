@@ -10,7 +10,8 @@ rendered in headless Chromium (Debian's package) with its console and plots chec
 2. One report of each kind: campaign, modal fit, predictor (grouped MTGP learnt on the 112 fits,
    parameter maps; k-NN cross-validation), controller with its closed-loop runs and time traces,
    FRF gap diagnosis (a robot whose j3 is 20 % softer, 16 postures), tracker gap diagnosis,
-   lobes (fitted against exact modes), RCSA tool change, robot-supported plate. Console errors,
+   lobes (fitted against exact modes), RCSA tool change, robot-supported plate, model invalidation
+   on the simulated tracker (`rmbench invalidate run --report`). Console errors,
    dialogs, plots that drew nothing; a screenshot of each -> bench/results/report_<kind>.jpg.
 
 Last line: ``{"campaign112_open_s", "campaign112_mb", "modal112_open_s", "modal112_mb",
@@ -202,6 +203,15 @@ def reports(work: Path) -> dict:
     robot = Robot.load("irb6660")
     support_sections(page, support_study(robot, robot.ik(Posture.from_mm_deg(1800, 0, 0)).q))
     paths["rcsa"] = page.write(work / "r_rcsa.html")
+
+    import contextlib
+    import io
+
+    from rmbench.cli import main as cli
+
+    paths["invalidation"] = work / "r_invalidation.html"
+    with contextlib.redirect_stdout(io.StringIO()):          # the command's own summary: not this table's
+        cli(["invalidate", "run", "--eta", "0.375", "--max-per-location", "10", "--report", str(paths["invalidation"])])
     return paths
 
 

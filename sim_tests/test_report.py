@@ -123,6 +123,13 @@ def _reports(files, predictor, control_files, tracker_gap, tmp):
     out["lobes"] = tmp / "lobes.html"
     assert main(["lobes", "--benchmark", "--speeds", "5000,25000,40", "--depths", "40",
                  "--report", str(out["lobes"])]) == 0
+    out["rcsa_tool"], out["rcsa_part"] = tmp / "rcsa_tool.html", tmp / "rcsa_part.html"
+    assert main(["rcsa", "tool", "--reference", str(files["campaign"]), "--target-tool", "endmill", "--index", "0",
+                 "--report", str(out["rcsa_tool"])]) == 0
+    assert main(["rcsa", "part", "--report", str(out["rcsa_part"])]) == 0
+    out["invalidation"] = tmp / "invalidation.html"
+    assert main(["invalidate", "run", "--eta", "0.375", "--max-per-location", "10", "--json",
+                 "--report", str(out["invalidation"])]) == 0
     return out
 
 
@@ -131,7 +138,8 @@ def reports(files, predictor, control_files, tracker_gap):
     return _reports(files, predictor, control_files, tracker_gap, files["dir"])
 
 
-@pytest.mark.parametrize("kind", ["campaign", "modal", "predictor", "controller", "control_runs", "tracker_gap", "lobes"])
+@pytest.mark.parametrize("kind", ["campaign", "modal", "predictor", "controller", "control_runs", "tracker_gap", "lobes",
+                                  "rcsa_tool", "rcsa_part", "invalidation"])
 def test_each_report_renders_with_a_clean_console_and_every_plot_drawn(reports, kind, tmp_path):
     render = _browser()
     r = render(reports[kind], screenshot=tmp_path / f"{kind}.png")

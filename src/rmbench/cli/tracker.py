@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from rmbench.cli._common import command_group, print_json
+from rmbench.cli._common import add_report_option, command_group, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -40,6 +40,7 @@ def register(sub) -> None:
     r.add_argument("--level", action="store_true",
                    help="also search the smallest eta not rejected")
     r.add_argument("--plot", default=None, metavar="PNG", help="write the measured errors (seed Fig. 7)")
+    add_report_option(r, "the measured errors per location (seed Fig. 7) and the verdict")
     r.set_defaults(func=cmd_invalidate_run)
 
     rd = isub.add_parser("readings", help="judge readings already taken (no new measurements)")
@@ -100,6 +101,7 @@ def cmd_invalidate_run(args) -> int:
     from rmbench.tracker import CampaignConfig, TrackerCampaign, accuracy_level, invalidate
 
     eta = _eta_m(args.eta)
+    report = report_path(args)
     config = CampaignConfig.from_toml(args.config) if args.config else CampaignConfig()
     overrides = {"robot": args.robot}
     if args.seed is not None:
@@ -119,6 +121,16 @@ def cmd_invalidate_run(args) -> int:
                                correct=camp.frame_refit(q) if args.refit_frames else None)
     if args.plot:
         result.plot(args.plot, scale=1e3, unit="mm")
+    if report:
+        from rmbench.report import Page
+        from rmbench.report.tracker import invalidation_sections
+
+        page = Page(f"Model invalidation, {camp.robot.name}", {"robot": camp.robot.name, "seed": config.seed,
+                                                              "config": args.config or "defaults"})
+        invalidation_sections(page, result)
+        page.write(report)
+        if not args.json:
+            print(f"wrote {report}")
     if args.json:
         out = {"robot": camp.robot.name, "seed": config.seed, "units": "m", **result.to_dict()}
         if level is not None:

@@ -78,7 +78,7 @@ def tool_change_sections(page: Page, result, *, reference: dict | None = None) -
                        "annotations": [], "legend": {"orientation": "h", "y": -0.05}}
     for c, band in enumerate(bands):
         tc = result.bands[band]
-        for r, ((i, j), label) in enumerate(TIP_ENTRIES):
+        for r, ((i, j), entry) in enumerate(TIP_ENTRIES):
             k = r * len(bands) + c + 1
             ax = "" if k == 1 else str(k)
             first = k == 1
@@ -93,7 +93,7 @@ def tool_change_sections(page: Page, result, *, reference: dict | None = None) -
                                "line": {"color": "black", "width": 2}})
             traces.append({**common, "x": tc.freq, "y": _mag(tc.t[:, i, j]), "legendgroup": "p", "showlegend": first,
                            "name": label(f"{tc.target.name}, RCSA"), "line": {"color": "#d62728", "dash": "dash", "width": 1.5}})
-            lay[f"yaxis{ax}"] = {"title": {"text": f"{label} (dB)", "font": {"size": 10}}}
+            lay[f"yaxis{ax}"] = {"title": {"text": f"{entry} (dB)", "font": {"size": 10}}}
             if r == 0:
                 lay["annotations"].append({"text": f"{band} band", "xref": f"x{ax} domain", "yref": f"y{ax} domain",
                                            "x": 0.5, "y": 1.12, "showarrow": False})
