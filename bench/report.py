@@ -120,7 +120,6 @@ def reports(work: Path) -> dict:
     from rmbench.gap import GapDataWarning, diagnose, diagnose_tracker, tracker_data
     from rmbench.gap.tracker_blind import HiddenSource, TrueRobot
     from rmbench.io.tracker_csv import TrackerReadings
-    from rmbench.modal.campaign_fit import fit_campaign
     from rmbench.predict import PosturePredictor
     from rmbench.rcsa import campaign_receptance
     from rmbench.rcsa.support import support_study
