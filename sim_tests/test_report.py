@@ -150,6 +150,22 @@ def test_each_report_renders_with_a_clean_console_and_every_plot_drawn(reports, 
     assert (tmp_path / f"{kind}.png").stat().st_size > 10_000
 
 
+@pytest.mark.parametrize("argv", [
+    ["campaign", "plot", "{campaign}", "--index", "2", "--report", "{out}"],
+    ["modal", "fit", "{campaign}", "--workers", "0", "--report", "{out}"],
+    ["modal", "plot", "{campaign}", "--index", "1", "--report", "{out}"],
+    ["predict", "cv", "{modal}", "--model", "knn", "--report", "{out}"],
+], ids=["campaign-plot", "modal-fit", "modal-plot", "predict-cv"])
+def test_commands_that_plot_also_write_a_report(cli, files, argv, tmp_path):
+    """--report takes the place of the PNG: a whole page with every plot drawn."""
+    out = tmp_path / "r.html"
+    code, _, err = cli(*[a.format(campaign=files["campaign"], modal=files["modal"], out=out) for a in argv])
+    assert code == 0, err
+    render = _browser()
+    r = render(out)
+    assert r.n_plots >= 2 and r.console_errors == () and r.undrawn == ()
+
+
 def test_a_report_needs_no_network(reports):
     """Self-contained: no script, style or image is fetched from anywhere."""
     html = reports["modal"].read_text()
