@@ -38,6 +38,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/predict.py | tee bench/results/predict.txt
 	$(BIN)/python bench/rcsa.py | tee bench/results/rcsa.txt
 	$(BIN)/python bench/lobes.py | tee bench/results/lobes.txt
+	$(BIN)/python bench/any_robot.py | tee bench/results/any_robot.txt
 	$(BIN)/python bench/report.py | tee bench/results/report.txt
 
 clean:

@@ -95,6 +95,23 @@ def test_a_model_with_fewer_than_three_complete_postures_is_refused():
         MTGP().fit(X, Y)
 
 
+def test_a_model_without_any_complete_posture_is_refused_not_predicted_as_nan():
+    X = _grid()[:6]
+    Y = np.column_stack([[1.0, 2, 3, np.nan, np.nan, np.nan], [np.nan, np.nan, np.nan, 1.0, 2, 3]])
+    with pytest.raises(InputError, match="0 postures have every task"):
+        MTGP().fit(X, Y)
+
+
+def test_grouped_mtgp_leaves_a_mode_seen_at_too_few_postures_unlearnt_and_learns_the_rest():
+    X = _grid()
+    Y = np.column_stack([_smooth(X), 2 * _smooth(X), np.full(len(X), np.nan)])
+    Y[:2, 2] = [5.0, 6.0]      # a mode the fit found at two postures only
+    m = GroupedMTGP([[0, 1], [2]]).fit(X, Y)
+    pred = m.predict(X[:4])
+    assert m.unlearnt_ == [1]
+    assert np.all(np.isfinite(pred[:, :2])) and np.all(np.isnan(pred[:, 2]))
+
+
 def test_seed_groups_follow_the_seeds_rule():
     """Every parameter in exactly one model of at most 3; eigenvector groups within one mode and
     eigenvector (1X with 1aX, 1Y with 1aY, real and imaginary apart); natural frequencies and damping

@@ -9,34 +9,13 @@ at each modal peak (ω = ω_n). Displacements come from MuJoCo's nonlinear kinem
 import numpy as np
 import pytest
 
-from rmbench.robot.simulate import simulate, site_positions, stable_step
+from rmbench.robot.simulate import pulse_check
 
 S_1A = 0.020  # the tool MJCF's site p1a sits 20 mm up the tool
-SITES = ("tool_tip", "tool_p1a")
 
 
 def _windowed_frf(op, band, column, *, record, pulse, amplitude, tau):
-    dt = 5e-6
-    assert dt < stable_step(op)
-    n = int(record / dt)
-    t = np.arange(n) * dt
-    force = np.where(t < pulse, amplitude * np.sin(np.pi * t / pulse), 0.0)
-    rows = op.coordinate_map(("1X", "1Y", "1aX", "1aY"), s_1a=S_1A)
-    qpos = simulate(op, force[:, None] * rows[column][None, :], dt=dt)
-    keep = slice(None, None, 2)
-    pos = site_positions(op, qpos[keep], SITES)
-    pos0 = site_positions(op, op.data.qpos[None], SITES)[0]
-    disp = (pos - pos0)[:, :, :2].reshape(len(pos), 4)[:, [0, 1, 2, 3]]  # 1X, 1Y, 1aX, 1aY
-    t_out = t[keep] + dt  # positions are at the end of each step
-    sigma = 1 / tau
-    result = []
-    for f_n in op.modes(band, s_1a=S_1A).f_n:
-        s = sigma + 2j * np.pi * f_n
-        f_s = dt * np.sum(force * np.exp(-s * (t + dt / 2)))  # zero-order-held force
-        y_s = 2 * dt * np.exp(-s * t_out) @ disp
-        exact = op.linear.modes().transfer(np.array([s]), rows, rows)[0][:, column]
-        result.append((f_n, y_s / f_s, exact))
-    return result
+    return pulse_check(op, band, column, record=record, pulse=pulse, amplitude=amplitude, tau=tau, s_1a=S_1A)
 
 
 def _check(result):

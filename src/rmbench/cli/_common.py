@@ -80,7 +80,7 @@ def resolve_posture(robot, args):
     if args.posture:
         return parse_posture(args.posture)
     ref = custom_numeric(robot.spec, "rmbench_reference_q")
-    return ref if ref is not None else parse_posture("1800,-200,0")
+    return ref if ref is not None else robot.validation()[0]
 
 
 def load_dataset(path, what: str = "dataset"):

@@ -1,9 +1,11 @@
-"""``rmbench model info`` and ``rmbench model variant``."""
+"""``rmbench model info``, ``rmbench model variant`` and ``rmbench model build``."""
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
+
+import numpy as np
 
 from rmbench.cli._common import add_robot_options, command_group, load_robot, print_json, resolve_posture
 from rmbench.errors import InputError
@@ -12,7 +14,7 @@ __all__ = ["register"]
 
 
 def register(sub) -> None:
-    msub = command_group(sub, "model", "robot models: exact modes, variants")
+    msub = command_group(sub, "model", "robot models: exact modes, variants, any arm from URDF")
     info = msub.add_parser("info", help="exact mode table of a robot at a posture")
     add_robot_options(info)
     info.add_argument("--band", choices=("low", "high", "both"), default="both")
@@ -32,6 +34,32 @@ def register(sub) -> None:
                           "e.g. j2_flex:0.2 (repeatable, or comma-separated)")
     var.add_argument("--out", required=True, help="MJCF file to write")
     var.set_defaults(func=cmd_variant)
+
+    b = msub.add_parser("build", help="turn a URDF arm (example-robot-data name or file) into a bench robot")
+    b.add_argument("--urdf", required=True, metavar="NAME|PATH",
+                   help="example-robot-data name (ur10, panda, ...) or a URDF file")
+    b.add_argument("--out", required=True, help="MJCF file to write (a starter campaign TOML is written beside it)")
+    b.add_argument("--flange", default=None, metavar="LINK", help="flange link (default: tool0, panda_link8, "
+                   "flange, or the child of the last revolute joint)")
+    b.add_argument("--name", default=None, help="model name (default: the robot's)")
+    b.add_argument("--f-low", type=float, default=9.0, metavar="HZ",
+                   help="lowest natural frequency at the grid centre, motors locked (default 9)")
+    b.add_argument("--spread", type=float, default=3.0,
+                   help="highest of the arm's natural frequencies over the lowest, log-spaced (default 3)")
+    b.add_argument("--zeta", type=float, default=0.03, help="damping ratio of each joint (default 0.03)")
+    b.add_argument("--armature-ratio", type=float, default=0.3,
+                   help="rotor inertia through the gearbox over the link-side inertia (default 0.3)")
+    b.add_argument("--servo-ratio", type=float, default=20.0,
+                   help="position-servo stiffness over joint stiffness (default 20)")
+    b.add_argument("--spindle-kg", type=float, default=None,
+                   help="spindle mass, kg (default 10 %% of the arm's moving mass)")
+    b.add_argument("--spindle-hz", type=float, default=850.0,
+                   help="lowest spindle mode with the dummy tool, Hz (default 850)")
+    b.add_argument("--mount", choices=("inline", "bracket"), default="inline",
+                   help="spindle on the last joint's axis (inline) or perpendicular to it on a bracket, "
+                        "as on the milling robot")
+    b.add_argument("--json", action="store_true", help="print a JSON summary")
+    b.set_defaults(func=cmd_build)
 
 
 def cmd_info(args) -> int:
@@ -105,6 +133,46 @@ def cmd_variant(args) -> int:
     print(f"wrote {out} ({len(args.edits)} edits, {len(masses)} masses"
           f"{', compliant base' if base else ''}{', load-dependent stiffness' if load else ''}); "
           f"use it with --robot {out}")
+    return 0
+
+
+def cmd_build(args) -> int:
+    from rmbench.robot.flexible_arm import FlexRule, SpindleRule, build_arm, campaign_toml
+
+    rule = FlexRule(f_low=args.f_low, spread=args.spread, zeta=args.zeta, armature_ratio=args.armature_ratio,
+                    servo_ratio=args.servo_ratio)
+    spindle = SpindleRule(mass=args.spindle_kg, spindle_hz=args.spindle_hz, mount=args.mount)
+    out = Path(args.out)
+    if out.suffix.lower() != ".xml":
+        raise InputError(f"--out must be an .xml file, got {args.out!r}")
+    if not out.parent.is_dir():
+        raise InputError(f"--out directory does not exist: {out.parent}")
+    say = None if args.json else (lambda msg: print(msg, flush=True))
+    built = build_arm(args.urdf, rule=rule, spindle=spindle, flange=args.flange, name=args.name, progress=say)
+    toml_path = out.with_name(out.stem + "_campaign.toml")
+    for path, text in ((out, built.xml), (toml_path, campaign_toml(built, out))):
+        tmp = path.with_name(path.name + ".part")
+        tmp.write_text(text)
+        tmp.replace(path)  # never leave a half-written file behind
+    g = built.grid
+    summary = {"robot": built.arm.name, "urdf": str(built.arm.path), "out": str(out), "campaign": str(toml_path),
+               "joints": list(built.arm.joints), "flange": built.arm.flange, "frozen": list(built.arm.frozen),
+               "stiffness_nm_per_rad": built.stiffness, "damping_nms_per_rad": built.damping,
+               "armature_kgm2": built.armature, "f_arm_hz": built.f_low, "f_spindle_hz": built.f_high,
+               "bands_hz": list(built.bands), "table_z_mm": 1000 * g.table_z,
+               "grid_x_mm": 1000 * g.x, "grid_y_mm": 1000 * g.y, "grid_theta_deg": np.degrees(g.theta),
+               "validation": [p.label() for p in g.validation],
+               "worst_limit_margin_deg": math.degrees(g.worst_margin), "worst_sigma_min": g.worst_sigma}
+    if args.json:
+        print_json(summary)
+        return 0
+    print(f"wrote {out}: {len(built.arm.joints)} flexible joints, arm modes "
+          f"{', '.join(f'{f:.1f}' for f in built.f_low)} Hz, spindle modes "
+          f"{', '.join(f'{f:.0f}' for f in built.f_high[:2])} Hz at the grid centre")
+    print(f"posture grid: table {1000 * g.table_z:.0f} mm, x {1000 * g.x[0]:.0f}..{1000 * g.x[-1]:.0f} mm, "
+          f"y {1000 * g.y[0]:.0f}..{1000 * g.y[-1]:.0f} mm, theta {np.degrees(g.theta[0]):.0f}.."
+          f"{np.degrees(g.theta[-1]):.0f} deg; worst limit margin {math.degrees(g.worst_margin):.1f} deg")
+    print(f"wrote {toml_path}: a campaign on this grid; use the robot with --robot {out}")
     return 0
 
 

@@ -22,20 +22,26 @@ from rmbench.errors import InputError, RmbenchError
 from rmbench.impact.config import CampaignConfig
 from rmbench.impact.measure import band_lines, exact_band, measure_band
 from rmbench.impact.sensors import COORDS, sensor_set
-from rmbench.robot import OperatingPoint, Posture, Robot, seed_grid, validation_postures
+from rmbench.robot import OperatingPoint, Posture, Robot, seed_grid
 from rmbench.robot.model import Band
 from rmbench.robot.variant import condensed, with_tool_masses
 
 __all__ = ["Campaign", "postures_of", "run_posture", "run_campaign", "dry_run"]
 
 
-def postures_of(cfg: CampaignConfig) -> list[Posture]:
-    """The campaign's postures in order."""
+def postures_of(cfg: CampaignConfig, robot: Robot | None = None) -> list[Posture]:
+    """The campaign's postures in order.
+
+    ``robot`` and ``validation`` are the robot's own grid and validation postures (a robot built by
+    ``rmbench model build`` carries them; for the stand-ins they are the seed's).
+    """
     g = cfg.grid
     if g.kind == "seed":
         return seed_grid()
-    if g.kind == "validation":
-        return validation_postures()
+    if g.kind in ("robot", "validation"):
+        if robot is None:
+            robot = Robot.load(cfg.robot.name, tool=cfg.robot.tool)
+        return robot.grid() if g.kind == "robot" else robot.validation()
     if g.kind == "product":
         return [Posture.from_mm_deg(x, y, t) for x in g.x_mm for y in g.y_mm for t in g.theta_deg]
     return [Posture.from_mm_deg(*p) for p in g.postures]
@@ -223,10 +229,10 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
     from rmbench.impact import dataset
 
     out = Path(out)
-    postures = postures_of(cfg)
+    built = Campaign.build(cfg, toml)  # fail fast on a bad robot or tool, before anything runs
+    postures = postures_of(cfg, built.robot)
     if not postures:
         raise InputError("the posture grid is empty")
-    Campaign.build(cfg, toml)  # fail fast on a bad robot or tool, before anything runs
     parts = dataset.PartStore(out, cfg, n_postures=len(postures))
     todo = [i for i in range(len(postures)) if not parts.has(i)]
     config_json = cfg.model_dump_json()
@@ -289,7 +295,7 @@ def dry_run(cfg: CampaignConfig) -> dict:
     from rmbench.robot.simulate import simulate
 
     campaign = Campaign.build(cfg)
-    postures = postures_of(cfg)
+    postures = postures_of(cfg, campaign.robot)
     est = {"postures": [p.label() for p in postures], "n_postures": len(postures), "bands": {}}
     op = campaign.operating_point(postures[0])
     total_s = 0.0

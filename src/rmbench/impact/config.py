@@ -59,9 +59,11 @@ class RobotConfig(_Strict):
 
 
 class GridConfig(_Strict):
-    """Postures: the seed's 112, its 3 validation postures, a product of axes, or a list."""
+    """Postures: the seed's 112, the robot's own grid (``robot``: the seed's for the stand-ins, the
+    workspace grid of a robot built from a URDF), its 3 validation postures, a product of axes, or
+    a list."""
 
-    kind: Literal["seed", "validation", "product", "list"] = "seed"
+    kind: Literal["seed", "robot", "validation", "product", "list"] = "seed"
     x_mm: list[float] = []
     y_mm: list[float] = []
     theta_deg: list[float] = []

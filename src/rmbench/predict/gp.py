@@ -100,6 +100,9 @@ class MTGP:
         self.retries_, self.jitter_added_ = 0, 0.0
         X, Y = X[rows], Y[rows]
         self.n_tasks_ = Y.shape[1]
+        if len(Y) < 3:   # not even a constant can be learnt: say so rather than predict NaN
+            raise InputError(f"{len(Y)} postures have every task of this model: a multi-task GP needs three "
+                             "(modes found at some postures only; try mtgp-grouped or stgp)")
         # a task without spread (φL's reference element, fixed at 1) is that constant, not a GP task
         self.varying_ = np.flatnonzero(~constant_tasks(Y)) if len(Y) else np.arange(0)
         self.constant_ = Y[0].copy() if len(Y) else np.full(self.n_tasks_, np.nan)
@@ -108,8 +111,6 @@ class MTGP:
         n, m = Y.shape
         if m == 0:
             return None
-        if n < 3:
-            raise InputError(f"{n} postures have every task of this model: a multi-task GP needs three")
         self.x_mean_, x_sd = X.mean(axis=0), X.std(axis=0)
         self.x_scale_ = np.where(x_sd > 0, x_sd, 1.0)
         self.y_mean_, y_sd = Y.mean(axis=0), Y.std(axis=0)

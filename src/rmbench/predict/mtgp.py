@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rmbench.errors import InputError
 from rmbench.predict.gp import MTGP, fit_icm
 
 __all__ = ["MTGP", "GroupedMTGP", "seed_groups"]
@@ -90,8 +91,15 @@ class GroupedMTGP:
         self.models_ = [MTGP(iterations=self.iterations, seed=self.seed) for _ in self.groups]
         # models of the same task count and the same complete postures are fitted as one batch
         batches: dict = {}
+        self.unlearnt_ = []
         for i, (g, model) in enumerate(zip(self.groups, self.models_)):
-            prep = model._prepare(X, Y[:, g])
+            try:
+                prep = model._prepare(X, Y[:, g])
+            except InputError:
+                # a mode found at fewer than three postures: its group predicts NaN, the others stand
+                model.constant_, model.posterior_ = np.full(len(g), np.nan), None
+                self.unlearnt_.append(i)
+                continue
             if prep is not None:
                 key = (prep[1].shape[1], prep[2], model.rows_.tobytes())
                 batches.setdefault(key, []).append((i, prep))

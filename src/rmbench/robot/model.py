@@ -23,7 +23,7 @@ from rmbench.robot.linear import LinearModel, equilibrium, linearize
 from rmbench.robot.load_stiffness import (LOAD_STIFFNESS, check_load_stiffness, parse_load_stiffness,
                                           posture_stiffness, stiffened_spec)
 from rmbench.robot.modes import ModeTable, mode_table
-from rmbench.robot.posture import Posture, rz
+from rmbench.robot.posture import Posture, rz, seed_grid, validation_postures
 from rmbench.robot.spec import custom_numeric, custom_text, graft_tool, load_spec, spec_to_xml
 
 __all__ = ["Robot", "OperatingPoint", "Band", "COORDS"]
@@ -168,6 +168,24 @@ class Robot:
         return self._kin
 
     # --- postures -----------------------------------------------------------------------------
+    def grid(self) -> list[Posture]:
+        """The robot's training posture grid: its own (``rmbench_grid_*`` in the MJCF, written by
+        ``rmbench model build``), else the seed's 112 postures."""
+        spec = self._spec
+        axes = [custom_numeric(spec, f"rmbench_grid_{a}") for a in ("x_mm", "y_mm", "theta_deg")]
+        if any(a is None for a in axes):
+            return seed_grid()
+        return [Posture.from_mm_deg(x, y, t) for x in axes[0] for y in axes[1] for t in axes[2]]
+
+    def validation(self) -> list[Posture]:
+        """The robot's three validation postures (``rmbench_validation``), else the seed's."""
+        values = custom_numeric(self._spec, "rmbench_validation")
+        if values is None:
+            return validation_postures()
+        if len(values) % 3:
+            raise ModelError(f"robot {self.name!r}: rmbench_validation needs (x mm, y mm, theta deg) triples")
+        return [Posture.from_mm_deg(*values[i:i + 3]) for i in range(0, len(values), 3)]
+
     def target(self, posture: Posture) -> pin.SE3:
         """Pose of the tool tip for a posture: at table height, tool axis down, θ about +Z."""
         return pin.SE3(rz(posture.theta), np.array([posture.x, posture.y, self.table_z]))
