@@ -50,13 +50,7 @@ def kinematics_error(robot: Robot, n: int = 100) -> float:
         q = rng.uniform(-1, 1, m.nq) * np.where(m.jnt_type == 3, 1.0, 1e-3)
         d.qpos[:] = q
         mujoco.mj_kinematics(m, d)
-        qp = pin.neutral(kin.model)
-        for j in range(1, kin.model.njoints):
-            joint, name = kin.model.joints[j], kin.model.names[j]
-            body = m.joint(name.removeprefix("Composite_")).bodyid[0]
-            names = [m.joint(k).name for k in range(m.njnt) if m.jnt_bodyid[k] == body]
-            for k, jn in enumerate(names):
-                qp[joint.idx_q + k] = q[m.joint(jn).qposadr[0]]
+        qp = kin.from_mujoco(m, q)
         pin.framesForwardKinematics(kin.model, kin.data, qp)
         for s in sites:
             fid = kin.model.getFrameId(s, pin.FrameType.OP_FRAME)

@@ -76,14 +76,7 @@ def test_pinocchio_forward_kinematics_matches_mujoco_to_a_nanometre(robots, name
         q = rng.uniform(-1, 1, robot.model.nq) * np.where(robot.model.jnt_type == 3, 1.0, 1e-3)
         data.qpos[:] = q
         mujoco.mj_kinematics(robot.model, data)
-        qp = pin.neutral(kin.model)
-        for j in range(1, kin.model.njoints):
-            joint, name = kin.model.joints[j], kin.model.names[j]
-            # pinocchio merges a body's several joints (the spindle bearings) into one composite
-            body = robot.model.joint(name.removeprefix("Composite_")).bodyid[0]
-            names = [robot.model.joint(k).name for k in range(robot.model.njnt) if robot.model.jnt_bodyid[k] == body]
-            for k, n in enumerate(names):
-                qp[joint.idx_q + k] = q[robot.model.joint(n).qposadr[0]]
+        qp = kin.from_mujoco(robot.model, q)
         pin.framesForwardKinematics(kin.model, kin.data, qp)
         for site in ("tool_tip", "tool_p1a", "flange_face"):
             fid = kin.model.getFrameId(site, pin.FrameType.OP_FRAME)

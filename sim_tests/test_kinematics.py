@@ -60,25 +60,11 @@ def test_pinocchio_forward_kinematics_matches_mujoco_sites(irb):
         q = rng.uniform(-0.5, 0.5, irb.model.nq) * np.where(irb.model.jnt_type == 3, 1.0, 1e-3)
         data.qpos[:] = q
         mujoco.mj_kinematics(irb.model, data)
-        qp = pin.neutral(kin.model)
-        for j in range(1, kin.model.njoints):
-            joint = kin.model.joints[j]
-            names = [kin.model.names[j]]
-            if joint.shortname() == "JointModelComposite":
-                names = [n for n in _composite_names(irb, kin.model.names[j])]
-            for k, n in enumerate(names):
-                qp[joint.idx_q + k] = q[irb.model.joint(n).qposadr[0]]
+        qp = kin.from_mujoco(irb.model, q)
         pin.framesForwardKinematics(kin.model, kin.data, qp)
         for site in ("tool_tip", "tool_p1a", "flange_face"):
             fid = kin.model.getFrameId(site, pin.FrameType.OP_FRAME)
             np.testing.assert_allclose(kin.data.oMf[fid].translation, data.site(site).xpos, atol=1e-9)
-
-
-def _composite_names(robot, first):
-    """Joints of the MuJoCo body whose first joint pinocchio names ``Composite_<first>``."""
-    name = first.removeprefix("Composite_")
-    body = robot.model.joint(name).bodyid[0]
-    return [robot.model.joint(j).name for j in range(robot.model.njnt) if robot.model.jnt_bodyid[j] == body]
 
 
 def test_unreachable_posture_raises_with_the_posture_in_the_message(irb):

@@ -83,6 +83,24 @@ class Kinematics:
         q[self.idx_q] = q_act
         return q
 
+    def from_mujoco(self, model, qpos: np.ndarray) -> np.ndarray:
+        """pinocchio configuration of a MuJoCo ``qpos`` of the same MJCF (every joint, passive included).
+
+        pinocchio's MJCF reader merges a body's several joints (a spindle's bearing freedoms) into one
+        ``Composite_<first>`` joint, whose coordinates are those joints in the body's order.
+        """
+        import mujoco
+
+        q = pin.neutral(self.model)
+        for j in range(1, self.model.njoints):
+            joint, name = self.model.joints[j], self.model.names[j]
+            body = model.joint(name.removeprefix("Composite_")).bodyid[0]
+            names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, k) for k in range(model.njnt)
+                     if model.jnt_bodyid[k] == body]
+            for k, n in enumerate(names if joint.shortname() == "JointModelComposite" else [name]):
+                q[joint.idx_q + k] = qpos[model.joint(n).qposadr[0]]
+        return q
+
     def fk(self, q_act: np.ndarray) -> pin.SE3:
         """Pose of the target frame in the base frame."""
         pin.framesForwardKinematics(self.model, self.data, self.full_q(q_act))
