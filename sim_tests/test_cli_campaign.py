@@ -46,6 +46,16 @@ def test_run_export_import_plot(cli, tiny, tmp_path):
     assert code == 0 and (tmp_path / "f.png").stat().st_size > 10_000
 
 
+def test_run_again_keeps_a_finished_dataset_and_says_so(cli, tiny, tmp_path):
+    data = tmp_path / "tiny.nc"
+    args = ("campaign", "run", tiny, "--out", data, "--workers", 0, "--no-progress")
+    assert cli(*args, "--json")[0] == 0
+    code, out, _ = cli(*args)
+    assert code == 0 and "kept, nothing simulated" in out
+    code, out, _ = cli(*args, "--force", "--json")
+    assert code == 0 and json.loads(out)["kept"] is False
+
+
 def test_run_commands_a_variant_file_with_the_nominal_robot(cli, tiny, tmp_path):
     from rmbench.impact import open_campaign
     from rmbench.robot import Robot

@@ -97,6 +97,40 @@ def test_a_failing_posture_is_recorded_and_the_others_run(tmp_path):
     assert np.all(np.isnan(ds.H.values[2]))
 
 
+def _count_postures(monkeypatch) -> list:
+    import rmbench.impact.campaign as campaign_mod
+
+    log = []
+    monkeypatch.setattr(campaign_mod, "run_posture", _spy(log, campaign_mod.run_posture))
+    return log
+
+
+def test_rerunning_a_finished_campaign_simulates_nothing(tmp_path, monkeypatch):
+    out = tmp_path / "done.nc"
+    run_campaign(_cfg(method="linear"), out, workers=0, progress=False)
+    before = out.stat().st_mtime_ns
+    log = _count_postures(monkeypatch)
+    run_campaign(_cfg(method="linear"), out, workers=0, progress=False)
+    assert log == [] and out.stat().st_mtime_ns == before
+
+
+def test_a_finished_dataset_of_another_config_is_simulated_again(tmp_path, monkeypatch):
+    out = tmp_path / "other.nc"
+    run_campaign(_cfg(method="linear"), out, workers=0, progress=False)
+    log = _count_postures(monkeypatch)
+    run_campaign(_cfg(method="linear", extra="[1600, 0, 0]"), out, workers=0, progress=False)
+    assert sorted(log) == [0, 1, 2]
+    assert open_campaign(out).x.values[2] == pytest.approx(1.6)
+
+
+def test_force_simulates_a_finished_campaign_again(tmp_path, monkeypatch):
+    out = tmp_path / "forced.nc"
+    run_campaign(_cfg(method="linear"), out, workers=0, progress=False)
+    log = _count_postures(monkeypatch)
+    run_campaign(_cfg(method="linear"), out, workers=0, progress=False, force=True)
+    assert sorted(log) == [0, 1, 2]
+
+
 def test_parts_of_another_config_are_not_mixed_in(tmp_path):
     out = tmp_path / "x.nc"
     (tmp_path / "x.nc.parts").mkdir()

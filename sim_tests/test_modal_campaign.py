@@ -156,6 +156,23 @@ def test_phil_fallback_fixes_the_campaign_wide_largest_element_and_keeps_the_mod
                                    rtol=1e-12)
 
 
+def test_phil_fallback_fixes_the_element_that_never_nears_zero():
+    """A mode that turns in the XY plane across the grid: 1Y is its largest φL element at most
+    postures but nearly zero at one, where fixing it would make every other element spike (×30);
+    1X stays above half the largest everywhere, so the fallback fixes 1X."""
+    from rmbench.modal.campaign_fit import renormalise_phi_l
+    from rmbench.robot.modes import ModeTable
+
+    phi_l = np.array([[0.6, 1.0, 0.5, 0.02]] * 4 + [[1.0, 0.03, 0.9, 0.02]], complex)
+    phi_l /= phi_l[:, 3:]                              # the modal stage's default: 1aY = 1
+    phi_r = np.full((5, 4), 1e-6 + 0j)
+    modal = np.stack([ModeTable(band="high", f_n=np.array([850.0]), zeta=np.array([0.02]),
+                                phi_r=phi_r[p:p + 1], phi_l=phi_l[p:p + 1], peak=np.zeros(1)).params()
+                      for p in range(len(phi_l))])
+    _, _, _, refs = renormalise_phi_l(modal, np.ones_like(modal))
+    assert refs == ["1X"]
+
+
 def test_truth_scores_count_a_missed_mode_as_a_failure(fitted, campaign):
     from rmbench.modal.campaign_fit import truth_scores
 

@@ -22,6 +22,8 @@ def register(sub) -> None:
     run.add_argument("--commands-from", default=None, metavar="NOMINAL",
                      help="command each posture with the rigid-body IK of this nominal robot (name or MJCF "
                           "path), as a real controller would, then settle the robot under test there")
+    run.add_argument("--force", action="store_true",
+                     help="simulate every posture again even if --out is a finished run of this config")
     run.add_argument("--dry-run", action="store_true", help="validate and estimate, run nothing")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.add_argument("--json", action="store_true", help="print a JSON summary")
@@ -85,20 +87,26 @@ def cmd_run(args) -> int:
         return 0
     if not args.out:
         raise InputError("--out is required (the dataset file to write)")
+    from rmbench.impact import is_complete, open_campaign
+
+    kept = not args.force and is_complete(cfg, args.out)
     out = run_campaign(cfg, args.out, toml=toml, workers=args.workers, scheduler=args.scheduler,
-                       progress=not args.no_progress)
-    from rmbench.impact import open_campaign
+                       progress=not args.no_progress, force=args.force)
 
     ds = open_campaign(out)
     ok = int(ds.ok.sum())
     summary = {"out": str(out), "postures": int(ds.sizes["posture"]), "ok": ok,
                "failed": {str(ds.reason.values[i]) for i in range(ds.sizes["posture"]) if not ds.ok.values[i]},
-               "steps": int(ds.steps.sum())}
+               "steps": int(ds.steps.sum()), "kept": kept}
     summary["failed"] = sorted(summary["failed"])
     if args.json:
         print_json(summary)
     else:
-        print(f"wrote {out}: {ok} of {summary['postures']} postures measured, {summary['steps']} steps simulated")
+        if kept:
+            print(f"{out} is a finished run of this configuration: kept, nothing simulated "
+                  "(--force runs it again)")
+        else:
+            print(f"wrote {out}: {ok} of {summary['postures']} postures measured, {summary['steps']} steps simulated")
         for r in summary["failed"]:
             print(f"  failed: {r}")
     return 0

@@ -7,7 +7,8 @@
     ds = open_campaign("campaign.nc")          # xarray Dataset, DATA.md layout
 """
 
-from rmbench.impact.campaign import Campaign, dry_run, postures_of, run_campaign, run_posture
+from rmbench.impact.campaign import (Campaign, dry_run, is_complete, postures_of, run_campaign,
+                                     run_posture)
 from rmbench.impact.config import CampaignConfig, bundled_configs, load_config, parse_config
 from rmbench.impact.dataset import DATASET_VERSION, open_campaign, save, track_modes
 from rmbench.impact.estimate import exponential_window, force_window, h1
@@ -15,6 +16,6 @@ from rmbench.impact.hammer import Hit, draw_hit, pulse
 from rmbench.impact.sensors import SensorSet, sensor_set
 
 __all__ = ["Campaign", "CampaignConfig", "load_config", "parse_config", "bundled_configs",
-           "run_campaign", "run_posture", "dry_run", "postures_of", "open_campaign", "save",
+           "run_campaign", "is_complete", "run_posture", "dry_run", "postures_of", "open_campaign", "save",
            "track_modes", "DATASET_VERSION", "Hit", "draw_hit", "pulse", "SensorSet", "sensor_set",
            "force_window", "exponential_window", "h1"]

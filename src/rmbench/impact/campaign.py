@@ -216,8 +216,11 @@ def _task(config_json: str, toml: str, index: int, posture: tuple) -> dict:
 
 
 def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", workers: int | None = None,
-                 scheduler: str | None = None, progress: bool = True) -> Path:
+                 scheduler: str | None = None, progress: bool = True, force: bool = False) -> Path:
     """Run a campaign into the dataset file ``out`` (netCDF), resuming from ``out.parts/``.
+
+    A finished dataset of the same configuration at ``out`` (:func:`is_complete`) is kept and
+    nothing runs, unless ``force``.
 
     Parameters
     ----------
@@ -225,6 +228,8 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
         Local worker processes (default: the machine's cores); 0 runs in this process.
     scheduler : str, optional
         Address of an existing dask scheduler (then ``workers`` is ignored).
+    force : bool
+        Simulate every posture again even if ``out`` is complete.
     """
     from rmbench.impact import dataset
 
@@ -233,6 +238,8 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
     postures = postures_of(cfg, built.robot)
     if not postures:
         raise InputError("the posture grid is empty")
+    if not force and is_complete(cfg, out, n_postures=len(postures)):
+        return out
     parts = dataset.PartStore(out, cfg, n_postures=len(postures))
     todo = [i for i in range(len(postures)) if not parts.has(i)]
     config_json = cfg.model_dump_json()
@@ -249,6 +256,25 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
     dataset.save(ds, out)
     parts.remove()
     return out
+
+
+def is_complete(cfg: CampaignConfig, out: str | Path, *, n_postures: int | None = None) -> bool:
+    """Whether ``out`` is a finished dataset of this configuration: the digest it was written with
+    (attribute ``config_digest``) is ``cfg``'s, it has every posture, and no partial results of a
+    later run lie beside it. A file that cannot be read, or of another configuration, is not."""
+    import xarray as xr
+
+    out = Path(out)
+    if not out.is_file() or Path(str(out) + ".parts").exists():
+        return False
+    try:
+        with xr.open_dataset(out, engine="h5netcdf") as ds:
+            digest, n = ds.attrs.get("config_digest"), ds.sizes.get("posture")
+    except Exception:  # noqa: BLE001 - any unreadable file is simply not a finished run
+        return False
+    if n_postures is None:
+        n_postures = len(postures_of(cfg, Campaign.build(cfg).robot))
+    return digest == cfg.digest and n == n_postures
 
 
 def _run_dask(todo, postures, config_json, toml, parts, bar, workers, scheduler):

@@ -292,7 +292,7 @@ class PartStore:
         ds.attrs.update(
             rmbench_version=__version__, rmbench_dataset_version=DATASET_VERSION,
             created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            config=toml or cfg.model_dump_json(), seed=cfg.seed, method=cfg.method,
+            config=toml or cfg.model_dump_json(), config_digest=cfg.digest, seed=cfg.seed, method=cfg.method,
             robot=robot_name, commands_from=cfg.robot.commands_from or robot_name,
             tool=str(cfg.robot.tool), table_z=float(Campaign.build(cfg).robot.table_z),
             sensor_spacing_low=1e-3 * cfg.bands["low"].s_1a_mm if "low" in cfg.bands else np.nan,
