@@ -68,10 +68,7 @@ def urdf_error(robot: Robot, arm, n: int = 100) -> float:
     worst = 0.0
     for _ in range(n):
         q = robot.limits[:, 0] + (robot.limits[:, 1] - robot.limits[:, 0]) * rng.random(len(robot.limits))
-        qu = pin.neutral(urdf)
-        for jn, v in zip(arm.joints, q):
-            qu[urdf.joints[urdf.getJointId(jn)].idx_q] = v
-        pin.framesForwardKinematics(urdf, du, qu)
+        pin.framesForwardKinematics(urdf, du, arm.pin_configuration(urdf, q))
         pin.framesForwardKinematics(kin.model, kin.data, kin.full_q(q))
         worst = max(worst, float(np.linalg.norm(kin.data.oMf[fk].translation - du.oMf[fu].translation)))
     return worst

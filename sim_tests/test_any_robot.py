@@ -97,10 +97,7 @@ def test_flange_kinematics_follow_the_urdf(built, robots, name):
     rng = np.random.default_rng(1)
     for _ in range(20):
         q = robot.limits[:, 0] + (robot.limits[:, 1] - robot.limits[:, 0]) * rng.random(len(robot.limits))
-        qu = pin.neutral(urdf)
-        for jn, v in zip(arm.joints, q):
-            qu[urdf.joints[urdf.getJointId(jn)].idx_q] = v
-        pin.framesForwardKinematics(urdf, data_u, qu)
+        pin.framesForwardKinematics(urdf, data_u, arm.pin_configuration(urdf, q))
         pin.framesForwardKinematics(kin.model, kin.data, kin.full_q(q))
         np.testing.assert_allclose(kin.data.oMf[fid].translation, data_u.oMf[fid_u].translation, atol=5e-6)
 

@@ -57,6 +57,17 @@ class UrdfArm:
     frozen: tuple[str, ...]
     mass: float
 
+    def pin_configuration(self, model, q) -> np.ndarray:
+        """Configuration of pinocchio's own model of this URDF (``pin.buildModelFromUrdf``) with
+        the arm's joints at ``q`` (rad, shape (n_joints,), in ``joints`` order) and every other
+        joint at its neutral position, shape (model.nq,)."""
+        import pinocchio as pin
+
+        qu = pin.neutral(model)
+        for name, value in zip(self.joints, q):
+            qu[model.joints[model.getJointId(name)].idx_q] = value
+        return qu
+
 
 def example_robot_names() -> list[str]:
     """Names example-robot-data can load (empty if the package is missing)."""
