@@ -242,6 +242,34 @@ def test_grouped_mtgp_predicts_every_column():
     assert mu.shape == sd.shape == (4, 3) and np.all(np.isfinite(mu)) and np.all(sd >= 0)
 
 
+def test_grouped_mtgp_evaluates_all_its_models_at_once_as_each_would_alone():
+    """The grouped predictor pads its models' posteriors to one size and evaluates them in one
+    batch; padding must add nothing, whatever the models' task counts, constant tasks, left-out
+    postures or an unlearnt group. Round-off only, but amplified: on smooth, near noise-free data
+    the GP nearly interpolates, its weights are large and alternate in sign, and the mean is a
+    cancelling sum whose evaluation order shows at ~1e-8 relative; 1e-6 still catches any padded
+    row or task that contributed."""
+    X = _grid()
+    Y = np.column_stack([_smooth(X), 2 * _smooth(X) + X[:, 0], np.cos(X[:, 2]), np.full(len(X), 3.0),
+                         np.sin(X[:, 1] * 9), np.full(len(X), np.nan)])
+    Y[5, 4] = np.nan               # one model drops a posture, so the models' sizes differ
+    Y[:2, 5] = [1.0, 2.0]          # seen at two postures only: unlearnt
+    g = GroupedMTGP([[0, 1], [2, 3], [4], [5]]).fit(X, Y)
+    Xq = np.array([[1.7, 0.1, 0.2], [1.9, -0.15, -0.3], [2.3, 0.0, 0.0]])
+    mu, sd = g.predict(Xq, return_std=True)
+    for cols, model in zip(g.groups, g.models_):
+        if model.posterior_ is None and np.isnan(model.constant_).all():
+            assert np.isnan(mu[:, cols]).all() and np.isnan(sd[:, cols]).all()
+            continue
+        own_mu, own_sd = model.predict(Xq, return_std=True)
+        np.testing.assert_allclose(mu[:, cols], own_mu, rtol=1e-6, atol=1e-12)
+        # a small posterior sd is √(prior variance − explained variance): its round-off is on the
+        # scale of the prior's
+        prior_sd = np.sqrt(np.diag(model.task_covariance_)).max()
+        np.testing.assert_allclose(sd[:, cols], own_sd, rtol=1e-6, atol=1e-6 * prior_sd)
+    assert np.all(sd[:, 3] == 0) and np.all(mu[:, 3] == 3.0)   # a constant task is that constant
+
+
 def test_cli_trains_saves_and_predicts_at_a_posture(tmp_path, capsys):
     from rmbench.cli.main import main
 

@@ -84,10 +84,12 @@ class GroupedMTGP:
     def __init__(self, groups, iterations: int = 100, seed: int = 0):
         self.groups = [list(g) for g in groups]
         self.iterations, self.seed = int(iterations), int(seed)
+        self._stack = None
 
     def fit(self, X, Y) -> "GroupedMTGP":
         Y = np.asarray(Y, float)
         self.n_tasks_ = Y.shape[1]
+        self._stack = None
         self.models_ = [MTGP(iterations=self.iterations, seed=self.seed) for _ in self.groups]
         # models of the same task count and the same complete postures are fitted as one batch
         batches: dict = {}
@@ -115,12 +117,70 @@ class GroupedMTGP:
         return self
 
     def predict(self, X, return_std: bool = False):
-        n = len(np.atleast_2d(X))
-        mu, sd = np.full((n, self.n_tasks_), np.nan), np.full((n, self.n_tasks_), np.nan)
-        for g, model in zip(self.groups, self.models_):
-            out = model.predict(X, return_std)
+        """Mean, shape (n, n_tasks), and with ``return_std`` the latent standard deviation."""
+        if self._stack is None:
+            self._stack = _Stack(self.groups, self.models_, self.n_tasks_)
+        return self._stack.predict(np.atleast_2d(np.asarray(X, float)), return_std)
+
+
+class _Stack:
+    """The posteriors of a :class:`GroupedMTGP`'s models padded to one size and evaluated together:
+    one prediction is a few batched array operations instead of a Python loop over ~100 models
+    (same algebra as :meth:`KronPosterior.predict`, in the inputs' and tasks' own units). Padded
+    training rows carry zero weights and zero eigenvector rows, padded tasks zero everything, so
+    they contribute nothing."""
+
+    def __init__(self, groups, models, n_tasks):
+        self.mu0 = np.full(n_tasks, np.nan)           # constants, NaN for unlearnt groups
+        self.sd0 = np.full(n_tasks, np.nan)
+        live = []
+        for g, mdl in zip(groups, models):
+            self.mu0[g] = mdl.constant_
+            self.sd0[g] = np.where(np.isnan(mdl.constant_), np.nan, 0.0)
+            if mdl.posterior_ is not None:
+                live.append((np.asarray(g)[mdl.varying_], mdl))
+        M = len(live)
+        n = max((len(mdl.posterior_.X) for _, mdl in live), default=0)
+        m = max((len(cols) for cols, _ in live), default=0)
+        self.X, self.ls = np.zeros((M, n, 3)), np.ones((M, 3))     # X: training inputs, raw
+        self.W, self.G, self.Qt = np.zeros((M, n, m)), np.zeros((M, n, m)), np.zeros((M, n, n))
+        self.P2, self.kc = np.zeros((M, m, m)), np.zeros((M, m))
+        self.mean, self.scale = np.zeros((M, m)), np.zeros((M, m))
+        self.cols, self.slots = [], []
+        for b, (cols, mdl) in enumerate(live):
+            p, k, j = mdl.posterior_, len(p_x := mdl.posterior_.X), len(cols)
+            self.X[b, :k] = p_x * mdl.x_scale_ + mdl.x_mean_
+            self.ls[b] = p.lengthscales * mdl.x_scale_
+            self.W[b, :k, :j] = p.W * mdl.y_scale_
+            self.G[b, :k, :j], self.Qt[b, :k, :k], self.P2[b, :j, :j] = p.G, p.Qt, p.P2
+            self.kc[b, :j] = np.diag(p.Kc)
+            self.mean[b, :j] = p.mean * mdl.y_scale_ + mdl.y_mean_
+            self.scale[b, :j] = mdl.y_scale_
+            self.cols.append(cols)
+            self.slots.append(b * m + np.arange(j))
+        # centred before |z|² + |x|² − 2 z·x, which would otherwise cancel metres of offset
+        self.centre = live[0][1].x_mean_ if live else np.zeros(3)
+        self.Xt = ((self.X - self.centre) / self.ls[:, None]).transpose(0, 2, 1)   # (M, 3, n)
+        self.X2 = (self.Xt**2).sum(1)                                       # (M, n)
+        self.cols = np.concatenate(self.cols) if live else np.zeros(0, int)
+        self.slots = np.concatenate(self.slots) if live else np.zeros(0, int)
+
+    def predict(self, X, return_std, chunk: int = 256):
+        if len(X) > chunk:    # bounds the (models × postures × training postures) temporaries
+            parts = [self.predict(X[i:i + chunk], return_std) for i in range(0, len(X), chunk)]
+            return (tuple(np.concatenate(p) for p in zip(*parts)) if return_std
+                    else np.concatenate(parts))
+        n_out = len(X)
+        mu, sd = np.tile(self.mu0, (n_out, 1)), np.tile(self.sd0, (n_out, 1))
+        if len(self.cols):
+            z = (X - self.centre)[None] / self.ls[:, None]                  # (M, n*, 3)
+            d2 = (z**2).sum(-1)[..., None] + self.X2[:, None] - 2 * z @ self.Xt
+            k = np.exp(-0.5 * np.maximum(d2, 0.0))                          # (M, n*, n)
+            out = k @ self.W + self.mean[:, None]                           # (M, n*, m)
+            mu[:, self.cols] = out.transpose(1, 0, 2).reshape(n_out, -1)[:, self.slots]
             if return_std:
-                mu[:, g], sd[:, g] = out
-            else:
-                mu[:, g] = out
+                u2g = np.einsum("bsn,bnm->bsm", (k @ self.Qt) ** 2, self.G)
+                var = self.kc[:, None] - np.einsum("bsm,bkm->bsk", u2g, self.P2)
+                out = np.sqrt(np.maximum(var, 0.0)) * self.scale[:, None]
+                sd[:, self.cols] = out.transpose(1, 0, 2).reshape(n_out, -1)[:, self.slots]
         return (mu, sd) if return_std else mu
