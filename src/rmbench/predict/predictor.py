@@ -33,6 +33,7 @@ from rmbench.modal.campaign_fit import mode_vectors
 from rmbench.modal.mdof import synthesize
 from rmbench.predict.baselines import MULTI_TASK, PerTask, make_learner
 from rmbench.predict.data import constant_tasks, frequency_ordered, training_set
+from rmbench.predict.gauge import from_gauge, gauge_directions, to_gauge
 from rmbench.predict.gp import MTGP
 from rmbench.predict.mtgp import GroupedMTGP
 from rmbench.robot.modes import PARAMS
@@ -56,6 +57,14 @@ class PosturePredictor:
         ``mtgp-grouped`` (the seed's grouped MTGPs), ``mtgp`` (one Kronecker model of all
         parameters), ``mtgp-lowrank`` or ``stgp`` (these can be saved); ``knn``, ``rf``, ``gb``,
         ``enet`` (in memory only, no standard deviations).
+    order : str
+        ``frequency`` (default): each band's modes learnt in order of frequency; ``tracked``: as the
+        modal stage tracked them.
+    vectors : str
+        ``gauge`` (default): each mode's φR and φL learnt in the gauge of
+        :mod:`rmbench.predict.gauge` (unit-norm φL turned to a direction chosen per mode, so no
+        element near zero is divided by) and returned in the dataset's normalisation; ``dataset``:
+        learnt as the modal stage normalised them (φL[phiL_ref] = 1).
 
     Attributes
     ----------
@@ -64,11 +73,13 @@ class PosturePredictor:
     train_seconds_ : float
     """
 
-    def __init__(self, model: str = "mtgp-grouped", order: str = "frequency"):
+    def __init__(self, model: str = "mtgp-grouped", order: str = "frequency", vectors: str = "gauge"):
         make_learner(model)                # an unknown name fails here
         if order not in ("frequency", "tracked"):
             raise InputError(f"unknown mode order {order!r}; use frequency or tracked")
-        self.model, self.order = model, order
+        if vectors not in ("gauge", "dataset"):
+            raise InputError(f"unknown vector normalisation {vectors!r}; use gauge or dataset")
+        self.model, self.order, self.vectors = model, order, vectors
 
     def fit(self, ds: xr.Dataset) -> "PosturePredictor":
         """Learn every parameter of a modal dataset (``rmbench modal fit``); with ``order =
@@ -76,6 +87,13 @@ class PosturePredictor:
         (:func:`~rmbench.predict.data.frequency_ordered`), else as the modal stage tracked them."""
         if self.order == "frequency":
             ds = frequency_ordered(ds)
+        self.gauge_worst_ = None
+        if self.vectors == "gauge" and "modal" in ds:
+            if "phiL_1aY" not in ds:     # φL fixed at 1aY everywhere (DATA.md's default)
+                ds = ds.assign(phiL_1aY=(("posture", "mode"),
+                                         np.ones((ds.sizes["posture"], ds.sizes["mode"]), complex)))
+            v, self.gauge_worst_ = gauge_directions(ds)
+            ds = to_gauge(ds, v)
         ts = training_set(ds)
         if len(ts.X) < 3:
             raise InputError(f"{len(ts.X)} usable postures: a Gaussian process needs at least three")
@@ -142,6 +160,9 @@ class PosturePredictor:
         main_sd = sd[:, :n_modes * n_p].reshape(n, n_modes, n_p)
         ay = (mu[:, n_modes * n_p:n_modes * (n_p + 1)] + 1j * mu[:, n_modes * (n_p + 1):]
               if n_tasks > n_modes * n_p else np.ones((n, n_modes), complex))
+        if self.vectors == "gauge":
+            ay_sd = sd[:, n_modes * n_p:n_modes * (n_p + 1)] + 1j * sd[:, n_modes * (n_p + 1):]
+            main, ay, main_sd, _ = from_gauge(main, ay, self.phiL_ref_, main_sd, ay_sd)
         return xr.Dataset(
             {"modal": (("posture", "mode", "param"), main),
              "modal_std": (("posture", "mode", "param"), main_sd),
@@ -152,7 +173,10 @@ class PosturePredictor:
                     "mode_band": ("mode", self.mode_band_), "phiL_ref": ("mode", self.phiL_ref_),
                     "param": list(self.params_)},
             attrs={"kind": "modal_prediction", "model": self.model, "rmbench_version": __version__,
-                   "modal_std_is": "standard deviation of the latent function (no noise)"})
+                   "vectors": self.vectors,
+                   "modal_std_is": "standard deviation of the latent function (no noise)"
+                                   + ("; mode vectors' to first order from the gauge's"
+                                      if self.vectors == "gauge" else "")})
 
     # -- plain-file persistence -------------------------------------------------------------------
     def save(self, path) -> Path:
@@ -168,7 +192,7 @@ class PosturePredictor:
         for i, m in enumerate(models):
             arrays.update({f"m{i}/{k}": v for k, v in _state(m).items()})
         meta = {"format": _FORMAT, "rmbench_version": __version__, "model": self.model,
-                "order": self.order,
+                "order": self.order, "vectors": self.vectors,
                 "tasks": list(self.tasks_), "modes": self.modes_.tolist(), "params": list(self.params_),
                 "mode_band": self.mode_band_.tolist(), "phiL_ref": self.phiL_ref_.tolist(),
                 "groups": [list(map(int, g)) for g in groups], "train_seconds": self.train_seconds_,
@@ -192,7 +216,8 @@ class PosturePredictor:
             meta = json.loads(str(a.pop("meta")))
             if not isinstance(meta, dict) or meta.get("format") != _FORMAT:
                 raise ValueError(f"format {meta.get('format') if isinstance(meta, dict) else '?'}")
-            self = cls(meta["model"], meta.get("order", "frequency"))
+            # files written before the gauge learnt the dataset's normalisation
+            self = cls(meta["model"], meta.get("order", "frequency"), meta.get("vectors", "dataset"))
             self.tasks_ = tuple(meta["tasks"])
             self.modes_ = np.asarray(meta["modes"], int)
             self.params_ = tuple(meta["params"])
