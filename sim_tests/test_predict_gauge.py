@@ -112,3 +112,16 @@ def test_a_predictor_saved_before_the_gauge_still_answers_in_the_dataset_normali
     arrays["meta"] = np.array(json.dumps(meta))
     np.savez(tmp_path / "old.npz", **arrays)
     assert PosturePredictor.load(tmp_path / "old.npz").vectors == "dataset"
+
+
+def test_cli_train_keeps_the_chosen_vector_normalisation(tmp_path, capsys):
+    from rmbench.cli.main import main
+
+    path = tmp_path / "m.nc"
+    _turning_mode_dataset().to_netcdf(path, engine="h5netcdf", invalid_netcdf=True)
+    for vectors in ("dataset", "gauge"):
+        out = tmp_path / f"{vectors}.npz"
+        assert main(["predict", "train", str(path), "--model", "stgp", "--vectors", vectors,
+                     "--out", str(out)]) == 0
+        assert PosturePredictor.load(out).vectors == vectors
+    capsys.readouterr()

@@ -36,6 +36,9 @@ def register(sub) -> None:
     tr.add_argument("--out", required=True, help="predictor file (.npz: arrays and JSON, no pickle)")
     tr.add_argument("--order", choices=("frequency", "tracked"), default="frequency",
                     help="learn each band's modes in order of frequency (default), or as tracked")
+    tr.add_argument("--vectors", choices=("gauge", "dataset"), default="gauge",
+                    help="learn the mode vectors in a gauge per mode (default: no near-zero element "
+                         "is divided by) or as the modal stage normalised them")
     tr.set_defaults(func=cmd_train)
 
     at = g.add_parser("at", help="modal parameters (and FRF matrix) predicted at a posture")
@@ -113,7 +116,7 @@ def cmd_train(args) -> int:
     out = Path(args.out)
     if not out.parent.is_dir():
         raise InputError(f"output folder does not exist: {out.parent}")
-    pred = PosturePredictor(args.model, args.order).fit(_open_modal(args.modal))
+    pred = PosturePredictor(args.model, args.order, args.vectors).fit(_open_modal(args.modal))
     pred.save(out)
     lr = pred.learner_
     note = ""
