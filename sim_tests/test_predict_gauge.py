@@ -125,3 +125,17 @@ def test_cli_train_keeps_the_chosen_vector_normalisation(tmp_path, capsys):
                      "--out", str(out)]) == 0
         assert PosturePredictor.load(out).vectors == vectors
     capsys.readouterr()
+
+
+def test_a_mode_missing_at_some_postures_is_gauged_without_numpy_warnings():
+    """NaN where the fit did not find the mode is the answer there, not a numerical problem: no
+    "invalid value" warning reaches the user (the demo printed three)."""
+    import warnings
+
+    ds = _turning_mode_dataset()
+    ds["modal"].values[:3] = np.nan
+    ds["phiL_1aY"].values[:3] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        out = PosturePredictor("stgp").fit(ds).predict([[1.6, 0.0, 0.0]])
+    assert np.isfinite(out.modal.values).all()

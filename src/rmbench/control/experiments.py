@@ -212,7 +212,7 @@ def cluster(workers: int | None = None, scheduler=None):
     else:
         os.environ.setdefault("OMP_NUM_THREADS", "1")
         local = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                             processes=True, dashboard_address=None, silence_logs=40)
+                             processes=True, dashboard_address=None, silence_logs=50)  # as campaign.py
         client = Client(local)
     try:
         yield client

@@ -286,8 +286,10 @@ def _run_dask(todo, postures, config_json, toml, parts, bar, workers, scheduler)
     else:
         n = workers or os.cpu_count() or 1
         os.environ["OMP_NUM_THREADS"] = "1"
+        # CRITICAL: a worker's heartbeat racing the scheduler's shutdown logs an ERROR with a
+        # traceback (seen in the demo); a task's own failure still reaches us through its result
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40)
+                               dashboard_address=None, silence_logs=50)
         client = Client(cluster)
     try:
         futures = [client.submit(_task, config_json, toml, i, _tuple(postures[i]), key=f"posture-{i}-{parts.digest}",

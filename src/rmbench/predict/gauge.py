@@ -17,6 +17,8 @@ after the learning, so downstream stages see a modal dataset as before.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from rmbench.modal.campaign_fit import COORDS
@@ -27,6 +29,16 @@ __all__ = ["gauge_directions", "to_gauge", "from_gauge"]
 _L = ("phiL_1X", "phiL_1Y", "phiL_1aX")                # φL's fourth element is ``phiL_1aY``
 _R = ("phiR_1X", "phiR_1Y", "phiR_1aX", "phiR_1aY")
 _I = {p: i for i, p in enumerate(PARAMS)}
+
+
+def _nan_modes_quiet(fn):
+    """A mode missing at a posture is NaN there, and complex arithmetic on NaN raises numpy's
+    "invalid value" warnings: the NaN is the answer, not a problem to report."""
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return fn(*args, **kwargs)
+    return wrapper
 
 
 def _vectors(modal: np.ndarray, ay: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -45,6 +57,7 @@ def _put(modal: np.ndarray, phi_l: np.ndarray, phi_r: np.ndarray) -> tuple[np.nd
     return modal, phi_l[..., 3]
 
 
+@_nan_modes_quiet
 def gauge_directions(ds) -> tuple[np.ndarray, np.ndarray]:
     """Per mode the direction ``v`` of its gauge and its smallest projection over the postures.
 
@@ -71,6 +84,7 @@ def gauge_directions(ds) -> tuple[np.ndarray, np.ndarray]:
     return v, worst
 
 
+@_nan_modes_quiet
 def to_gauge(ds, v: np.ndarray):
     """A copy of the modal dataset with each mode's vectors in the gauge of direction ``v``
     (:func:`gauge_directions`): ‖φL‖ = 1, ``vᴴ φL`` real positive, φR scaled inversely."""
@@ -85,6 +99,7 @@ def to_gauge(ds, v: np.ndarray):
     return out
 
 
+@_nan_modes_quiet
 def from_gauge(modal: np.ndarray, ay: np.ndarray, phi_l_ref, modal_std: np.ndarray | None = None,
                ay_std: np.ndarray | None = None):
     """Gauge-normalised parameters back to the dataset's normalisation, φL[phiL_ref] = 1.
