@@ -12,19 +12,26 @@ constant mean per task, on standardised inputs and outputs. Hyperparameters maxi
 marginal likelihood (L-BFGS from two starting length scales, the better kept). The single-task GP
 (STGP: ``σ_f² K_t`` + noise) is the case m = 1.
 
-For m > 1 gpytorch evaluates the likelihood of the Kronecker-plus-diagonal covariance through the
-eigendecompositions of the two factors after whitening by the task noises (linear_operator's
-``KroneckerProductAddedDiagLinearOperator``, Rakitsch et al. 2013): O(n³ + m³), so the model of all
-parameters costs about as much as one task. Kronecker inference needs every task at every training
-posture: a posture where any task of a model is NaN is left out of that model (``dropped_``).
-Predictions come from :class:`~rmbench.predict.posterior.KronPosterior` (numpy, same algebra).
+For m > 1 the likelihood of the Kronecker-plus-diagonal covariance is evaluated through the
+eigendecompositions of the two factors after whitening by the task noises (Rakitsch et al. 2013):
+O(n³ + m³), so the model of all parameters costs about as much as one task. This is the algebra of
+linear_operator's ``KroneckerProductAddedDiagLinearOperator``, written out in torch (:func:`icm_nll`,
+gpytorch's constraints and parametrisation) because that operator diagonalises both factors twice
+per evaluation, once for the solve and once for the log-determinant, which doubled the training
+time; a test holds :func:`icm_nll` equal to gpytorch's ``ExactMarginalLogLikelihood`` of the same
+model. The single-task GP (m = 1) is gpytorch's exact GP itself (Cholesky). Kronecker inference
+needs every task at every training posture: a posture where any task of a model is NaN is left out
+of that model (``dropped_``). Predictions come from
+:class:`~rmbench.predict.posterior.KronPosterior` (numpy, same algebra).
 
 A covariance that is not positive definite is retried with more jitter and reported
-(``retries_``, ``jitter_added_``), never silent.
+(``retries_``, ``jitter_added_``), never silent; the Kronecker likelihood clamps the factors'
+eigenvalues at zero, so its covariance (≥ the noise) cannot fail that way.
 """
 
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -33,7 +40,7 @@ from rmbench.errors import InputError, RmbenchError
 from rmbench.predict.data import constant_tasks
 from rmbench.predict.posterior import KronPosterior
 
-__all__ = ["MTGP", "STGP", "fit_icm"]
+__all__ = ["MTGP", "STGP", "fit_icm", "icm_nll"]
 
 # Noise variance floor in standardised units (σ_n ≥ 0.1 % of a task's spread): the modal fit's own
 # scatter is above it for every parameter, and it keeps K_c ⊗ K_t + D well conditioned.
@@ -208,7 +215,8 @@ def fit_icm(Xs: np.ndarray, Ys: np.ndarray, rank: int, *, iterations: int = 100,
                         gpytorch.settings.cholesky_jitter(double_value=jitter), \
                         gpytorch.settings.max_cholesky_size(800 if m == 1 else 0):
                     warnings.simplefilter("always", gpytorch.utils.warnings.NumericalWarning)
-                    out = _fit_batch(torch, gpytorch, Xs, Ys, rank, ls0, iterations)
+                    fit = _fit_batch if m == 1 else _fit_batch_kron
+                    out = fit(torch, gpytorch, Xs, Ys, rank, ls0, iterations)
                 jitter_added = max([jitter_added] + _jitters(caught))
                 break
             except (NotPSDError, NanError):
@@ -275,18 +283,10 @@ def _fit_batch(torch, gpytorch, Xs, Ys, rank, ls0, iterations) -> dict:
     model = _ICM(tx, ty, lik).double()
     model.covar_module.data_covar_module.lengthscale = torch.full((B, 1, Xs.shape[1]), ls0,
                                                                   dtype=torch.float64)
-    # K_c starts at the tasks' empirical correlation (scaled below the unit variance so that the
-    # noise has room), its leading `rank` eigenpairs in B
-    factors = np.empty((B, m, rank))
-    for b in range(B):
-        corr = np.nan_to_num(np.corrcoef(Ys[b].T), nan=0.0) if m > 1 else np.ones((1, 1))
-        w, v = np.linalg.eigh(0.9 * np.atleast_2d(corr))
-        top = np.argsort(w)[::-1][:rank]
-        factors[b] = v[:, top] * np.sqrt(np.maximum(w[top], 1e-6))
     task = model.covar_module.task_covar_module
-    task.covar_factor.data = torch.as_tensor(factors, dtype=torch.float64)
-    task.var = torch.full((B, m), 1e-3, dtype=torch.float64)
-    lik.task_noises = torch.full((B, m), 1e-2, dtype=torch.float64)
+    task.covar_factor.data = torch.as_tensor(_start_factors(Ys, rank), dtype=torch.float64)
+    task.var = torch.full((B, m), _VAR0, dtype=torch.float64)
+    lik.task_noises = torch.full((B, m), _NOISE0, dtype=torch.float64)
     model.train()
     lik.train()
     mll = gpytorch.mlls.ExactMarginalLogLikelihood(lik, model)
@@ -311,6 +311,147 @@ def _fit_batch(torch, gpytorch, Xs, Ys, rank, ls0, iterations) -> dict:
     if not np.isfinite(nll).any():
         raise NotPSDError("non-finite marginal likelihood")
     return out | {"nll": nll}
+
+
+# starting task variances (diag v of K_c) and noise variances, standardised units
+_VAR0, _NOISE0 = 1e-3, 1e-2
+
+
+def _start_factors(Ys: np.ndarray, rank: int) -> np.ndarray:
+    """K_c starts at the tasks' empirical correlation (scaled below the unit variance so that the
+    noise has room), its leading ``rank`` eigenpairs in B; shape (B, m, rank)."""
+    B, _, m = Ys.shape
+    factors = np.empty((B, m, rank))
+    for b in range(B):
+        corr = np.nan_to_num(np.corrcoef(Ys[b].T), nan=0.0) if m > 1 else np.ones((1, 1))
+        w, v = np.linalg.eigh(0.9 * np.atleast_2d(corr))
+        top = np.argsort(w)[::-1][:rank]
+        factors[b] = v[:, top] * np.sqrt(np.maximum(w[top], 1e-6))
+    return factors
+
+
+def _constraints(gpytorch):
+    """gpytorch's constraints of the model's hyperparameters: length scale, task variance v,
+    noise variance (those of ``RBFKernel``, ``IndexKernel`` and the likelihood in ``_fit_batch``)."""
+    c = gpytorch.constraints
+    return c.Interval(*_LENGTHSCALE_BOUNDS), c.Positive(), c.GreaterThan(_NOISE_FLOOR)
+
+
+def icm_nll(torch, x, y, lengthscale, factor, var, noise, mean):
+    """Negative log marginal likelihood per datum of a batch of ICM models (torch, differentiable).
+
+    Parameters
+    ----------
+    x : tensor, shape (n, d)
+        Standardised inputs, shared by the batch.
+    y : tensor, shape (B, n, m)
+    lengthscale : tensor, shape (B, d)
+    factor : tensor, shape (B, m, r)
+        ``B`` of ``K_c = B Bᵀ + diag(var)``.
+    var, noise, mean : tensor, shape (B, m)
+
+    Returns
+    -------
+    tensor, shape (B,): ``−log p(y) / (n m)``, as gpytorch's ``ExactMarginalLogLikelihood``.
+
+    Notes
+    -----
+    With ``D = diag(noise)``, ``K_t = U_t S_t U_tᵀ`` and ``D^-½ K_c D^-½ = U_c S_c U_cᵀ``, the
+    covariance ``K_t ⊗ K_c + I ⊗ D`` has the log-determinant ``n log|D| + Σ log(S_t ⊗ S_c + 1)`` and
+    the quadratic form ``Σ (U_tᵀ R U_c)² / (S_t ⊗ S_c + 1)`` of the whitened residuals
+    ``R = (y − mean) D^-½``: one eigendecomposition of each factor.
+    """
+    _, n, m = y.shape
+    z = x[None] / lengthscale[:, None, :]                                   # (B, n, d)
+    sq = (z**2).sum(-1)
+    d2 = (sq[:, :, None] + sq[:, None, :] - 2 * z @ z.transpose(-1, -2)).clamp_min(0)
+    k_t = torch.exp(-0.5 * d2)
+    w = noise.rsqrt()
+    k_c = (factor @ factor.transpose(-1, -2) + torch.diag_embed(var)) * w[:, :, None] * w[:, None, :]
+    r = (y - mean[:, None, :]) * w[:, None, :]
+    half = _kron_quad_logdet(torch).apply(k_t, k_c, r)
+    return (half + 0.5 * n * torch.log(noise).sum(-1) + 0.5 * n * m * np.log(2 * np.pi)) / (n * m)
+
+
+@functools.lru_cache(maxsize=None)
+def _kron_quad_logdet(torch):
+    """``½ (vec(R)ᵀ K⁻¹ vec(R) + log|K|)`` of ``K = K_t ⊗ K_c + I`` as a torch autograd function
+    of (K_t, K_c, R), each batched, its gradient in closed form from the eigendecompositions::
+
+        ∂/∂K_t = ½ (U_t diag(Σ_a s_c,a / Λ_ia) U_tᵀ − A K_c Aᵀ),   A = U_t (Z / Λ) U_cᵀ
+        ∂/∂K_c = ½ (U_c diag(Σ_i s_t,i / Λ_ia) U_cᵀ − Aᵀ K_t A),   ∂/∂R = A
+
+    (Z = U_tᵀ R U_c, Λ = s_t s_cᵀ + 1). Autograd through ``eigh`` would cost more than the
+    eigendecomposition itself and divides by differences of eigenvalues, which a smooth kernel's
+    many near-zero eigenvalues make tiny.
+    """
+
+    class KronQuadLogdet(torch.autograd.Function):
+        @staticmethod
+        def forward(ctx, k_t, k_c, r):
+            s_t, u_t = torch.linalg.eigh(k_t)
+            s_c, u_c = torch.linalg.eigh(k_c)
+            s_t, s_c = s_t.clamp_min(0), s_c.clamp_min(0)
+            lam = s_t[..., :, None] * s_c[..., None, :] + 1.0                # (B, n, m)
+            zl = (u_t.transpose(-1, -2) @ r @ u_c) / lam
+            a = u_t @ zl @ u_c.transpose(-1, -2)
+            ctx.save_for_backward(k_t, k_c, s_t, u_t, s_c, u_c, lam, a)
+            return 0.5 * ((r * a).sum((-1, -2)) + torch.log(lam).sum((-1, -2)))
+
+        @staticmethod
+        def backward(ctx, g):
+            k_t, k_c, s_t, u_t, s_c, u_c, lam, a = ctx.saved_tensors
+            g = g[:, None, None]
+            d_t = ((s_c[..., None, :] / lam).sum(-1))[..., None, :] * u_t @ u_t.transpose(-1, -2)
+            d_c = ((s_t[..., :, None] / lam).sum(-2))[..., None, :] * u_c @ u_c.transpose(-1, -2)
+            g_t = 0.5 * (d_t - a @ k_c @ a.transpose(-1, -2))
+            g_c = 0.5 * (d_c - a.transpose(-1, -2) @ k_t @ a)
+            return g * g_t, g * g_c, g * a
+
+    return KronQuadLogdet
+
+
+def _fit_batch_kron(torch, gpytorch, Xs, Ys, rank, ls0, iterations) -> dict:
+    """:func:`_fit_batch` for m > 1 through :func:`icm_nll`: the same hyperparameters, constraints,
+    starts and optimiser as the gpytorch model."""
+    B, _, m = Ys.shape
+    c_ls, c_var, c_noise = _constraints(gpytorch)
+    f64 = dict(dtype=torch.float64)
+    x, y = torch.as_tensor(Xs, **f64), torch.as_tensor(Ys, **f64)
+    raw = [c_ls.inverse_transform(torch.full((B, Xs.shape[1]), float(ls0), **f64)),
+           torch.as_tensor(_start_factors(Ys, rank), **f64),
+           c_var.inverse_transform(torch.full((B, m), _VAR0, **f64)),
+           c_noise.inverse_transform(torch.full((B, m), _NOISE0, **f64)),
+           torch.zeros((B, m), **f64)]
+    for t in raw:
+        t.requires_grad_(True)
+
+    def nll():
+        return icm_nll(torch, x, y, c_ls.transform(raw[0]), raw[1], c_var.transform(raw[2]),
+                       c_noise.transform(raw[3]), raw[4])
+
+    opt = torch.optim.LBFGS(raw, lr=0.5, max_iter=iterations, line_search_fn="strong_wolfe")
+
+    def closure():
+        opt.zero_grad()
+        loss = nll().sum()          # the models are independent: the sum separates
+        loss.backward()
+        return loss
+
+    opt.step(closure)
+    with torch.no_grad():
+        per_model = nll().numpy().copy()
+        out = {"lengthscales": c_ls.transform(raw[0]).numpy().copy(),
+               "Kc": (raw[1] @ raw[1].transpose(-1, -2)
+                      + torch.diag_embed(c_var.transform(raw[2]))).numpy().copy(),
+               "noise": c_noise.transform(raw[3]).numpy().copy(),
+               "mean": raw[4].detach().numpy().copy()}
+    per_model[~np.isfinite(per_model)] = np.inf
+    if not np.isfinite(per_model).any():
+        from linear_operator.utils.errors import NotPSDError
+
+        raise NotPSDError("non-finite marginal likelihood")
+    return out | {"nll": per_model}
 
 
 def _jitters(caught) -> list:
