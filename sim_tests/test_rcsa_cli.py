@@ -60,6 +60,56 @@ def test_calibration_with_the_wrong_tool_is_refused(cli, campaigns):
     assert code == 2 and "not the target" in err
 
 
+@pytest.fixture(scope="module")
+def calibrations(tmp_path_factory):
+    """The bundled tool calibration (validation posture 1, 600-3500 Hz, steel tip, time domain)
+    run through the CLI with each tool."""
+    from rmbench.cli import main
+
+    d = tmp_path_factory.mktemp("cal")
+    for tool in ("dummy", "endmill"):
+        assert main(["campaign", "run", "tool_calibration", "--tool", tool, "--out", str(d / f"{tool}.nc"),
+                     "--workers", "0", "--no-progress"]) == 0
+    return d / "dummy.nc", d / "endmill.nc"
+
+
+def test_campaign_tool_override_puts_the_named_tool_on(calibrations):
+    import xarray as xr
+
+    assert [xr.open_dataset(p).attrs["tool"] for p in calibrations] == ["dummy", "endmill"]
+
+
+def test_tool_calibration_to_3p5_khz_identifies_the_contact_within_10_percent(cli, calibrations):
+    """The contact's stiffness and damping set the tool-on-holder mode (2.7 kHz), which the
+    calibration band holds: k_t and c_t come back within the issue's 10 % from measured FRFs
+    (bench, 5 seeds: about 2 %; from the seed's 600-1400 Hz band c_t is off by a factor of two)."""
+    from rmbench.robot.tool import TOOLS
+
+    ref, tgt = calibrations
+    code, out, _ = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--calibration", str(tgt), "--calibration-reference", str(ref), "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert "calibration campaigns, 600-3500 Hz" in d["contact_source"]
+    k = d["target_contact"]
+    assert abs(k["k_t"] / TOOLS["endmill"].k_t - 1) < 0.10
+    assert abs(k["c_t"] / TOOLS["endmill"].c_t - 1) < 0.10
+
+
+def test_calibration_lines_unlike_the_references_are_one_line(cli, campaigns, calibrations):
+    ref, _ = campaigns
+    code, _, err = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--calibration", str(calibrations[1]))
+    assert code == 2 and "high-band lines differ" in err and "Traceback" not in err
+
+
+def test_calibration_reference_alone_is_refused(cli, campaigns, calibrations):
+    ref, _ = campaigns
+    code, _, err = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--calibration-reference", str(calibrations[0]))
+    assert code == 2 and "needs --calibration" in err
+
+
 def test_missing_reference_file_is_one_line(cli, tmp_path):
     code, _, err = cli("rcsa", "tool", "--reference", str(tmp_path / "none.nc"), "--target-tool", "endmill")
     assert code == 2 and "not found" in err

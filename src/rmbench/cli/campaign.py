@@ -13,12 +13,13 @@ __all__ = ["register"]
 def register(sub) -> None:
     csub = command_group(sub, "campaign", "virtual impact campaigns: FRF matrices across postures")
     run = csub.add_parser("run", help="run a campaign from a TOML config (resumable)")
-    run.add_argument("config", help="TOML file, or a bundled config name (seed_full, demo)")
+    run.add_argument("config", help="TOML file, or a bundled config name (seed_full, demo, tool_calibration, ...)")
     run.add_argument("--out", required=False, help="dataset file to write (netCDF)")
     run.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores; 0: in this process)")
     run.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
     run.add_argument("--method", choices=("time", "linear"), default=None, help="override the config's method")
     run.add_argument("--robot", default=None, help="override the config's robot (name or MJCF path)")
+    run.add_argument("--tool", default=None, help="override the config's tool (bundled name or MJCF path)")
     run.add_argument("--commands-from", default=None, metavar="NOMINAL",
                      help="command each posture with the rigid-body IK of this nominal robot (name or MJCF "
                           "path), as a real controller would, then settle the robot under test there")
@@ -64,6 +65,8 @@ def cmd_run(args) -> int:
         overrides["method"] = args.method
     if args.robot:
         overrides["robot_name"] = args.robot
+    if args.tool:
+        overrides["robot_tool"] = args.tool
     if args.commands_from:
         overrides["robot_commands_from"] = args.commands_from
     if overrides:

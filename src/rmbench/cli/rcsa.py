@@ -25,6 +25,9 @@ def register(sub) -> None:
     t.add_argument("--calibration", help="campaign of the target tool at a posture the reference campaign "
                                          "also measured: the target contact is fitted there")
     t.add_argument("--calibration-index", type=int, default=0, help="posture index in --calibration (default 0)")
+    t.add_argument("--calibration-reference", help="campaign of the reference tool measured like --calibration "
+                                                   "(e.g. both from the bundled tool_calibration config, to 3.5 kHz): "
+                                                   "the contact is fitted on these two")
     t.add_argument("--method", choices=("difference", "beam"), default="difference",
                    help="rotations by finite differences and Eq. 4 (the seed's, default), or the "
                         "translations at 1 and 1a coupled through the tool's beam model")
@@ -72,13 +75,17 @@ def cmd_tool(args) -> int:
         index = args.index or 0
     target = tool_geometry(args.target_tool)
     contact = Contact.parse(args.contact) if args.contact else None
-    calibration = None
+    calibration = cal_ref = None
+    if args.calibration_reference and not args.calibration:
+        raise InputError("--calibration-reference needs --calibration (the target tool's calibration campaign)")
     if args.calibration and contact is None:
         calibration = (load_dataset(args.calibration, "calibration campaign"), args.calibration_index)
+        if args.calibration_reference:
+            cal_ref = load_dataset(args.calibration_reference, "reference calibration campaign")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", IllConditionedWarning)
         res = predict_campaign_tool(data, index, target, contact=contact, calibration=calibration,
-                                    method=args.method, shank=not args.no_shank)
+                                    calibration_reference=cal_ref, method=args.method, shank=not args.no_shank)
     notes = [str(w.message) for w in caught if issubclass(w.category, IllConditionedWarning)]
     if args.save:
         from rmbench.impact.dataset import save

@@ -20,6 +20,7 @@ from scipy.optimize import linear_sum_assignment
 from rmbench._version import __version__
 from rmbench.errors import InputError
 from rmbench.impact.dataset import mac, posture_positions, track_modes
+from rmbench.modal.residual import RESIDUAL_TERMS, out_of_band_terms
 from rmbench.robot.modes import PARAMS, ModeTable
 
 __all__ = ["fit_posture", "fit_campaign", "truth_errors", "truth_scores", "renormalise_phi_l",
@@ -41,8 +42,9 @@ def fit_posture(freq: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, *
         ``ok`` (the fit ran), ``fit_ok`` (it ran and needs no look), ``reason`` (why not, one
         line; "" when ``fit_ok``), ``notes`` (tuple of str), ``seconds``; for a fit that ran,
         ``params`` (n_modes, 16), ``std`` (n_modes, 16), ``phi_r``, ``phi_l`` (n_modes, 4)
-        complex, ``nmse`` (4, 4) and the per-mode evidence ``uncertain``, ``delta_bic``,
-        ``share``, ``n_orders`` (n_modes,).
+        complex, ``nmse`` (4, 4), ``residual`` (3, 4, 4) complex (the fit's out-of-band terms,
+        :func:`~rmbench.modal.residual.out_of_band_terms`) and the per-mode evidence
+        ``uncertain``, ``delta_bic``, ``share``, ``n_orders`` (n_modes,).
     """
     from rmbench.modal import ModalFit
 
@@ -55,9 +57,10 @@ def fit_posture(freq: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, *
         return {"ok": False, "fit_ok": False, "reason": f"{type(err).__name__}: {err}", "notes": (),
                 "seconds": time.perf_counter() - t0}
     ev = fit.quality_.evidence
+    residual = out_of_band_terms(fit, freq)
     return {"ok": True, "fit_ok": fit.fit_ok_, "reason": fit.fit_reason_,
             "notes": fit.quality_.notes, "params": fit.params_, "std": fit.std_,
-            "phi_r": fit.phi_r_, "phi_l": fit.phi_l_, "nmse": fit.nmse_,
+            "phi_r": fit.phi_r_, "phi_l": fit.phi_l_, "nmse": fit.nmse_, "residual": residual,
             "uncertain": ev.uncertain, "delta_bic": ev.delta_bic, "share": ev.share,
             "n_orders": ev.n_orders, "seconds": time.perf_counter() - t0}
 
@@ -87,7 +90,12 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     -------
     xarray.Dataset
         ``modal`` (posture, mode, param), ``modal_std``, ``nmse`` (posture, fit_band, out,
-        inp); the verdict of each band's fit ``fit_ok``, ``fit_reason`` (one line naming what is
+        inp); ``residual`` (posture, fit_band, term, out, inp), complex: what each band's fit
+        needed besides its modes (residual terms and out-of-band poles) as ``lower`` L (1/kg),
+        ``upper`` U and ``quadratic`` V (m/N) of −L/ω² + U + V (f/f_max)², f_max the band's top
+        line (coordinate ``residual_f_max``, Hz; :mod:`rmbench.modal.residual`) — without them a
+        band's modes alone misplace the tool-holder modes that RCSA couples to (bench/lobes.py);
+        the verdict of each band's fit ``fit_ok``, ``fit_reason`` (one line naming what is
         wrong and where, "" when ok) and ``fit_notes`` (posture, fit_band); the evidence of each
         fitted mode ``mode_uncertain`` (its standard errors do not support the accuracy asked),
         ``mode_delta_bic`` (the information criterion's case for it), ``mode_share`` (its share
@@ -128,6 +136,8 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     reasons = np.full((n_post, len(present)), "", dtype=object)
     notes = np.full((n_post, len(present)), "", dtype=object)
     nmse = np.full((n_post, len(present), 4, 4), np.nan)
+    residual = np.full((n_post, len(present), len(RESIDUAL_TERMS), 4, 4), np.nan + 0j)
+    f_max = [float(ds.freq.values[ds.band.values == b].max()) for b in present]
     for bi, b in enumerate(present):
         tables, stds, evs = [], [], []
         for p in range(n_post):
@@ -144,6 +154,7 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
             stds.append(r["std"])
             evs.append(np.column_stack([r[k] for k in _EVIDENCE]).astype(float))
             nmse[p, bi] = r["nmse"]
+            residual[p, bi] = r["residual"]
             fit_ok[p, bi] = r["fit_ok"]
             reasons[p, bi] = r["reason"]
             notes[p, bi] = "; ".join(r["notes"])
@@ -170,6 +181,7 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
          "modal_std": (("posture", "mode", "param"), modal_std),
          "phiL_1aY": (pm, phi_l_1ay),
          "nmse": (("posture", "fit_band", "out", "inp"), nmse),
+         "residual": (("posture", "fit_band", "term", "out", "inp"), residual),
          "fit_ok": (("posture", "fit_band"), fit_ok),
          "fit_reason": (("posture", "fit_band"), reasons.astype(str)),
          "fit_notes": (("posture", "fit_band"), notes.astype(str)),
@@ -180,7 +192,8 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
         coords={"posture": ds.posture.values, "mode": np.arange(modal.shape[1]),
                 "mode_band": ("mode", np.array(band_of_mode, dtype=str)),
                 "phiL_ref": ("mode", np.array(refs, dtype=str)), "param": list(PARAMS),
-                "fit_band": list(present), "out": list(COORDS), "inp": list(COORDS)})
+                "fit_band": list(present), "residual_f_max": ("fit_band", f_max),
+                "term": list(RESIDUAL_TERMS), "out": list(COORDS), "inp": list(COORDS)})
     for c in ("x", "y", "theta", "ok"):
         if c in ds.coords:
             out = out.assign_coords({c: ("posture", ds[c].values)})
@@ -189,7 +202,9 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     out.attrs.update(rmbench_version=__version__, rmbench_dataset_version=1, kind="modal",
                      upstream=str(ds.attrs.get("source_file", "")), fit_seconds=elapsed,
                      phiL_normalisation="phiL[phiL_ref] = 1 per mode, 1aY unless it nears zero "
-                     "somewhere in the campaign (METHODS.md §2); phiL_1aY holds the 1aY element")
+                     "somewhere in the campaign (METHODS.md §2); phiL_1aY holds the 1aY element",
+                     residual_terms="-lower/omega^2 + upper + quadratic (f/residual_f_max)^2; "
+                                    "lower 1/kg, upper and quadratic m/N")
     return out
 
 

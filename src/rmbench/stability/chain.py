@@ -74,9 +74,10 @@ def predicted_tool_structures(prediction, bands: dict, reference: ToolGeometry, 
                               target_contact: Contact | None = None) -> tuple[dict, dict, dict]:
     """Target-tool tip structures per band from one posture's predicted reference parameters.
 
-    Each band's 4x4 receptance is rebuilt from that band's predicted modes alone (Eq. 15): the
-    modes outside the band leave no residual terms, which on the stand-in moves the target's
-    holder modes by ~0.2 % (lobe flanks above 15 krpm by up to 10 %; see bench/lobes.py).
+    Each band's 4x4 receptance is rebuilt from that band's predicted modes (Eq. 15) and, where
+    the predictor learnt them, the band's predicted residual terms: without them the modes above
+    the high band are missing, which on the stand-in moves the target's holder modes by ~0.2 % and
+    the lobes' flanks above 15 krpm by up to 9 % (bench/lobes.py).
 
     Parameters
     ----------
@@ -91,7 +92,7 @@ def predicted_tool_structures(prediction, bands: dict, reference: ToolGeometry, 
         sel = np.flatnonzero((prediction["mode_band"].values == band) & finite)
         if not len(sel):
             raise InputError(f"the prediction has no mode in the {band} band")
-        h_ref[band] = predicted_frf(prediction.isel(mode=sel), freq, posture=0)
+        h_ref[band] = predicted_frf(prediction, freq, posture=0, band=band)
         counts[band] = len(sel)
     tips, structures = tool_structures(h_ref, bands, reference, target, n_modes=counts,
                                        target_contact=target_contact)
