@@ -16,8 +16,10 @@
    dummy rod's parameters are predicted, rebuilt per band, the end mill put on by RCSA, its
    modes fitted, and the lobes (both bands, lowest envelope) compared with the exact end mill's
    band lobes; one figure like the seed's Fig. 29 at (1800, 200, 0). Each band is rebuilt from its
-   predicted modes and its predicted out-of-band terms (rmbench.modal.residual); beside it, the
-   same chain without those terms, and fed the exact reference (its band modes alone, with the
+   predicted modes and its predicted out-of-band terms (rmbench.modal.residual), the veering
+   modes' receptance from their clusters' learnt invariants (rmbench.predict.cluster); beside it,
+   the same chain without the out-of-band terms, with every mode from its own learnt parameters,
+   and fed the exact reference (its band modes alone, with the
    exact out-of-band part projected on the terms, and its exact receptance): what the predictor
    adds and what the chain itself costs.
 
@@ -173,6 +175,7 @@ def chain(sp_m, depths, exact_all, runs) -> tuple[float, Path]:
         warnings.simplefilter("ignore")
         fit = fit_campaign(open_campaign(work / "grid.nc"), workers=2)
         pred = PosturePredictor("mtgp-grouped").fit(fit)
+        alone = PosturePredictor("mtgp-grouped", clusters="none").fit(fit)
     print(f"  112-posture campaign, fit and grouped MTGP: {time.perf_counter() - t0:.0f} s")
     bands = {"low": (np.arange(4.0, 40.01, 0.125), 0.0334), "high": (np.arange(600.0, 1400.1, 2.0), 0.020)}
     speeds = np.linspace(5000.0, 20000.0, 60)
@@ -198,7 +201,10 @@ def chain(sp_m, depths, exact_all, runs) -> tuple[float, Path]:
             warnings.simplefilter("ignore")
             alt = {"predicted, bands' modes only": predicted_lobes(
                 out.drop_vars("residual"), bands, TOOLS["dummy"], TOOLS["endmill"], ALUMINIUM_6061, speeds,
-                depths).envelope}
+                depths).envelope,
+                "predicted, veering modes learnt one by one": predicted_lobes(
+                alone.predict([[p.x, p.y, p.theta]]), bands, TOOLS["dummy"], TOOLS["endmill"], ALUMINIUM_6061,
+                speeds, depths).envelope}
             alt.update(exact_reference_lobes(p, bands, speeds, depths))
         print("  " + " " * 14 + "  max error: " + "; ".join(
             f"{name} {100 * _max_err(v, ex):.1f} %" for name, v in alt.items()))

@@ -39,6 +39,9 @@ def register(sub) -> None:
     tr.add_argument("--vectors", choices=("gauge", "dataset"), default="gauge",
                     help="learn the mode vectors in a gauge per mode (default: no near-zero element "
                          "is divided by) or as the modal stage normalised them")
+    tr.add_argument("--clusters", choices=("auto", "none"), default="auto",
+                    help="also learn veering modes as clusters, for the FRF (default), or every "
+                         "mode alone")
     tr.set_defaults(func=cmd_train)
 
     at = g.add_parser("at", help="modal parameters (and FRF matrix) predicted at a posture")
@@ -116,7 +119,7 @@ def cmd_train(args) -> int:
     out = Path(args.out)
     if not out.parent.is_dir():
         raise InputError(f"output folder does not exist: {out.parent}")
-    pred = PosturePredictor(args.model, args.order, args.vectors).fit(_open_modal(args.modal))
+    pred = PosturePredictor(args.model, args.order, args.vectors, args.clusters).fit(_open_modal(args.modal))
     pred.save(out)
     lr = pred.learner_
     note = ""
@@ -125,6 +128,8 @@ def cmd_train(args) -> int:
     dropped = getattr(lr, "dropped_", 0)
     if dropped:
         note += f"; {dropped} postures left out of some models (a mode not found there)"
+    if pred.clusters_:
+        note += "; veering clusters " + ", ".join("modes " + "-".join(map(str, c.modes)) for c in pred.clusters_)
     print(f"{args.model}: {len(pred.live_)} parameters from {len(pred.X_train_)} postures in "
           f"{pred.train_seconds_:.1f} s{note}; wrote {out}")
     return 0

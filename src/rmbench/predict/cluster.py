@@ -1,0 +1,236 @@
+"""Veering modes learnt as one cluster, through quantities that stay smooth (METHODS.md §2, §5).
+
+Where two or more modes approach in frequency as the posture changes (veering), their individual
+parameters turn sharply: the mode vectors rotate into each other within a few millimetres of
+tool-tip travel and the damping ratios exchange. On the IRB6660 stand-in the low band's modes 2-5
+(14-36 Hz, ζ 6-19 %) do this over the seed's grid, and no learner follows them: trained on the
+*exact* parameters, a single-task GP's cross-validated R² is 0.31 and −0.80 for modes 3 and 5
+(bench/predict.py).
+
+What stays smooth is what the cluster does as a whole. Its poles are the eigenvalues of the system
+restricted to the cluster's invariant subspace, and that subspace's spectral projector is analytic in
+the posture as long as the cluster stays apart from the other modes (Kato's perturbation theory). So
+the coefficients of the cluster's characteristic polynomial and its residue moments
+
+    Π_r (z − z_r) = z^n + a_1 z^(n−1) + … + a_n,     M_k = Σ_r R_r z_r^k,  k = 0 … n−1,
+    z_r = (λ_r − c) / ρ,                             R_r = φR_r φL_rᵀ  (4 × 4),
+
+are smooth, while each λ_r, R_r alone is not. ``c`` and ``ρ`` centre and scale the poles over the
+training postures so that the Vandermonde system that takes the moments back to residues is well
+conditioned. The residues are gauge free (φR c, φL / c give the same R_r), so no normalisation of
+the mode vectors enters what is learnt either. Back from learnt invariants: the poles are the
+polynomial's roots (sorted by frequency), the residues solve ``Σ_r z_r^k R_r = M_k``, and each R_r's
+best rank-one part gives φR and φL (φL normalised on the mode's reference element).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rmbench.errors import InputError
+
+__all__ = ["ModeCluster", "veering_clusters", "cluster_features", "round_off_features", "cluster_residues",
+           "cluster_modes", "poles_of", "FEATURES_PER_MODE"]
+
+# per mode: a_j (complex) and M_k (4 × 4 complex)
+FEATURES_PER_MODE = 2 + 2 * 16
+
+
+@dataclass(frozen=True)
+class ModeCluster:
+    """Modes learnt together.
+
+    Attributes
+    ----------
+    modes : tuple of int
+        Positions of the cluster's modes on the dataset's ``mode`` dimension, in order of frequency
+        at every posture.
+    center : complex
+        Centre of the cluster's poles over the training postures, rad/s.
+    radius : float
+        Largest distance of a pole from ``center``, rad/s.
+    """
+
+    modes: tuple
+    center: complex
+    radius: float
+
+    @property
+    def n_features(self) -> int:
+        return FEATURES_PER_MODE * len(self.modes)
+
+    def feature_names(self) -> list[str]:
+        n = len(self.modes)
+        tag = "cluster" + "-".join(str(m) for m in self.modes)
+        names = [f"{tag}:a{j}_{part}" for j in range(1, n + 1) for part in ("re", "im")]
+        names += [f"{tag}:M{k}_{o}{i}_{part}" for k in range(n) for o in range(4) for i in range(4)
+                  for part in ("re", "im")]
+        return names
+
+
+def poles_of(f_n: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+    """λ = −ζω + iω√(1−ζ²), rad/s, same shape."""
+    w = 2 * np.pi * np.asarray(f_n, float)
+    z = np.asarray(zeta, float)
+    return -z * w + 1j * w * np.sqrt(1 - z**2)
+
+
+def veering_clusters(f_n: np.ndarray, zeta: np.ndarray, bands, *, overlap: float = 1.0) -> list[ModeCluster]:
+    """Groups of consecutive modes of one band that come close over the postures.
+
+    Modes ``r`` and ``r + 1`` (in order of frequency) join when at some posture their frequencies
+    are closer than ``overlap`` times their half-power bandwidths' sum, ``f_{r+1} − f_r <
+    overlap (ζ_r f_r + ζ_{r+1} f_{r+1})``: there their peaks merge and their shapes mix.
+
+    Parameters
+    ----------
+    f_n, zeta : ndarray, shape (n_postures, n_modes)
+        In order of frequency within each band at every posture (NaN where a mode is missing).
+    bands : sequence of str, length n_modes
+
+    Returns
+    -------
+    list of ModeCluster
+        Clusters of two or more modes; a posture missing any of a cluster's modes is left out of
+        its centre and radius (and of what is learnt for it).
+    """
+    f_n, zeta = np.asarray(f_n, float), np.asarray(zeta, float)
+    bands = np.asarray(bands, str)
+    with np.errstate(invalid="ignore"):
+        bw = zeta * f_n
+        close = np.nanmin(np.where(np.isfinite(f_n[:, 1:] + f_n[:, :-1]),
+                                   (f_n[:, 1:] - f_n[:, :-1]) / (bw[:, 1:] + bw[:, :-1]), np.inf), axis=0)
+    clusters, run = [], [0]
+    for r in range(1, f_n.shape[1] + 1):
+        if r < f_n.shape[1] and bands[r] == bands[r - 1] and close[r - 1] < overlap:
+            run.append(r)
+            continue
+        if len(run) > 1:
+            lam = poles_of(f_n[:, run], zeta[:, run])
+            lam = lam[np.isfinite(lam).all(axis=1)]
+            if len(lam):
+                c = complex(lam.mean())
+                clusters.append(ModeCluster(tuple(run), c, float(np.abs(lam - c).max())))
+        run = [r]
+    return clusters
+
+
+def cluster_features(cluster: ModeCluster, poles: np.ndarray, phi_r: np.ndarray,
+                     phi_l: np.ndarray) -> np.ndarray:
+    """The smooth invariants of a cluster at each posture.
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n_postures, n), complex, rad/s
+    phi_r, phi_l : ndarray, shape (n_postures, n, 4), complex
+        1X, 1Y, 1aX, 1aY, any normalisation (only ``φR φLᵀ`` enters).
+
+    Returns
+    -------
+    ndarray, shape (n_postures, cluster.n_features)
+        Real and imaginary parts of a_1 … a_n, then of M_0 … M_{n−1} (row-major 4 × 4); NaN rows
+        where a mode is missing.
+    """
+    n = len(cluster.modes)
+    z = (np.asarray(poles) - cluster.center) / cluster.radius
+    R = np.einsum("pro,pri->proi", phi_r, phi_l)                      # (P, n, 4, 4)
+    out = np.full((len(z), cluster.n_features), np.nan)
+    for p in range(len(z)):
+        if not (np.all(np.isfinite(z[p])) and np.all(np.isfinite(R[p]))):
+            continue
+        a = np.poly(z[p])[1:]                                         # monic: drop the leading 1
+        M = np.stack([np.einsum("r,roi->oi", z[p] ** k, R[p]) for k in range(n)])
+        c = np.concatenate([a, M.ravel()])
+        out[p] = np.column_stack([c.real, c.imag]).ravel()
+    return out
+
+
+def round_off_features(cluster: ModeCluster, features: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
+    """Which features are round-off, shape (n_features,) bool: largest magnitude over the postures
+    below ``rtol`` times the largest of their kind (all a_j; each M_k).
+
+    Why: for classically damped modes the residues are imaginary and Re M_0 is zero up to round-off;
+    standardised, that round-off is unit-variance noise, and a multi-task GP that shares one kernel
+    among all features fits it (on a two-mode veering, 13 % error in the other features instead of
+    0.06 %). Learners should take these as the constant 0.
+    """
+    F = np.abs(np.asarray(features, float))
+    kind = np.array([n.split(":")[1].split("_")[0] for n in cluster.feature_names()])
+    top = np.nanmax(F, axis=0)
+    scale = np.array([np.nanmax(top[kind == k]) for k in kind])
+    return top <= rtol * scale
+
+
+def cluster_residues(cluster: ModeCluster, features: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The cluster's poles and full residue matrices from (learnt) invariants.
+
+    ``Σ_r R_r / (s − λ_r)`` equals the rational function of the invariants exactly (partial
+    fractions), so these rebuild the cluster's receptance without the error that forcing each R_r to
+    rank one (:func:`cluster_modes`) adds.
+
+    Parameters
+    ----------
+    features : ndarray, shape (n_postures, cluster.n_features)
+
+    Returns
+    -------
+    poles : ndarray, shape (n_postures, n), complex, rad/s
+        In order of frequency.
+    residues : ndarray, shape (n_postures, n, 4, 4), complex, m/N·rad/s
+        ``R_r`` with rows (out) and columns (inp) 1X, 1Y, 1aX, 1aY. NaN where the features are not
+        finite or a root leaves the upper half plane (no oscillating mode).
+    """
+    n = len(cluster.modes)
+    features = np.atleast_2d(np.asarray(features, float))
+    if features.shape[1] != cluster.n_features:
+        raise InputError(f"{features.shape[1]} features for a cluster of {n} modes "
+                         f"({cluster.n_features} expected)")
+    P = len(features)
+    poles, residues = np.full((P, n), np.nan, complex), np.full((P, n, 4, 4), np.nan, complex)
+    c = features[:, 0::2] + 1j * features[:, 1::2]
+    for p in range(P):
+        if not np.all(np.isfinite(c[p])):
+            continue
+        z = np.roots(np.concatenate([[1.0], c[p, :n]]))
+        lam = cluster.center + cluster.radius * z
+        if np.any(lam.imag <= 0):
+            continue
+        order = np.argsort(lam.imag)
+        V = z[order][None, :] ** np.arange(n)[:, None]                # (k, r)
+        poles[p] = lam[order]
+        residues[p] = np.linalg.solve(V, c[p, n:].reshape(n, 16)).reshape(n, 4, 4)
+    return poles, residues
+
+
+def cluster_modes(cluster: ModeCluster, features: np.ndarray, refs) -> tuple[np.ndarray, ...]:
+    """The cluster's modes back from (learnt) invariants, each residue cut to its best rank-one
+    part (the modal stage's parameterisation).
+
+    Parameters
+    ----------
+    features : ndarray, shape (n_postures, cluster.n_features)
+    refs : sequence of int, length n
+        Element (0-3: 1X, 1Y, 1aX, 1aY) at which each mode's φL is 1, in order of frequency.
+
+    Returns
+    -------
+    f_n : ndarray, shape (n_postures, n), Hz
+    zeta : ndarray, shape (n_postures, n)
+    phi_r, phi_l : ndarray, shape (n_postures, n, 4), complex
+        In order of frequency; NaN where :func:`cluster_residues` gives NaN.
+    """
+    lam, R = cluster_residues(cluster, features)
+    n = len(cluster.modes)
+    w = np.abs(lam)
+    f_n, zeta = w / (2 * np.pi), -lam.real / w
+    phi_r, phi_l = np.full(R.shape[:3], np.nan, complex), np.full(R.shape[:3], np.nan, complex)
+    for p in np.flatnonzero(np.isfinite(lam).all(axis=1)):
+        for r in range(n):
+            u, s, vh = np.linalg.svd(R[p, r])
+            # R ≈ s u vᴴ = φR φLᵀ: φL = conj(v) / conj(v)[e], φR = s u conj(v)[e]  (vh[0] = conj(v))
+            v, e = vh[0], int(refs[r])
+            phi_l[p, r] = v / v[e]
+            phi_r[p, r] = s[0] * u[:, 0] * v[e]
+    return f_n, zeta, phi_r, phi_l
