@@ -82,7 +82,7 @@ def test_campaign_tool_override_puts_the_named_tool_on(calibrations):
 def test_tool_calibration_to_3p5_khz_identifies_the_contact_within_10_percent(cli, calibrations):
     """The contact's stiffness and damping set the tool-on-holder mode (2.7 kHz), which the
     calibration band holds: k_t and c_t come back within the issue's 10 % from measured FRFs
-    (bench, 5 seeds: about 2 %; from the seed's 600-1400 Hz band c_t is off by a factor of two)."""
+    (bench, 5 seeds: 1-2 %; from the seed's 600-1400 Hz band c_t is off by a factor of two)."""
     from rmbench.robot.tool import TOOLS
 
     ref, tgt = calibrations
@@ -137,3 +137,28 @@ def test_shipped_scene_loads_and_holds_its_preload():
     force = robot.model.tendon_stiffness[t] * (op.data.ten_length[t] - robot.model.tendon_lengthspring[t, 0])
     assert abs(force - 100.0) < 1.0  # 6-digit joint coefficients in the file: well under 1 N
     assert sum(robot.model.joint(i).name.startswith("part_mode_") for i in range(robot.model.njnt)) == 6
+
+
+def test_tool_model_and_free_parameters_reach_the_contact_fit(cli, calibrations):
+    """``--tool-model lumped --free k_t,k_r,c_t`` fits the rotational stiffness too (reported with
+    its standard error) on the simulator's own tool; k_t and c_t stay within the issue's 10 %. k_r
+    itself is not held to 10 %: from measured FRFs it is off by 12-28 % (bench/results/rcsa.txt)."""
+    from rmbench.robot.tool import TOOLS
+
+    ref, tgt = calibrations
+    code, out, _ = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--calibration", str(tgt), "--calibration-reference", str(ref), "--method", "beam",
+                       "--tool-model", "lumped", "--free", "k_t,k_r,c_t", "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert d["tool_model"] == "lumped"
+    assert set(d["contact_fit"]["rel_std"]) == {"k_t", "k_r", "c_t"}
+    for name in ("k_t", "c_t"):
+        assert abs(d["target_contact"][name] / getattr(TOOLS["endmill"], name) - 1) < 0.10, name
+
+
+def test_unknown_free_contact_parameter_is_one_line(cli, calibrations):
+    ref, tgt = calibrations
+    code, _, err = cli("rcsa", "tool", "--reference", str(ref), "--target-tool", "endmill",
+                       "--calibration", str(tgt), "--free", "k_t,k_z")
+    assert code == 2 and "--free" in err and len(err.strip().splitlines()) == 1

@@ -191,3 +191,82 @@ def test_shank_step_is_its_own_inverse():
     there, _ = with_shank_change(r, freq, REF, TGT)
     back, _ = with_shank_change(there, freq, TGT, REF)
     assert np.allclose(back, r, rtol=1e-10)
+
+
+def test_lumped_and_beam_overhangs_agree_far_below_their_bending_modes():
+    # same mass, first moment and rotary inertia, and the same static flexibility: at 10-100 Hz
+    # (the first free-free bending mode is above 10 kHz) only the damping models differ (1e-5)
+    freq = np.array([10.0, 100.0])
+    for tool in (REF, TGT):
+        b, lumped = tool_receptance(tool, freq), tool_receptance(tool, freq, model="lumped")
+        for name in ("t11", "t12", "t22"):
+            a, c = getattr(b, name), getattr(lumped, name)
+            assert np.max(np.abs(c - a)) < 1e-4 * np.max(np.abs(a))
+
+
+def test_lumped_tool_receptances_are_reciprocal_at_the_points_too():
+    a = tool_receptance(TGT, HIGH, model="lumped", s_1a=0.02)
+    assert np.allclose(a.t12, np.swapaxes(a.t21, 1, 2), rtol=1e-9, atol=0)
+    assert np.allclose(a.points[1], np.swapaxes(a.points[2], 1, 2), rtol=1e-9, atol=0)
+
+
+def test_coupling_the_simulators_own_tools_rebuilds_the_simulated_target_tool(posture2):
+    # exact reference receptances and the exact substructures: what is left is the tools' weight
+    # on the robot's equilibrium and the dampers' series approximation, below 0.1 % of the peak
+    # (the beam model leaves 0.5 %)
+    ref, tgt = posture2
+    truth = tgt.frf(HIGH, FULL_COORDS)
+    pred = change_tool(ref.frf(HIGH, FULL_COORDS), HIGH, REF, TGT, tool_model="lumped")
+    err = _rel(pred.t, truth)[0::2, 0::2]
+    assert err.max() < 1e-3
+
+
+def test_with_the_simulators_own_tool_the_rotational_contact_stiffness_is_identified():
+    # the rotational contact's compliance is ~2 % of the root bending's, so k_r shows only once the
+    # substructure's root compliance is exact; the calibration band (to 3.5 kHz) holds the
+    # tool-on-holder mode at 2.7 kHz. Exact FRFs: the fit returns k_t, k_r and c_t to 1 %.
+    p = validation_postures()[0]
+    f = np.arange(600.0, 3500.1, 4.0)
+    ref = Robot.load("irb6660", tool="dummy").at(p)
+    tgt = Robot.load("irb6660", tool="endmill").at(p)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        fit = identify_contact(ref.frf(f, FULL_COORDS), tgt.frf(f, ("1X", "1Y")), f, REF, TGT,
+                               free=("k_t", "k_r", "c_t"), tool_model="lumped")
+    got, want = fit.contact, Contact.of(TGT)
+    for name in ("k_t", "k_r", "c_t"):
+        assert abs(getattr(got, name) / getattr(want, name) - 1) < 0.01, name
+
+
+def test_unknown_tool_model_is_a_clear_error():
+    with pytest.raises(InputError, match="tool model must be one of beam, lumped"):
+        tool_receptance(REF, HIGH, model="shell")
+
+
+def test_sensor_masses_add_to_the_overhangs_rigid_mass():
+    # far below the bending modes the holder-end receptance is −(ω² M_rigid)⁻¹: 0.2 g at the tip
+    # and at 1a add 0.4 g to its translational mass, in both models
+    masses = ((0.0, 2e-4), (0.02, 2e-4))
+    m0 = REF.mass_per_length * REF.overhang
+    omega2 = (2 * np.pi) ** 2
+    for model in ("beam", "lumped"):
+        a = tool_receptance(REF, np.array([1.0]), model=model, masses=masses)
+        m_rigid = np.linalg.inv(-omega2 * a.t22[0, :2, :2]).real
+        assert m_rigid[0, 0] == pytest.approx(m0 + 4e-4, rel=1e-4), model
+
+
+def test_decoupling_the_accelerometers_mass_recovers_the_bare_target(posture2):
+    # the reference tool measured with four 0.2 g accelerometers (tip and 1a, as the campaigns
+    # mount them): with their masses on its substructure the bare target comes back as exactly as
+    # from the bare reference (< 0.1 % of the peak); left off, their loading stays in the prediction
+    from rmbench.robot.variant import with_tool_masses
+
+    masses = ((0.0, 2e-4), (0.0, 2e-4), (0.02, 2e-4), (0.02, 2e-4))
+    p = validation_postures()[1]
+    loaded = with_tool_masses(Robot.load("irb6660", tool="dummy"), masses).at(p)
+    truth = posture2[1].frf(HIGH, FULL_COORDS)
+    t_ref = loaded.frf(HIGH, FULL_COORDS)
+    with_masses = change_tool(t_ref, HIGH, REF, TGT, tool_model="lumped", reference_masses=masses)
+    without = change_tool(t_ref, HIGH, REF, TGT, tool_model="lumped")
+    assert _rel(with_masses.t, truth)[0::2, 0::2].max() < 1e-3
+    assert _rel(without.t, truth)[0::2, 0::2].max() > 3 * _rel(with_masses.t, truth)[0::2, 0::2].max()

@@ -31,7 +31,16 @@ def register(sub) -> None:
     t.add_argument("--method", choices=("difference", "beam"), default="difference",
                    help="rotations by finite differences and Eq. 4 (the seed's, default), or the "
                         "translations at 1 and 1a coupled through the tool's beam model")
+    t.add_argument("--tool-model", choices=("beam", "lumped"), default="beam",
+                   help="substructure model of the overhangs: Timoshenko beam (default) or the "
+                        "simulator's own two-segment tool (a check free of model-form error)")
+    t.add_argument("--free", default="k_t,c_t",
+                   help="contact parameters fitted on --calibration, comma-separated among "
+                        "k_t,k_r,c_t,c_r (default k_t,c_t: with the beam model the rotational "
+                        "contact is not identifiable)")
     t.add_argument("--no-shank", action="store_true", help="leave out the shank change (pure Eq. 4)")
+    t.add_argument("--no-mass-loading", action="store_true",
+                   help="leave the campaigns' accelerometers off the measured tools' substructures")
     t.add_argument("--json", action="store_true", help="print the result as JSON")
     t.add_argument("--out", help="figure of predicted (and simulated) FRFs (.png)")
     t.add_argument("--save", help="write the predicted full tip receptances (netCDF)")
@@ -75,6 +84,10 @@ def cmd_tool(args) -> int:
         index = args.index or 0
     target = tool_geometry(args.target_tool)
     contact = Contact.parse(args.contact) if args.contact else None
+    free = tuple(p.strip() for p in args.free.split(",") if p.strip())
+    bad = [p for p in free if p not in ("k_t", "k_r", "c_t", "c_r")]
+    if bad or not free:
+        raise InputError(f"--free takes contact parameters among k_t,k_r,c_t,c_r, got {args.free!r}")
     calibration = cal_ref = None
     if args.calibration_reference and not args.calibration:
         raise InputError("--calibration-reference needs --calibration (the target tool's calibration campaign)")
@@ -85,14 +98,16 @@ def cmd_tool(args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", IllConditionedWarning)
         res = predict_campaign_tool(data, index, target, contact=contact, calibration=calibration,
-                                    calibration_reference=cal_ref, method=args.method, shank=not args.no_shank)
+                                    calibration_reference=cal_ref, method=args.method, shank=not args.no_shank,
+                                    tool_model=args.tool_model, free=free, mass_loading=not args.no_mass_loading)
     notes = [str(w.message) for w in caught if issubclass(w.category, IllConditionedWarning)]
     if args.save:
         from rmbench.impact.dataset import save
 
         out = xr.Dataset({f"T_{b}": tc.to_dataarray().rename(freq=f"freq_{b}") for b, tc in res.bands.items()},
                          attrs={"kind": "rcsa_tool_change", "reference": str(args.reference),
-                                "posture_index": index, "method": args.method})
+                                "posture_index": index, "method": args.method,
+                                "tool_model": args.tool_model})
         save(out, args.save)
     if args.out:
         from rmbench.rcsa import campaign_receptance
@@ -121,7 +136,8 @@ def cmd_tool(args) -> int:
     tc = next(iter(res.bands.values()))
     k = tc.target_contact
     print(f"{tc.reference.name} -> {tc.target.name} at posture {index} ({x:.0f} mm, {y:.0f} mm, {t:.0f}°), "
-          f"{args.method} rotations{'' if not args.no_shank else ', no shank change'}")
+          f"{args.method} rotations, {args.tool_model} tool model"
+          f"{'' if not args.no_shank else ', no shank change'}")
     print(f"target contact ({res.contact_source}): k_t {k.k_t:.4g} N/m, k_r {k.k_r:.4g} N m/rad, "
           f"c_t {k.c_t:.4g} N s/m, c_r {k.c_r:.4g} N m s/rad")
     if res.contact_fit is not None:

@@ -23,10 +23,10 @@ from rmbench.rcsa.coupling import (MAX_CONDITION, IllConditionedWarning, ToolCha
 from rmbench.rcsa.identify import ContactFit, identify_contact
 from rmbench.rcsa.part import PartCoupling, amplitude_reduction, couple_part, spatial_coupling
 from rmbench.rcsa.receptance import FULL_COORDS, POINT_COORDS, campaign_receptance, full_receptance
-from rmbench.rcsa.substructure import ToolReceptance, shank_mass_matrix, tool_receptance
+from rmbench.rcsa.substructure import TOOL_MODELS, ToolReceptance, shank_mass_matrix, tool_receptance
 
 __all__ = ["Contact", "ToolChange", "IllConditionedWarning", "change_tool", "couple_tool",
            "holder_receptance", "scaled_condition", "MAX_CONDITION", "ContactFit", "identify_contact",
            "FULL_COORDS", "POINT_COORDS", "campaign_receptance", "full_receptance", "ToolReceptance",
-           "tool_receptance", "shank_mass_matrix", "couple_part", "spatial_coupling",
+           "tool_receptance", "TOOL_MODELS", "shank_mass_matrix", "couple_part", "spatial_coupling",
            "amplitude_reduction", "PartCoupling"]

@@ -171,7 +171,8 @@ def with_shank_change(r33: np.ndarray, freq: np.ndarray, reference: ToolGeometry
 
 def change_tool(t_ref: np.ndarray, freq: np.ndarray, reference: ToolGeometry, target: ToolGeometry, *,
                 reference_contact: Contact | None = None, target_contact: Contact | None = None,
-                s_1a: float | None = None, shank: bool = True, n_el: int = 20,
+                s_1a: float | None = None, shank: bool = True, n_el: int = 20, tool_model: str = "beam",
+                reference_masses: tuple[tuple[float, float], ...] = (),
                 max_condition: float = MAX_CONDITION) -> ToolChange:
     """Predict the target tool's full tip receptance from the reference tool's (Eq. 4).
 
@@ -193,6 +194,12 @@ def change_tool(t_ref: np.ndarray, freq: np.ndarray, reference: ToolGeometry, ta
         Account for the shank change at the holder face (needs the reference contact itself).
     n_el : int
         Beam elements per overhang.
+    tool_model : str
+        Substructure model of both overhangs, ``"beam"`` or ``"lumped"`` (:func:`tool_receptance`).
+    reference_masses : sequence of (s_up, mass)
+        Sensors on the reference tool when it was measured (m up from the tip, kg): its
+        substructure carries them, so that decoupling removes their mass loading; the target is
+        predicted bare.
     max_condition : float
         Lines whose inversions exceed this scaled condition number come back NaN, with a warning.
     """
@@ -203,8 +210,8 @@ def change_tool(t_ref: np.ndarray, freq: np.ndarray, reference: ToolGeometry, ta
                          f"got {t_ref.shape}")
     k1 = reference_contact or Contact.of(reference)
     k2 = target_contact or Contact.of(target)
-    a1 = tool_receptance(reference, freq, n_el=n_el, s_1a=s_1a)
-    a2 = tool_receptance(target, freq, n_el=n_el)
+    a1 = tool_receptance(reference, freq, n_el=n_el, s_1a=s_1a, model=tool_model, masses=reference_masses)
+    a2 = tool_receptance(target, freq, n_el=n_el, model=tool_model)
     r33, cond = holder_receptance(t_ref, a1, k1, max_condition=max_condition)
     if shank:
         r33, c = with_shank_change(r33, freq, reference, target, max_condition=max_condition)

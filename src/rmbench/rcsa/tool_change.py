@@ -19,10 +19,12 @@ from rmbench.rcsa.contact import Contact
 from rmbench.rcsa.coupling import change_tool
 from rmbench.rcsa.identify import ContactFit, identify_contact
 from rmbench.rcsa.receptance import FULL_COORDS, POINT_COORDS, campaign_receptance
+from rmbench.rcsa.substructure import TOOL_MODELS
 from rmbench.rcsa.validate import peak_errors
 from rmbench.robot.tool import TOOLS, ToolGeometry
 
-__all__ = ["CampaignToolChange", "predict_campaign_tool", "tool_geometry", "posture_index", "TIP_ENTRIES"]
+__all__ = ["CampaignToolChange", "predict_campaign_tool", "tool_geometry", "posture_index", "sensor_masses",
+           "TIP_ENTRIES"]
 
 #: The four tip entries scored: (row, column) in ``FULL_COORDS`` and their labels.
 TIP_ENTRIES = (((0, 0), "1X/1X"), ((0, 2), "1X/1Y"), ((2, 0), "1Y/1X"), ((2, 2), "1Y/1Y"))
@@ -46,6 +48,8 @@ class CampaignToolChange:
         Every true peak of the four tip entries in every band (bench data only).
     contact_fit : ContactFit or None
     contact_source : str
+    tool_model : str
+        Substructure model of the overhangs, ``"beam"`` or ``"lumped"``.
     """
 
     index: int
@@ -56,10 +60,11 @@ class CampaignToolChange:
     peaks: list = field(default_factory=list)
     contact_fit: ContactFit | None = None
     contact_source: str = "catalogue"
+    tool_model: str = "beam"
 
     def to_dict(self) -> dict:
         out = {"posture_index": self.index, "posture_mm_deg": list(self.posture_mm_deg),
-               "method": self.method, "contact_source": self.contact_source,
+               "method": self.method, "tool_model": self.tool_model, "contact_source": self.contact_source,
                "reference_tool": next(iter(self.bands.values())).reference.name,
                "target_tool": next(iter(self.bands.values())).target.name,
                "target_contact": next(iter(self.bands.values())).target_contact.to_dict(),
@@ -82,6 +87,25 @@ def tool_geometry(name: str) -> ToolGeometry:
     if name not in TOOLS:
         raise InputError(f"unknown tool {name!r}; bundled tools: {', '.join(sorted(TOOLS))}")
     return TOOLS[name]
+
+
+def sensor_masses(data: xr.Dataset, band: str) -> list[tuple[float, float]]:
+    """(s_up m, mass kg) of each sensor on the tool in a campaign's band, from its test design
+    (the ``config`` attribute); empty for lasers or a campaign without one."""
+    text = data.attrs.get("config")
+    if not text:
+        return []
+    from rmbench.impact.config import CampaignConfig
+    from rmbench.impact.sensors import sensor_set
+
+    try:
+        cfg = CampaignConfig.model_validate_json(str(text))
+    except ValueError as exc:
+        raise InputError(f"the campaign's test design (attribute 'config') does not parse: "
+                         f"{str(exc).splitlines()[0]}") from None
+    if band not in cfg.bands:
+        return []
+    return sensor_set(cfg.bands[band], cfg, None).tool_masses()
 
 
 def posture_index(data: xr.Dataset, posture) -> int:
@@ -119,7 +143,8 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
                           contact: Contact | None = None, calibration: tuple[xr.Dataset, int] | None = None,
                           calibration_reference: xr.Dataset | None = None,
                           method: str = "difference", shank: bool = True,
-                          bands: tuple[str, ...] | None = None) -> CampaignToolChange:
+                          bands: tuple[str, ...] | None = None, tool_model: str = "beam",
+                          free: tuple[str, ...] = ("k_t", "c_t"), mass_loading: bool = True) -> CampaignToolChange:
     """Predict the target tool's tip receptances at posture ``index`` of a reference campaign.
 
     Parameters
@@ -149,9 +174,21 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
         Account for the shank change.
     bands : tuple of str, optional
         Bands to predict (default all in the dataset).
+    tool_model : str
+        Substructure model of the overhangs: ``"beam"`` (Timoshenko elements, as a lab would) or
+        ``"lumped"`` (the simulator's own tool chain: the bench's check of the coupling and the
+        identification free of model-form error).
+    free : tuple of str
+        Contact parameters fitted on the calibration (:func:`identify_contact`).
+    mass_loading : bool
+        The measured tools carry the campaigns' accelerometers (masses and positions from each
+        campaign's test design): the reference substructure and, in the contact fit, both tools
+        carry them, and the target is predicted bare.
     """
     if method not in ("difference", "beam"):
         raise InputError(f"method must be 'difference' or 'beam', got {method!r}")
+    if tool_model not in TOOL_MODELS:
+        raise InputError(f"tool model must be one of {', '.join(TOOL_MODELS)}, got {tool_model!r}")
     ref_name = str(data.attrs.get("tool", ""))
     reference = tool_geometry(ref_name) if ref_name in TOOLS else None
     if reference is None:
@@ -174,13 +211,15 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
                 raise InputError(f"the reference calibration campaign carries tool "
                                  f"{calibration_reference.attrs.get('tool')!r}, not the reference {ref_name!r}")
             i_ref = posture_index(calibration_reference, p)
-            fit = _fit_contact(calibration_reference, i_ref, cal, j, reference, target, method, shank)
+            fit = _fit_contact(calibration_reference, i_ref, cal, j, reference, target, method, shank,
+                               tool_model, free, mass_loading)
             f_cal = calibration_reference["freq"].values[calibration_reference["band"].values == "high"]
             source = (f"identified at ({p.x * 1e3:g}, {p.y * 1e3:g}, {np.degrees(p.theta):g}) from the "
                       f"calibration campaigns, {f_cal.min():g}-{f_cal.max():g} Hz")
         else:
             i_ref = posture_index(data, p)
-            fit = _fit_contact(data, i_ref, cal, j, reference, target, method, shank)
+            fit = _fit_contact(data, i_ref, cal, j, reference, target, method, shank, tool_model, free,
+                               mass_loading)
             source = f"identified at posture {i_ref}"
         contact = fit.contact
     out, freqs = {}, {}
@@ -193,7 +232,9 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
             campaign_receptance(data, index, band)  # same checks of the posture and the matrix
             f, t_in = _point_matrix(data, index, band)
             s = s_key[band]
-        out[band] = change_tool(t_in, f, reference, target, target_contact=contact, s_1a=s, shank=shank)
+        masses = sensor_masses(data, band) if mass_loading else ()
+        out[band] = change_tool(t_in, f, reference, target, target_contact=contact, s_1a=s, shank=shank,
+                                tool_model=tool_model, reference_masses=masses)
         freqs[band] = f
     truth, peaks = {}, []
     if "H_exact" in data:
@@ -204,10 +245,11 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
                                  np.stack([t[:, i, j] for i, j in rows], 1), [e[1] for e in TIP_ENTRIES])
     posture = (1e3 * float(data["x"].values[index]), 1e3 * float(data["y"].values[index]),
                float(np.degrees(data["theta"].values[index])))
-    return CampaignToolChange(index, posture, method, out, truth, peaks, fit, source)
+    return CampaignToolChange(index, posture, method, out, truth, peaks, fit, source, tool_model)
 
 
-def _fit_contact(data, i_ref, cal, j, reference, target, method, shank) -> ContactFit:
+def _fit_contact(data, i_ref, cal, j, reference, target, method, shank, tool_model, free,
+                 mass_loading) -> ContactFit:
     band = "high"
     if not np.any(cal["band"].values == band) or not np.any(data["band"].values == band):
         raise InputError("the contact is fitted on a high band, which a calibration campaign lacks")
@@ -223,4 +265,6 @@ def _fit_contact(data, i_ref, cal, j, reference, target, method, shank) -> Conta
                          f"({f2.min():g}-{f2.max():g} Hz against {f.min():g}-{f.max():g} Hz)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        return identify_contact(t_in, h2[:, :2, :2], f, reference, target, s_1a=s, shank=shank)
+        return identify_contact(t_in, h2[:, :2, :2], f, reference, target, s_1a=s, shank=shank,
+                                tool_model=tool_model, free=free,
+                                sensor_masses=sensor_masses(data, band) if mass_loading else ())
