@@ -270,3 +270,19 @@ def test_decoupling_the_accelerometers_mass_recovers_the_bare_target(posture2):
     without = change_tool(t_ref, HIGH, REF, TGT, tool_model="lumped")
     assert _rel(with_masses.t, truth)[0::2, 0::2].max() < 1e-3
     assert _rel(without.t, truth)[0::2, 0::2].max() > 3 * _rel(with_masses.t, truth)[0::2, 0::2].max()
+
+
+def test_sensor_masses_are_read_from_a_campaigns_toml_or_json_design():
+    # a campaign stores the TOML it was run from, or the validated JSON: both give the same
+    # sensors (the default high band: four 0.2 g accelerometers, two at the tip, two at 1a)
+    import xarray as xr
+
+    from rmbench.impact.config import parse_config
+    from rmbench.rcsa.tool_change import sensor_masses
+
+    toml = 'seed = 3\nmethod = "linear"\n'
+    from_toml = sensor_masses(xr.Dataset(attrs={"config": toml}), "high")
+    from_json = sensor_masses(xr.Dataset(attrs={"config": parse_config(toml).model_dump_json()}), "high")
+    assert from_toml == from_json
+    assert len(from_toml) == 4 and all(m == pytest.approx(2e-4) for _, m in from_toml)
+    assert sensor_masses(xr.Dataset(), "high") == []

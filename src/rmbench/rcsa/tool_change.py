@@ -95,14 +95,18 @@ def sensor_masses(data: xr.Dataset, band: str) -> list[tuple[float, float]]:
     text = data.attrs.get("config")
     if not text:
         return []
-    from rmbench.impact.config import CampaignConfig
+    from rmbench.impact.config import CampaignConfig, parse_config
     from rmbench.impact.sensors import sensor_set
 
-    try:
-        cfg = CampaignConfig.model_validate_json(str(text))
-    except ValueError as exc:
-        raise InputError(f"the campaign's test design (attribute 'config') does not parse: "
-                         f"{str(exc).splitlines()[0]}") from None
+    text = str(text).strip()
+    if text.startswith("{"):        # the validated JSON a campaign stores, or the TOML it was run from
+        try:
+            cfg = CampaignConfig.model_validate_json(text)
+        except ValueError as exc:
+            raise InputError(f"the campaign's test design (attribute 'config') does not parse: "
+                             f"{str(exc).splitlines()[0]}") from None
+    else:
+        cfg = parse_config(text, source="the campaign's test design (attribute 'config')")
     if band not in cfg.bands:
         return []
     return sensor_set(cfg.bands[band], cfg, None).tool_masses()
