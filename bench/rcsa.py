@@ -77,11 +77,21 @@ def campaign(work: Path, name: str, tool: str, postures, seed: int, *, ideal_ham
     return xr.load_dataset(out)
 
 
-def calibration(work: Path, tool: str, seed: int) -> xr.Dataset:
-    """The bundled tool calibration (validation posture 1, 600-3500 Hz, steel tip) with ``tool``."""
-    out = work / f"cal_{tool}_s{seed}.nc"
+def calibration(work: Path, tool: str, seed: int, *, hammer: dict | None = None,
+                noise_scale: float = 1.0) -> xr.Dataset:
+    """The bundled tool calibration (validation posture 1, 600-3500 Hz, steel tip) with ``tool``;
+    ``hammer``: high-band hammer settings changed, ``noise_scale``: the sensors' noise scaled."""
+    tag = "" if hammer is None and noise_scale == 1.0 else "_" + "_".join(
+        f"{k}{v:g}" for k, v in sorted((hammer or {}).items())) + f"_n{noise_scale:g}"
+    out = work / f"cal_{tool}_s{seed}{tag}.nc"
     if not out.exists():
-        cfg = load_config("tool_calibration").with_overrides(seed=seed, robot_tool=tool)
+        cfg = load_config("tool_calibration")
+        over = {}
+        if hammer:
+            bands = cfg.model_dump()["bands"]
+            bands["high"]["hammer"].update(hammer)
+            over["bands"] = bands
+        cfg = cfg.with_overrides(seed=seed, robot_tool=tool, noise_scale=noise_scale, **over)
         run_campaign(cfg, out, workers=2, progress=False)
     return xr.load_dataset(out)
 
@@ -126,33 +136,46 @@ def lumped_identification(work: Path, ref_op, tgt_op, seed0: int, n_seeds: int) 
               f"k_r {e[1]:+.4f}  c_t {e[2]:+.4f}  c_r {e[3]:+.4f}  at bound {list(fit.at_bound)}")
     # the calibration's as-tested exact FRFs (accelerometers' mass and cross-axis sensitivity in)
     cr0, ct0 = calibration(work, "dummy", seed0), calibration(work, "endmill", seed0)
-    for ml in (False, True):
+    for ml, xa in ((False, False), (True, False), (True, True)):
         r = predict_campaign_tool(cr0.assign(H=cr0["H_exact"]), 0, TGT, calibration=(ct0.assign(H=ct0["H_exact"]), 0),
                                   calibration_reference=cr0.assign(H=cr0["H_exact"]), method="beam",
-                                  tool_model="lumped", free=free3, bands=("high",), mass_loading=ml)
+                                  tool_model="lumped", free=free3, bands=("high",), mass_loading=ml, cross_axis=xa)
         e = errs(r.contact_fit.contact)
         print(f"  as-tested exact FRFs of the calibration (sensors on), lumped tool model, points, free k_t,k_r,c_t, "
-              f"{'with' if ml else 'without'} the mass-loading correction: k_t {e[0]:+.4f}  k_r {e[1]:+.4f}  c_t {e[2]:+.4f}")
+              f"{'with' if ml else 'without'} the mass-loading correction, {'with' if xa else 'without'} the "
+              f"cross-axis correction: k_t {e[0]:+.4f}  k_r {e[1]:+.4f}  c_t {e[2]:+.4f}")
+    # the measurement's own share: the calibration with everything random off, then the hammer's
+    # location scatter alone off (at the tip the hits can only land above the tip: a one-sided shift)
+    for label, hammer, scale in (("noise and hit scatter off", dict(force_scatter=0.0, location_scatter_mm=0.0,
+                                                                      direction_scatter_deg=0.0, load_cell_noise_n=0.0), 0.0),
+                                 ("the hammer's location scatter off", dict(location_scatter_mm=0.0), 1.0)):
+        pair = [calibration(work, tool, seed0, hammer=hammer, noise_scale=scale) for tool in ("dummy", "endmill")]
+        r = predict_campaign_tool(pair[0], 0, TGT, calibration=(pair[1], 0), calibration_reference=pair[0],
+                                  method="beam", tool_model="lumped", free=free3, bands=("high",))
+        e = errs(r.contact_fit.contact)
+        print(f"  measured calibration, {label} (seed {seed0}), lumped tool model, points, free k_t,k_r,c_t: "
+              f"k_t {e[0]:+.4f}  k_r {e[1]:+.4f}  c_t {e[2]:+.4f}")
     rows = {}
-    cases = (("beam", free3, True), ("beam", free3, False), ("difference", free3, True), ("beam", free4, True))
+    cases = (("beam", free3, True, True), ("beam", free3, True, False), ("beam", free3, False, True),
+             ("difference", free3, True, True), ("beam", free4, True, True))
     for s in range(seed0, seed0 + n_seeds):
         cr, ct = calibration(work, "dummy", s), calibration(work, "endmill", s)
-        for method, free, ml in cases:
+        for method, free, ml, xa in cases:
             r = predict_campaign_tool(cr, 0, TGT, calibration=(ct, 0), calibration_reference=cr, method=method,
-                                      tool_model="lumped", free=free, bands=("high",), mass_loading=ml)
-            rows.setdefault((method, free, ml), []).append((errs(r.contact_fit.contact),
-                                                            "c_r" in r.contact_fit.at_bound))
-    for (method, free, ml), v in rows.items():
+                                      tool_model="lumped", free=free, bands=("high",), mass_loading=ml, cross_axis=xa)
+            rows.setdefault((method, free, ml, xa), []).append((errs(r.contact_fit.contact),
+                                                                "c_r" in r.contact_fit.at_bound))
+    for (method, free, ml, xa), v in rows.items():
         e = np.array([x[0] for x in v])
         label = ("points through the tool" if method == "beam" else "finite differences") + (
-            "" if ml else ", no mass-loading correction")
+            "" if ml else ", no mass-loading correction") + ("" if xa else ", no cross-axis correction")
         inside = int(np.sum(np.all(np.abs(e[:, :3]) <= 0.10, axis=1)))
         print(f"  measured calibrations, lumped tool model, {label}, free {','.join(free)}, {len(e)} seeds: "
               + ", ".join(f"{n} {100 * e[:, i].min():+.1f} .. {100 * e[:, i].max():+.1f} %"
                           for i, n in enumerate(("k_t", "k_r", "c_t", "c_r")) if n in free)
               + f"; k_t, k_r, c_t all within 10 %: {inside}/{len(e)}"
               + (f"; c_r on its bound: {sum(x[1] for x in v)}/{len(v)}" if len(free) == 4 else ""))
-    worst = float(np.abs(np.array([x[0] for x in rows["beam", free3, True]])[:, :3]).max())
+    worst = float(np.abs(np.array([x[0] for x in rows["beam", free3, True, True]])[:, :3]).max())
     # what 10 % of k_r does to the tip FRFs, against the measurement's own error
     hi = ct0["band"].values == "high"
     fh = ct0["freq"].values[hi]
@@ -172,7 +195,10 @@ def lumped_identification(work: Path, ref_op, tgt_op, seed0: int, n_seeds: int) 
     print(f"  k_r: +10 % moves the direct tip entries by {100 * d_kr[0, 0]:.2f} / {100 * d_kr[1, 1]:.2f} % of their peaks; "
           f"the calibration's measured direct entries are off their as-tested exact values by up to "
           f"{100 * e_m[:, 0, 0].max():.2f} / {100 * e_m[:, 1, 1].max():.2f} % (median {100 * np.median(e_m[:, 0, 0]):.2f} / "
-          f"{100 * np.median(e_m[:, 1, 1]):.2f} %, seed {seed0}) -- not identifiable within 10 % from measured FRFs")
+          f"{100 * np.median(e_m[:, 1, 1]):.2f} %, seed {seed0}) -- "
+          + (f"10 % of k_r is {min(d_kr[0, 0] / e_m[:, 0, 0].max(), d_kr[1, 1] / e_m[:, 1, 1].max()):.1f} times "
+             "the measurement's largest error" if min(d_kr[0, 0] / e_m[:, 0, 0].max(), d_kr[1, 1] / e_m[:, 1, 1].max()) > 1
+             else "not identifiable within 10 % from measured FRFs"))
     # the rotational damping's whole effect on the tip entries
     tool_file = work / "endmill_no_c_r.xml"
     tool_file.write_text(tool_xml(replace(TGT, c_r=0.0)))

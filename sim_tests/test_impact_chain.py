@@ -101,6 +101,25 @@ def test_time_domain_chain_keeps_the_phase_of_the_exact_frf(quiet_campaign, band
         assert np.abs(ratio - 1).max() < 0.02, (band, f_n)           # integrator, as above
 
 
+def test_records_keep_the_hit_onset_through_the_anti_aliasing_filter():
+    """The tool calibration (600-3500 Hz, steel tip, 12.8 kHz DAQ), quiet: the direct tip FRF is
+    within 0.7 % of its peak at every line, not only near the peaks. The linear-phase anti-aliasing
+    filter spreads the hit's abrupt onset over ~10 DAQ samples either side; a record that started
+    at the hit lost the part before it (1.6 % of the peak at 600 Hz, the band edge furthest from the
+    tool mode). What is left is the finite-difference acceleration at ω dt ≤ 0.3."""
+    c = Campaign.build(_quiet(load_config("tool_calibration"), robot={"name": "irb6660", "tool": "endmill"}))
+    cfg = c.config.bands["high"]
+    op = c.robot.at(POSTURE)
+    op_t = c.tested_robots["high"].at(op.q_cmd)
+    op_sim = c.sim_robots["high"].at(op.q_cmd)
+    freq = band_lines(cfg)
+    he, _, _, _ = exact_band(op_t, op, c.sensors["high"], c.bands["high"], freq)
+    (h, _), _, _ = measure_band(op_sim, op_t, c.sensors["high"], cfg, c.bands["high"], 1.0, 1, ("1X",),
+                                np.random.default_rng(0), noise_scale=0.0)
+    err = np.abs(h[:, 0, 0] - he[:, 0, 0]) / np.abs(he[:, 0, 0]).max()
+    assert err.max() < 0.007
+
+
 def test_peer_estimator_gives_the_same_frf(quiet_campaign):
     # pyFRF's H1 on the very records rmbench estimated from (same windows, same averaging)
     import pyFRF

@@ -286,3 +286,39 @@ def test_sensor_masses_are_read_from_a_campaigns_toml_or_json_design():
     assert from_toml == from_json
     assert len(from_toml) == 4 and all(m == pytest.approx(2e-4) for _, m in from_toml)
     assert sensor_masses(xr.Dataset(), "high") == []
+
+
+def _campaign_like(H, band_of_line, config):
+    import xarray as xr
+
+    return xr.Dataset({"H": (("posture", "freq", "out", "inp"), H)},
+                      coords={"freq": np.arange(H.shape[1], dtype=float), "band": ("freq", band_of_line),
+                              "out": list(POINT_COORDS), "inp": list(POINT_COORDS)},
+                      attrs={"config": config})
+
+
+def test_each_accelerometer_reads_two_percent_of_the_perpendicular_motion_of_its_point():
+    # the default design: 2 % transverse sensitivity, the perpendicular the axis turned +90° about Z
+    import xarray as xr
+
+    from rmbench.rcsa.tool_change import reading_matrix
+
+    D = reading_matrix(xr.Dataset(attrs={"config": 'method = "linear"\n'}), "high")
+    want = np.array([[1, 0.02, 0, 0], [-0.02, 1, 0, 0], [0, 0, 1, 0.02], [0, 0, -0.02, 1]])
+    np.testing.assert_allclose(D, want, atol=1e-15)
+    np.testing.assert_allclose(reading_matrix(xr.Dataset(attrs={"config": 'method = "linear"\n'}), "low"),
+                               np.eye(4), atol=1e-15)    # lasers: no transverse sensitivity
+
+
+def test_taking_the_cross_axis_off_gives_back_the_translations_band_by_band():
+    from rmbench.rcsa.tool_change import reading_matrix, without_cross_axis
+
+    rng = np.random.default_rng(1)
+    H0 = rng.standard_normal((2, 6, 4, 4)) + 1j * rng.standard_normal((2, 6, 4, 4))
+    band = np.array(["low"] * 3 + ["high"] * 3)
+    ds = _campaign_like(H0, band, 'method = "linear"\n')
+    D = reading_matrix(ds, "high")
+    read = H0.copy()
+    read[:, 3:] = np.einsum("ij,pfjk->pfik", D, H0[:, 3:])
+    back = without_cross_axis(ds.assign(H=(ds["H"].dims, read)))
+    np.testing.assert_allclose(back["H"].values, H0, rtol=1e-12, atol=1e-12)

@@ -41,6 +41,8 @@ def register(sub) -> None:
     t.add_argument("--no-shank", action="store_true", help="leave out the shank change (pure Eq. 4)")
     t.add_argument("--no-mass-loading", action="store_true",
                    help="leave the campaigns' accelerometers off the measured tools' substructures")
+    t.add_argument("--no-cross-axis", action="store_true",
+                   help="leave the accelerometers' transverse sensitivity in the measured readings")
     t.add_argument("--json", action="store_true", help="print the result as JSON")
     t.add_argument("--out", help="figure of predicted (and simulated) FRFs (.png)")
     t.add_argument("--save", help="write the predicted full tip receptances (netCDF)")
@@ -99,7 +101,8 @@ def cmd_tool(args) -> int:
         warnings.simplefilter("always", IllConditionedWarning)
         res = predict_campaign_tool(data, index, target, contact=contact, calibration=calibration,
                                     calibration_reference=cal_ref, method=args.method, shank=not args.no_shank,
-                                    tool_model=args.tool_model, free=free, mass_loading=not args.no_mass_loading)
+                                    tool_model=args.tool_model, free=free, mass_loading=not args.no_mass_loading,
+                                    cross_axis=not args.no_cross_axis)
     notes = [str(w.message) for w in caught if issubclass(w.category, IllConditionedWarning)]
     if args.save:
         from rmbench.impact.dataset import save

@@ -32,7 +32,7 @@ import numpy as np
 from rmbench.errors import InputError
 
 __all__ = ["ModeCluster", "veering_clusters", "cluster_features", "round_off_features", "cluster_residues",
-           "cluster_modes", "poles_of", "FEATURES_PER_MODE"]
+           "cluster_modes", "poles_of", "pole_features", "cluster_poles", "FEATURES_PER_MODE"]
 
 # per mode: a_j (complex) and M_k (4 × 4 complex)
 FEATURES_PER_MODE = 2 + 2 * 16
@@ -145,6 +145,69 @@ def cluster_features(cluster: ModeCluster, poles: np.ndarray, phi_r: np.ndarray,
         c = np.concatenate([a, M.ravel()])
         out[p] = np.column_stack([c.real, c.imag]).ravel()
     return out
+
+
+def pole_features(cluster: ModeCluster, poles: np.ndarray) -> np.ndarray:
+    """The cluster's characteristic polynomial alone: the first ``2 n`` columns of
+    :func:`cluster_features` (Re, Im of a_1 … a_n), shape (n_postures, 2 n); NaN rows where a
+    pole is missing."""
+    z = (np.asarray(poles) - cluster.center) / cluster.radius
+    out = np.full((len(z), 2 * len(cluster.modes)), np.nan)
+    ok = np.isfinite(z).all(axis=1)
+    a = np.array([np.poly(q)[1:] for q in z[ok]]).reshape(-1, len(cluster.modes))
+    out[ok] = np.stack([a.real, a.imag], axis=-1).reshape(len(a), -1)
+    return out
+
+
+def cluster_poles(cluster: ModeCluster, features: np.ndarray,
+                  features_std: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The poles from (learnt) polynomial coefficients, and to first order their frequencies' and
+    damping ratios' standard deviations.
+
+    Parameters
+    ----------
+    features : ndarray, shape (n_postures, ≥ 2 n)
+        Re, Im of a_1 … a_n first (:func:`pole_features`, or :func:`cluster_features`).
+    features_std : ndarray, same shape, optional
+        Their standard deviations, taken as independent.
+
+    Returns
+    -------
+    poles : ndarray, shape (n_postures, n), complex, rad/s
+        In order of frequency; NaN where a root leaves the upper half plane.
+    std : ndarray, shape (n_postures, n, 2), or None
+        Standard deviations of f_n (Hz) and ζ: a root moves by ``δz_r = −Σ_j δa_j z_r^(n−j) /
+        p′(z_r)``.
+    """
+    n = len(cluster.modes)
+    features = np.atleast_2d(np.asarray(features, float))
+    c = features[:, 0:2 * n:2] + 1j * features[:, 1:2 * n:2]
+    poles = np.full((len(c), n), np.nan, complex)
+    std = None if features_std is None else np.full((len(c), n, 2), np.nan)
+    for p in range(len(c)):
+        if not np.all(np.isfinite(c[p])):
+            continue
+        poly = np.concatenate([[1.0], c[p]])
+        z = np.roots(poly)
+        lam = cluster.center + cluster.radius * z
+        if np.any(lam.imag <= 0):
+            continue
+        order = np.argsort(lam.imag)
+        z, lam = z[order], lam[order]
+        poles[p] = lam
+        if std is None:
+            continue
+        s = np.asarray(features_std, float)[p, :2 * n]
+        dz = -cluster.radius * z[:, None] ** np.arange(n - 1, -1, -1) / np.polyval(np.polyder(poly), z)[:, None]
+        w = np.abs(lam)
+        for part, sd in ((1.0, s[0::2]), (1j, s[1::2])):      # δa_j real, then imaginary
+            d_lam = part * dz                                  # (n modes, n coefficients)
+            d_w = np.real(np.conj(lam)[:, None] * d_lam) / w[:, None]
+            d_zeta = (-d_lam.real - (-lam.real / w)[:, None] * d_w) / w[:, None]
+            std[p, :, 0] = np.nan_to_num(std[p, :, 0]) + ((d_w / (2 * np.pi)) ** 2 * sd ** 2).sum(axis=1)
+            std[p, :, 1] = np.nan_to_num(std[p, :, 1]) + (d_zeta ** 2 * sd ** 2).sum(axis=1)
+        std[p] = np.sqrt(std[p])
+    return poles, std
 
 
 def round_off_features(cluster: ModeCluster, features: np.ndarray, rtol: float = 1e-9) -> np.ndarray:
