@@ -322,3 +322,64 @@ def test_taking_the_cross_axis_off_gives_back_the_translations_band_by_band():
     read[:, 3:] = np.einsum("ij,pfjk->pfik", D, H0[:, 3:])
     back = without_cross_axis(ds.assign(H=(ds["H"].dims, read)))
     np.testing.assert_allclose(back["H"].values, H0, rtol=1e-12, atol=1e-12)
+
+
+def test_hits_aimed_at_the_tip_land_on_average_sigma_over_root_two_pi_above_it():
+    # the hammer cannot hit beyond the tool's end: the scattered point is clipped at the tip
+    from rmbench.impact.hammer import mean_hit_point
+
+    sigma = 2e-4
+    draws = np.maximum(0.0, sigma * np.random.default_rng(3).standard_normal(400_000))
+    assert mean_hit_point(0.0, sigma) == pytest.approx(sigma / np.sqrt(2 * np.pi), rel=1e-12)
+    assert mean_hit_point(0.0, sigma) == pytest.approx(draws.mean(), rel=0.01)   # MC error 0.15 %
+    assert mean_hit_point(0.02, sigma) == pytest.approx(0.02, abs=1e-12)         # 100 σ up: no clipping
+
+
+def test_taking_the_hit_offset_off_gives_back_the_nominal_columns_band_by_band():
+    from rmbench.rcsa.tool_change import hit_matrix, without_hit_offset
+
+    rng = np.random.default_rng(2)
+    H0 = rng.standard_normal((2, 6, 4, 4)) + 1j * rng.standard_normal((2, 6, 4, 4))
+    band = np.array(["low"] * 3 + ["high"] * 3)
+    ds = _campaign_like(H0, band, 'method = "linear"\n')
+    hit = H0.copy()
+    for b, lines in (("low", slice(0, 3)), ("high", slice(3, 6))):
+        hit[:, lines] = H0[:, lines] @ hit_matrix(ds, b)
+    back = without_hit_offset(ds.assign(H=(ds["H"].dims, hit)))
+    np.testing.assert_allclose(back["H"].values, H0, rtol=1e-12, atol=1e-12)
+
+
+def test_the_tip_hits_mean_point_matches_force_and_moment_on_the_rigid_tip_segment():
+    # default design, high band: S = 20 mm, σ = 0.2 mm; a tip column carries a / (1 - a) of the
+    # 1a column with a = σ/√(2π)/S, so the pair has the nominal force and the moment F·s̄
+    import xarray as xr
+
+    from rmbench.rcsa.tool_change import hit_matrix
+
+    W = hit_matrix(xr.Dataset(attrs={"config": 'method = "linear"\n'}), "high")
+    a = 2e-4 / np.sqrt(2 * np.pi) / 0.02
+    np.testing.assert_allclose(W[:, 0], [1 - a, 0, a, 0], atol=1e-15)
+    np.testing.assert_allclose(W[:, 3], [0, 0, 0, 1], atol=1e-15)       # 1a hits: 100 σ up, unclipped
+    np.testing.assert_allclose(W.sum(axis=0), 1.0, atol=1e-15)          # total force kept
+
+
+def test_the_hit_matrix_reproduces_the_simulators_offset_tip_hits():
+    # hits 0.08 mm above the tip, as the simulator applies them, against the nominal hits mixed by
+    # W: what is left is the tool's hinge at 13.8 mm, between the tip and 1a (20 mm), which the
+    # rigid-segment interpolation does not see; measured 5 % of the offset's whole effect
+    import xarray as xr
+
+    from rmbench.impact.hammer import Hit
+    from rmbench.impact.measure import hammer_rows
+    from rmbench.rcsa.tool_change import hit_matrix
+
+    op = Robot.load("irb6660", tool="dummy").at(validation_postures()[0])
+    s_1a, s_bar = 0.02, 2e-4 / np.sqrt(2 * np.pi)
+    hits = [Hit(c, 1.0, 1e-3, location_error=s_bar if c in ("1X", "1Y") else 0.0) for c in POINT_COORDS]
+    f = np.arange(600.0, 3500.0, 2.0)
+    out, modes = op.coordinate_map(POINT_COORDS, s_1a=s_1a), op.linear.modes()
+    h_nominal = modes.frf(f, out, hammer_rows(op, POINT_COORDS, s_1a))
+    h_offset = modes.frf(f, out, hammer_rows(op, POINT_COORDS, s_1a, hits))
+    W = hit_matrix(xr.Dataset(attrs={"config": 'method = "linear"\n'}), "high")
+    effect = np.abs(h_offset - h_nominal).max()
+    assert np.abs(h_offset - h_nominal @ W).max() < 0.1 * effect

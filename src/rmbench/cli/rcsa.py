@@ -43,6 +43,8 @@ def register(sub) -> None:
                    help="leave the campaigns' accelerometers off the measured tools' substructures")
     t.add_argument("--no-cross-axis", action="store_true",
                    help="leave the accelerometers' transverse sensitivity in the measured readings")
+    t.add_argument("--no-hit-offset", action="store_true",
+                   help="leave the tip hits' mean offset above the tip (hammer location scatter) in")
     t.add_argument("--json", action="store_true", help="print the result as JSON")
     t.add_argument("--out", help="figure of predicted (and simulated) FRFs (.png)")
     t.add_argument("--save", help="write the predicted full tip receptances (netCDF)")
@@ -102,7 +104,7 @@ def cmd_tool(args) -> int:
         res = predict_campaign_tool(data, index, target, contact=contact, calibration=calibration,
                                     calibration_reference=cal_ref, method=args.method, shank=not args.no_shank,
                                     tool_model=args.tool_model, free=free, mass_loading=not args.no_mass_loading,
-                                    cross_axis=not args.no_cross_axis)
+                                    cross_axis=not args.no_cross_axis, hit_offset=not args.no_hit_offset)
     notes = [str(w.message) for w in caught if issubclass(w.category, IllConditionedWarning)]
     if args.save:
         from rmbench.impact.dataset import save

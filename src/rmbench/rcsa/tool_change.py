@@ -24,7 +24,7 @@ from rmbench.rcsa.validate import peak_errors
 from rmbench.robot.tool import TOOLS, ToolGeometry
 
 __all__ = ["CampaignToolChange", "predict_campaign_tool", "tool_geometry", "posture_index", "sensor_masses",
-           "reading_matrix", "without_cross_axis", "TIP_ENTRIES"]
+           "reading_matrix", "without_cross_axis", "hit_matrix", "without_hit_offset", "TIP_ENTRIES"]
 
 #: The four tip entries scored: (row, column) in ``FULL_COORDS`` and their labels.
 TIP_ENTRIES = (((0, 0), "1X/1X"), ((0, 2), "1X/1Y"), ((2, 0), "1Y/1X"), ((2, 2), "1Y/1Y"))
@@ -89,25 +89,30 @@ def tool_geometry(name: str) -> ToolGeometry:
     return TOOLS[name]
 
 
-def _sensors(data: xr.Dataset, band: str):
-    """The band's SensorSet from a campaign's test design (the ``config`` attribute), calibrated;
-    None for a campaign without one or without that band."""
+def _design(data: xr.Dataset):
+    """A campaign's test design (the ``config`` attribute) as a CampaignConfig; None without one."""
     text = data.attrs.get("config")
     if not text:
         return None
     from rmbench.impact.config import CampaignConfig, parse_config
-    from rmbench.impact.sensors import sensor_set
 
     text = str(text).strip()
     if text.startswith("{"):        # the validated JSON a campaign stores, or the TOML it was run from
         try:
-            cfg = CampaignConfig.model_validate_json(text)
+            return CampaignConfig.model_validate_json(text)
         except ValueError as exc:
             raise InputError(f"the campaign's test design (attribute 'config') does not parse: "
                              f"{str(exc).splitlines()[0]}") from None
-    else:
-        cfg = parse_config(text, source="the campaign's test design (attribute 'config')")
-    if band not in cfg.bands:
+    return parse_config(text, source="the campaign's test design (attribute 'config')")
+
+
+def _sensors(data: xr.Dataset, band: str):
+    """The band's SensorSet from a campaign's test design, calibrated; None for a campaign without
+    one or without that band."""
+    from rmbench.impact.sensors import sensor_set
+
+    cfg = _design(data)
+    if cfg is None or band not in cfg.bands:
         return None
     return sensor_set(cfg.bands[band], cfg, None)
 
@@ -142,19 +147,57 @@ def without_cross_axis(data: xr.Dataset) -> xr.Dataset:
     sensitivity mixes the X and Y motion of a point, which at the tool-on-holder mode moved the
     fitted rotational contact stiffness by ~30 % (bench/rcsa.py). A copy; ``H_exact`` is left as
     tested."""
+    return _per_band(data, lambda vals, band: np.einsum("ij,...jk->...ik",
+                                                         np.linalg.inv(reading_matrix(data, band)), vals), "out")
+
+
+def hit_matrix(data: xr.Dataset, band: str) -> np.ndarray:
+    """Where the band's hits land on average, as forces at 1X, 1Y, 1aX, 1aY, shape (4, 4).
+
+    Column j is the nominal force of hit j spread over the two points of its direction so that
+    force and moment about the tip match the mean hit point (:func:`mean_hit_point`; exact for
+    the rigid tip segment): ``measured = H @ W``. Hits at the tip cannot land beyond the tool's
+    end, so their mean point lies σ/√(2π) up the tool (0.08 mm for the default 0.2 mm scatter,
+    0.4 % of S = 20 mm). The identity for a campaign without a design or a location scatter."""
+    from rmbench.impact.hammer import mean_hit_point
+    from rmbench.impact.sensors import nominal_point
+
+    cfg = _design(data)
+    W = np.eye(4)
+    if cfg is None or band not in cfg.bands:
+        return W
+    b = cfg.bands[band]
+    s_1a, sigma = 1e-3 * b.s_1a_mm, 1e-3 * b.hammer.location_scatter_mm
+    for j, c in enumerate(POINT_COORDS):
+        s_nom, _ = nominal_point(c, s_1a)
+        a = mean_hit_point(s_nom, sigma) / s_1a     # share carried by point 1a
+        tip, up = j % 2, 2 + j % 2                  # same direction at 1 and at 1a
+        W[:, j] = 0.0
+        W[tip, j], W[up, j] = 1 - a, a
+    return W
+
+
+def without_hit_offset(data: xr.Dataset) -> xr.Dataset:
+    """The campaign with each band's hits taken back to their nominal points (``H ← H W⁻¹`` on
+    the input side, :func:`hit_matrix`). The tip hits' mean 0.08 mm above the tip adds 0.4 % of
+    the 1a column to the tip's: at the tool-on-holder mode that moved the fitted rotational
+    contact stiffness by +6 % on average (bench/rcsa.py). A copy; ``H_exact`` is left as tested."""
+    return _per_band(data, lambda vals, band: vals @ np.linalg.inv(hit_matrix(data, band)), "inp")
+
+
+def _per_band(data: xr.Dataset, apply, dim: str) -> xr.Dataset:
+    """``H`` with ``apply(values (..., out, inp), band)`` done on each band's lines; ``dim`` (the
+    side it acts on) must hold ``POINT_COORDS`` in order."""
     H = data["H"].transpose(..., "out", "inp")
-    order = [list(H["out"].values).index(c) for c in POINT_COORDS]
-    if sorted(order) != order or len(order) != H.sizes["out"]:
-        raise InputError("the campaign's outputs are not 1X, 1Y, 1aX, 1aY")
+    if list(H[dim].values) != list(POINT_COORDS):
+        raise InputError(f"the campaign's {'outputs' if dim == 'out' else 'inputs'} are not 1X, 1Y, 1aX, 1aY")
     vals = H.values.copy()
     bands = data["band"].values
+    freq_axis = H.dims.index("freq")
     for band in dict.fromkeys(str(b) for b in bands):
-        D_inv = np.linalg.inv(reading_matrix(data, band))
-        lines = bands == band
-        freq_axis = H.dims.index("freq")
         sel = [slice(None)] * vals.ndim
-        sel[freq_axis] = lines
-        vals[tuple(sel)] = np.einsum("ij,...jk->...ik", D_inv, vals[tuple(sel)])
+        sel[freq_axis] = bands == band
+        vals[tuple(sel)] = apply(vals[tuple(sel)], band)
     return data.assign(H=H.copy(data=vals).transpose(*data["H"].dims))
 
 
@@ -195,7 +238,7 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
                           method: str = "difference", shank: bool = True,
                           bands: tuple[str, ...] | None = None, tool_model: str = "beam",
                           free: tuple[str, ...] = ("k_t", "c_t"), mass_loading: bool = True,
-                          cross_axis: bool = True) -> CampaignToolChange:
+                          cross_axis: bool = True, hit_offset: bool = True) -> CampaignToolChange:
     """Predict the target tool's tip receptances at posture ``index`` of a reference campaign.
 
     Parameters
@@ -238,6 +281,9 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
     cross_axis : bool
         Take the accelerometers' transverse sensitivity (from each campaign's test design) off the
         measured readings first (:func:`without_cross_axis`).
+    hit_offset : bool
+        Take the hits back to their nominal points first (:func:`without_hit_offset`): the tip
+        hits' mean lies above the tip by the hammer's location scatter over √(2π).
     """
     if method not in ("difference", "beam"):
         raise InputError(f"method must be 'difference' or 'beam', got {method!r}")
@@ -249,12 +295,13 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
         raise InputError(f"the reference campaign's tool {ref_name!r} is not a bundled tool; "
                          f"RCSA needs its geometry ({', '.join(sorted(TOOLS))})")
     bands = bands or tuple(dict.fromkeys(str(b) for b in data["band"].values))
-    if cross_axis:
-        data = without_cross_axis(data)
+    corrections = [fix for on, fix in ((cross_axis, without_cross_axis), (hit_offset, without_hit_offset)) if on]
+    for fix in corrections:
+        data = fix(data)
         if calibration is not None:
-            calibration = (without_cross_axis(calibration[0]), calibration[1])
+            calibration = (fix(calibration[0]), calibration[1])
         if calibration_reference is not None:
-            calibration_reference = without_cross_axis(calibration_reference)
+            calibration_reference = fix(calibration_reference)
     source, fit = "catalogue", None
     if contact is not None:
         source = "given"
