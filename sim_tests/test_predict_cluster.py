@@ -221,3 +221,29 @@ def test_tight_veerings_take_their_frequencies_from_the_cluster_poles():
     assert PosturePredictor("stgp").fit(_dataset(_grid())).pole_clusters_ == ()     # 0.36: mild
     assert err["auto"][0] < 0.002 and err["auto"][1] < 0.02
     assert err["none"][0] > 3 * err["auto"][0]
+
+
+def test_residues_solved_with_given_poles_keep_them_and_fall_back_to_the_roots_where_nan():
+    # exact invariants with the exact poles given: the same exact residues; a NaN pole: the root
+    x = np.array([1.45, 1.6, 1.75])
+    f, z, phi_r, phi_l = _modes(x)
+    cl = _cluster_of(f, z)
+    F = cluster_features(cl, poles_of(f, z), phi_r, phi_l)
+    lam0, R0 = cluster_residues(cl, F)
+    given = poles_of(f, z).copy()
+    given[1, 0] = np.nan
+    lam, R = cluster_residues(cl, F, poles=given)
+    np.testing.assert_allclose(lam, lam0, rtol=1e-12)
+    np.testing.assert_allclose(R, R0, rtol=1e-9, atol=1e-12 * np.abs(R0).max())
+    moved = poles_of(f, z) * 1.001
+    lam2, _ = cluster_residues(cl, F, poles=moved)
+    np.testing.assert_allclose(lam2, moved, rtol=1e-15)
+
+
+def test_the_predicted_receptance_puts_a_tight_veering_where_its_modal_table_does():
+    # the FRF's cluster poles and the reported f_n, ζ of a tight veering come from one polynomial
+    ds = _dataset(_grid(), slope=0.4)
+    X = np.array([[1.6, 0.0, 0.0], [1.62, 0.15, 0.3]])
+    out = PosturePredictor("stgp").fit(ds).predict(X)
+    lam = poles_of(out.modal.sel(param="f_n").values, out.modal.sel(param="zeta").values)
+    np.testing.assert_allclose(out["cluster_pole"].values, lam, rtol=1e-12)

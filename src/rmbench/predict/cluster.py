@@ -226,7 +226,8 @@ def round_off_features(cluster: ModeCluster, features: np.ndarray, rtol: float =
     return top <= rtol * scale
 
 
-def cluster_residues(cluster: ModeCluster, features: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cluster_residues(cluster: ModeCluster, features: np.ndarray,
+                     poles: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The cluster's poles and full residue matrices from (learnt) invariants.
 
     ``Σ_r R_r / (s − λ_r)`` equals the rational function of the invariants exactly (partial
@@ -236,6 +237,10 @@ def cluster_residues(cluster: ModeCluster, features: np.ndarray) -> tuple[np.nda
     Parameters
     ----------
     features : ndarray, shape (n_postures, cluster.n_features)
+    poles : ndarray, shape (n_postures, n), complex, rad/s, optional
+        Poles known better than the invariants' polynomial gives them (a tight sub-cluster's own
+        polynomial, :func:`cluster_poles`), in order of frequency; the residues then solve the
+        moments with these. NaN entries fall back to the polynomial's roots.
 
     Returns
     -------
@@ -251,6 +256,11 @@ def cluster_residues(cluster: ModeCluster, features: np.ndarray) -> tuple[np.nda
         raise InputError(f"{features.shape[1]} features for a cluster of {n} modes "
                          f"({cluster.n_features} expected)")
     P = len(features)
+    given = None
+    if poles is not None:
+        given = np.asarray(poles, complex)
+        if given.shape != (P, n):
+            raise InputError(f"poles must have shape ({P}, {n}), got {given.shape}")
     poles, residues = np.full((P, n), np.nan, complex), np.full((P, n, 4, 4), np.nan, complex)
     c = features[:, 0::2] + 1j * features[:, 1::2]
     for p in range(P):
@@ -261,8 +271,13 @@ def cluster_residues(cluster: ModeCluster, features: np.ndarray) -> tuple[np.nda
         if np.any(lam.imag <= 0):
             continue
         order = np.argsort(lam.imag)
-        V = z[order][None, :] ** np.arange(n)[:, None]                # (k, r)
-        poles[p] = lam[order]
+        z, lam = z[order], lam[order]
+        if given is not None:
+            known = np.isfinite(given[p])
+            lam = np.where(known, given[p], lam)
+            z = np.where(known, (given[p] - cluster.center) / cluster.radius, z)
+        V = z[None, :] ** np.arange(n)[:, None]                        # (k, r)
+        poles[p] = lam
         residues[p] = np.linalg.solve(V, c[p, n:].reshape(n, 16)).reshape(n, 4, 4)
     return poles, residues
 
