@@ -195,9 +195,12 @@ def fold_r2(y: np.ndarray, pred: np.ndarray, parts) -> float:
 def peak_errors(H_pred: np.ndarray, H_ex: np.ndarray, freq: np.ndarray, band: np.ndarray) -> list:
     """Per tool-tip entry and exact peak: |max |H_pred| near the peak| / |H_exact| at the peak − 1.
 
-    Peaks: local maxima of |H_exact| above 10 % of the entry's largest value in its band; the
-    predicted peak is the largest |H_pred| within ±3 % of the exact peak frequency (a 1 % frequency
-    error must not read as a magnitude error)."""
+    Peaks: local maxima of |H_exact| above 10 % of the entry's largest value in its band. The
+    predicted peak is the local maximum of |H_pred| nearest the exact peak within ±3 % of its
+    frequency (a 1 % frequency error must not read as a magnitude error), or |H_pred| at the exact
+    peak's line where the prediction has no maximum there. Not the window's largest |H_pred|: a
+    shallow peak on the flank of a larger mode would read that mode's flank at the window's edge
+    (a 1Y1X peak at 814 Hz read +13.5 % that way; its own maximum is 2.5 % low)."""
     out = []
     for o, i in TOOL_TIP:
         a, b = COORDS.index(o), COORDS.index(i)
@@ -209,9 +212,11 @@ def peak_errors(H_pred: np.ndarray, H_ex: np.ndarray, freq: np.ndarray, band: np
             top = h.max()
             for k in range(1, len(sel) - 1):
                 if h[k] >= h[k - 1] and h[k] >= h[k + 1] and h[k] > 0.1 * top:
-                    near = np.abs(f - f[k]) <= 0.03 * f[k]
+                    near = np.flatnonzero(np.abs(f - f[k]) <= 0.03 * f[k])
+                    tops = [j for j in near if 0 < j < len(f) - 1 and hp[j] >= hp[j - 1] and hp[j] >= hp[j + 1]]
+                    j = min(tops, key=lambda j: abs(j - k)) if tops else k
                     out.append({"entry": f"{o}{i}", "band": str(bnd), "f": float(f[k]),
-                                "err": float(hp[near].max() / h[k] - 1)})
+                                "err": float(hp[j] / h[k] - 1)})
     return out
 
 
@@ -358,6 +363,19 @@ def main():
     print(f"  the same from each mode's own parameters (veering clusters {[c.modes for c in cl]} not used): "
           f"|peak error| median {100 * np.median(pa):.1f} %, max {100 * pa.max():.1f} %, within 10 %: "
           f"{np.mean(pa <= 0.10):.2f}")
+    # the floor: the modal fit itself, rebuilt the same way, at the grid postures it was fitted at
+    tg = truth_campaign(grid_mm, work, "grid")
+    fg = tg.freq.values
+    bg = tg.band.values if "band" in tg.coords else np.where(fg < 300, "low", "high")
+    H_fit = predicted_frf(ds.isel(posture=np.flatnonzero(keep)), fg)
+    floor = [pe for k in range(H_fit.shape[0]) for pe in peak_errors(H_fit[k], tg.H_exact.values[k], fg, bg)]
+    del H_fit
+    print(f"  the modal fit itself rebuilt the same way at its {len(grid_mm)} grid postures (the data's floor):")
+    for cls, entries in (("direct", ("1X1X", "1Y1Y")), ("X<->Y cross", ("1X1Y", "1Y1X"))):
+        for b in np.unique(bg):
+            pc = np.array([abs(p["err"]) for p in floor if p["entry"] in entries and p["band"] == b])
+            print(f"    {cls:<12} {b:<5} {len(pc):>4} peaks: max {100 * pc.max():.1f} %, "
+                  f"p95 {100 * np.quantile(pc, 0.95):.1f} %, within 10 %: {np.mean(pc <= 0.10):.3f}")
 
     # 4. unseen postures
     un_mm = unseen_postures()

@@ -11,6 +11,7 @@ from test_truth_vs_time import _check  # the stand-ins' criterion: 1 % at every 
 
 from rmbench.errors import ModelError
 from rmbench.robot import Robot
+from rmbench.robot.catalog import resolve_robot
 from rmbench.robot.flexible_arm import build_arm, campaign_toml
 from rmbench.robot.simulate import pulse_check
 from rmbench.robot.urdf import find_urdf, read_urdf
@@ -35,6 +36,13 @@ def built(tmp_path_factory):
 @pytest.fixture(scope="module")
 def robots(built):
     return {name: Robot.load(path) for name, (_, path) in built.items()}
+
+
+@pytest.mark.parametrize("name", ARMS)
+def test_bundled_arm_files_are_what_the_builder_writes(built, name):
+    # models/mjcf/NAME.xml must follow the builder: a stale file (an IK seed from an older
+    # kinematics mapping) would make `rmbench model build` and the bundled robot differ
+    assert resolve_robot(name).read_text() == built[name][0].xml
 
 
 @pytest.mark.parametrize("name", ARMS)
