@@ -150,6 +150,9 @@ class Kinematics:
             j = self.jacobian(q) @ np.eye(len(q))
             jl = pin.Jlog6(self.fk(q).actInv(target))
             jj = jl @ j
-            step = np.linalg.lstsq(jj.T @ jj + 1e-10 * np.eye(len(q)), jj.T @ err, rcond=None)[0]
+            # the minimum-norm Gauss-Newton step: on a redundant arm (Panda) it has no component
+            # along the self-motion. Solving the damped normal equations instead moved the arm along
+            # it by roundoff / damping (~1e-6 rad a solve), which differed between BLAS kernels.
+            step = np.linalg.lstsq(jj, err, rcond=None)[0]
             q = q + np.clip(step, -0.3, 0.3)
         return None
