@@ -88,6 +88,18 @@ def test_results_do_not_depend_on_the_number_of_workers(tmp_path, reference):
     np.testing.assert_allclose(open_campaign(two).H.values, reference.H.values, rtol=1e-10)
 
 
+def test_a_dask_scheduler_runs_the_same_campaign(tmp_path):
+    # scale-out: the postures as tasks of an existing dask cluster give the local run's dataset
+    from dask.distributed import LocalCluster
+
+    local, remote = tmp_path / "local.nc", tmp_path / "remote.nc"
+    run_campaign(_cfg(method="linear"), local, workers=1, progress=False)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=50) as cluster:
+        run_campaign(_cfg(method="linear"), remote, scheduler=cluster.scheduler_address, progress=False)
+    np.testing.assert_array_equal(open_campaign(remote).H.values, open_campaign(local).H.values)
+
+
 def test_a_failing_posture_is_recorded_and_the_others_run(tmp_path):
     out = tmp_path / "fail.nc"
     run_campaign(_cfg(method="linear", extra="[3500, 0, 0]"), out, workers=0, progress=False)

@@ -93,6 +93,51 @@ def test_mtgp_fit_follows_gpytorchs_exact_marginal_likelihood():
             np.testing.assert_allclose(ours[key], ref[key], rtol=1e-7, atol=1e-9, err_msg=key)
 
 
+def test_single_task_likelihood_and_its_closed_form_gradient():
+    """½ (rᵀK⁻¹r + log|K|) of one-task GPs from the Cholesky factor, and the hand-written gradient
+    in the length scales, task variance, noise and mean, against the dense formula and finite
+    differences (float64)."""
+    import torch
+
+    from rmbench.predict.gp import _single_gp
+
+    fn = _single_gp(torch).apply
+    gen = torch.Generator().manual_seed(0)
+    B, n, d = 3, 7, 3
+    x = torch.randn(n, d, dtype=torch.float64, generator=gen)
+    y = torch.randn(B, n, dtype=torch.float64, generator=gen)
+    ls = 0.5 + torch.rand(B, d, dtype=torch.float64, generator=gen)
+    k_c, noise, mean = (0.2 + torch.rand(B, dtype=torch.float64, generator=gen) for _ in range(3))
+    k_t = torch.exp(-0.5 * (((x[None, :, None, :] - x[None, None, :, :]) / ls[:, None, None, :]) ** 2).sum(-1))
+    K = k_c[:, None, None] * k_t + noise[:, None, None] * torch.eye(n, dtype=torch.float64)
+    r = (y - mean[:, None])[..., None]
+    dense = 0.5 * ((r.transpose(-1, -2) @ torch.linalg.solve(K, r)).reshape(B) + torch.logdet(K))
+    assert torch.allclose(fn(x, y, ls, k_c, noise, mean), dense, rtol=1e-12)
+    inputs = tuple(t.clone().requires_grad_(True) for t in (ls, k_c, noise, mean))
+    assert torch.autograd.gradcheck(lambda *p: fn(x, y, *p), inputs)
+
+
+def test_single_task_fit_follows_gpytorchs_exact_marginal_likelihood():
+    """One-task models (the residual terms' and clusters' learners) through the Cholesky closed form
+    take gpytorch's L-BFGS steps (its Cholesky path for a covariance this small): hyperparameters
+    equal to 1e-7 after 5 and 30 iterations, where another objective or gradient would part them at
+    the first step."""
+    from rmbench.predict.gp import _fit_batch, _fit_batch_kron, _torch
+
+    torch, gpytorch = _torch()
+    rng = np.random.default_rng(2)
+    X = rng.standard_normal((30, 3))
+    Y = np.stack([(np.sin(X[:, 0]) + 0.3 * k * X[:, 1] + 0.1 * rng.standard_normal(30))[:, None]
+                  for k in range(4)])
+    Y = (Y - Y.mean(axis=1, keepdims=True)) / Y.std(axis=1, keepdims=True)
+    for iterations in (5, 30):
+        with gpytorch.settings.max_cholesky_size(800):
+            ref = _fit_batch(torch, gpytorch, X, Y, 1, 1.0, iterations)
+        ours = _fit_batch_kron(torch, gpytorch, X, Y, 1, 1.0, iterations)
+        for key in ("lengthscales", "Kc", "noise", "mean", "nll"):
+            np.testing.assert_allclose(ours[key], ref[key], rtol=1e-7, atol=1e-9, err_msg=key)
+
+
 def test_mtgp_borrows_a_noisy_task_from_a_clean_correlated_one():
     """Two tasks driven by one posture function, the second observed with noise of 30 % of its
     spread: the MTGP learns the second through the first and predicts it better than an STGP of

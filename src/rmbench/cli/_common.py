@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
 import numpy as np
 
 from rmbench.errors import InputError
+from rmbench.io.strict_json import strict_dumps
 
 __all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json", "load_dataset",
            "add_report_option", "report_path"]
@@ -97,20 +96,10 @@ def load_dataset(path, what: str = "dataset"):
 
 
 def print_json(obj) -> None:
-    def default(o):
-        if isinstance(o, np.generic):
-            return o.item()
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        raise TypeError(type(o).__name__)
+    """Print ``obj`` as one line of strict JSON (every command's ``--json``).
 
-    def clean(o):
-        if isinstance(o, float) and not math.isfinite(o):
-            return None
-        if isinstance(o, dict):
-            return {k: clean(v) for k, v in o.items()}
-        if isinstance(o, (list, tuple)):
-            return [clean(v) for v in o]
-        return o
-
-    print(json.dumps(clean(obj), default=default))
+    numpy values become Python numbers and lists, NaN and ±inf become ``null``
+    (:func:`rmbench.io.strict_json.strict_dumps`); a value JSON cannot hold (a complex number, an
+    arbitrary object) raises ``TypeError`` rather than print something invalid.
+    """
+    print(strict_dumps(obj))

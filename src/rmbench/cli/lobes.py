@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 
 from rmbench.cli._common import add_report_option, load_dataset, print_json, report_path
@@ -40,7 +42,9 @@ def register(sub) -> None:
     p.add_argument("--cutting", default=None,
                    help="K_t,K_n (N/mm²),teeth,immersion a/D,down|up (default: the benchmark's, or "
                         "aluminium 6061 slot with 2 teeth: 880,52,2,1,down)")
-    p.add_argument("--json", action="store_true", help='print {"speed_rpm": [...], "a_lim_m": [...]}')
+    p.add_argument("--json", action="store_true",
+                   help='print {"speed_rpm": [...], "a_lim_m": [...], "stable_to_m": ...}: a_lim_m null where '
+                        'no depth up to stable_to_m (the largest depth searched, m) is unstable')
     p.add_argument("--out", help="figure of the lobes (.png)")
     add_report_option(p, "the lobes (each band and their envelope)")
     p.set_defaults(func=cmd_lobes)
@@ -135,8 +139,8 @@ def _predicted(args, bands) -> dict:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         out = pred.predict([[p.x, p.y, p.theta]])
-    for w in caught:
-        print(f"warning: {w.message}")
+    for w in caught:   # on stderr: stdout is the diagram (or its JSON) alone
+        print(f"rmbench: warning: {w.message}", file=sys.stderr)
     lines = {"low": (np.arange(4.0, 40.01, 0.125), s_low), "high": (np.arange(600.0, 1400.1, 2.0), s_high)}
     ref = tool_geometry(args.reference_tool)
     tgt = tool_geometry(args.tool) if args.tool else ref
@@ -186,6 +190,7 @@ def cmd_lobes(args) -> int:
     if args.json:
         d = env.to_dict()
         d["bands"] = {b: l.to_dict()["a_lim_m"] for b, l in per_band.items()} if len(per_band) > 1 else None
+        d["stable_to_m"] = depth_max   # what a null a_lim_m means: stable at every depth searched
         print_json(d)
         return 0
     finite = np.isfinite(env.a_lim)
@@ -218,7 +223,8 @@ def register_mill(sub) -> None:
     p.add_argument("--periods", type=int, default=90, help="tooth periods per cut (default 90)")
     p.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     p.add_argument("--out", help="results as JSON lines; rerunning with the same file resumes")
-    p.add_argument("--json", action="store_true", help="print the runs as JSON")
+    p.add_argument("--json", action="store_true",
+                   help="print the runs as JSON (a runaway cut's metric and growth are null: unbounded)")
     p.set_defaults(func=cmd_mill)
 
 

@@ -8,6 +8,7 @@ import sys
 
 from rmbench._version import __version__
 from rmbench.errors import RmbenchError
+from rmbench.threads import limit_threads, process_threads
 
 __all__ = ["main", "build_parser"]
 
@@ -55,6 +56,8 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
+        # this process's BLAS/OpenMP/torch pools, and its workers', within their share of the cores
+        limit_threads(process_threads())
         return int(args.func(args) or 0)
     except RmbenchError as err:
         if args.debug or os.environ.get("RMBENCH_DEBUG"):

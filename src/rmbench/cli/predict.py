@@ -49,7 +49,10 @@ def register(sub) -> None:
     at.add_argument("--posture", required=True, action="append",
                     help="x,y,theta in mm, mm, degrees (repeat for several)")
     at.add_argument("--frf", help="also write the FRF matrices rebuilt from the parameters (netCDF)")
-    at.add_argument("--json", action="store_true", help="print the parameters as JSON")
+    at.add_argument("--json", action="store_true",
+                    help="print the parameters as JSON (a parameter the predictor has no value for, "
+                         "e.g. of a mode found at too few training postures, is null and listed in "
+                         "its mode's not_predicted)")
     at.set_defaults(func=cmd_at)
 
     pl = g.add_parser("plot", help="cross-validation scatter and residuals; parameter maps")
@@ -172,7 +175,9 @@ def cmd_at(args) -> int:
                         "params": {str(p): float(out.modal.values[i, k, j])
                                    for j, p in enumerate(out.param.values)},
                         "std": {str(p): float(out.modal_std.values[i, k, j])
-                                for j, p in enumerate(out.param.values)}}
+                                for j, p in enumerate(out.param.values)},
+                        "not_predicted": [str(p) for j, p in enumerate(out.param.values)
+                                          if not np.isfinite(out.modal.values[i, k, j])]}
                        for k, m in enumerate(out.mode.values)]}
             for i, x in enumerate(X)], "frf": args.frf})
         return 0

@@ -29,6 +29,7 @@ import numpy as np
 from rmbench.control.controller import Controller
 from rmbench.control.plant import AXES, axis_directions
 from rmbench.errors import InputError, RmbenchError
+from rmbench.robot.simulate import stepping_model
 
 __all__ = ["Hardware", "LoopRecord", "LoopDiverged", "run_loop", "eccentric_force_amplitude"]
 
@@ -159,17 +160,8 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
     n = int(round(duration * hw.fs))
     if n < 2:
         raise InputError(f"duration {duration!r} s is shorter than two controller samples")
-    m = mujoco.MjModel.from_xml_string(op.robot.xml)
-    m.opt.timestep = 1.0 / (hw.fs * hw.substeps)
-    m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
-    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-    d = mujoco.MjData(m)
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state = np.zeros(mujoco.mj_stateSize(m, spec))
-    mujoco.mj_getState(op.robot.model, op.data, state, spec)
-    mujoco.mj_setState(m, d, state, spec)
+    m, d = stepping_model(op, dt=1.0 / (hw.fs * hw.substeps), integrator="euler")
     d.time = 0.0
-    d.ctrl[:] = op.data.ctrl
     ctrl0 = op.data.ctrl.copy()
 
     def actuator(name):

@@ -15,7 +15,6 @@ computes the seed's reduction figure from two of them.
 
 from __future__ import annotations
 
-import os
 from contextlib import contextmanager
 
 import numpy as np
@@ -23,6 +22,7 @@ import xarray as xr
 
 from rmbench.control.closed_loop import Hardware, LoopDiverged, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import Controller
+from rmbench.threads import available_cores
 
 __all__ = ["sine_sweep", "eccentric_test", "traced_runs", "excitation_frequencies", "reduction_at", "settle_time",
            "cluster"]
@@ -210,8 +210,8 @@ def cluster(workers: int | None = None, scheduler=None):
     if scheduler is not None:
         client = Client(scheduler)
     else:
-        os.environ.setdefault("OMP_NUM_THREADS", "1")
-        local = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+        # dask's nanny starts each worker with its BLAS and OpenMP pools at one thread
+        local = LocalCluster(n_workers=workers or available_cores(), threads_per_worker=1,
                              processes=True, dashboard_address=None, silence_logs=50)  # as campaign.py
         client = Client(local)
     try:

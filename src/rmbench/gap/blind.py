@@ -18,7 +18,6 @@ top 3, and the calibration of the confidences.
 
 from __future__ import annotations
 
-import json
 import shutil
 import tempfile
 import time
@@ -30,6 +29,7 @@ import mujoco
 import numpy as np
 
 from rmbench.errors import RmbenchError
+from rmbench.io.strict_json import strict_dumps
 from rmbench.robot import Robot, seed_grid
 from rmbench.robot.spec import spec_to_xml
 from rmbench.robot.variant import add_compliant_base, add_point_mass, make_variant
@@ -540,8 +540,11 @@ def case_from_dict(d: dict) -> CaseResult:
                       equivalent=tuple(tuple(g) for g in d["equivalent"]), shrink=d["shrink"],
                       top1=d["top1"], top3=d["top3"], top1_class=d["top1_class"],
                       top3_class=d["top3_class"], pair_in_top3=d["pair_in_top3"],
-                      seconds=d["seconds"], visible_db=d["visible_db"], scale=d["scale"])
+                      seconds=d["seconds"], scale=d["scale"],
+                      visible_db=float("nan") if d["visible_db"] is None else d["visible_db"])
 
 
 def dumps(case: CaseResult) -> str:
-    return json.dumps(case.to_dict())
+    """One JSON line of ``case``, strict JSON: a visibility the robot could not be probed for
+    (NaN) is null."""
+    return strict_dumps(case.to_dict())

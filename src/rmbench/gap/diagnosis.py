@@ -27,9 +27,10 @@ from rmbench.gap.measured import fit_measured, frf_targets, measured_data, postu
 from rmbench.gap.model import ModelBench
 from rmbench.gap.residual import mode_residuals
 from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, _peak, per_posture_chi2
-from rmbench.gap.jsonable import jsonable, write_whole
+from rmbench.gap.jsonable import write_whole
 from rmbench.gap.selection import SearchSettings, confidences, selection_weights, significant
 from rmbench.gap.where import GapMap, gap_map
+from rmbench.io.strict_json import strict_dumps
 
 __all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
 
@@ -189,7 +190,6 @@ class Diagnosis:
             ``{"json", "effects", "modes", "modes_after", "variant", "figures"}`` paths.
         """
         import csv
-        import json
 
         from rmbench.gap.plot import plot_diagnosis
 
@@ -228,7 +228,7 @@ class Diagnosis:
         if self.where_after is not None:
             out["modes_after"] = str(d / "gap_modes_after.csv")
         out["figures"] = [str(p) for p in plot_diagnosis(self, d)]
-        write_whole(d / "diagnosis.json", json.dumps(jsonable(self.to_json(out.get("variant"))), indent=2))
+        write_whole(d / "diagnosis.json", strict_dumps(self.to_json(out.get("variant")), indent=2))
         out["json"] = str(d / "diagnosis.json")
         return out
 

@@ -24,7 +24,6 @@ reported as absorbed, not diagnosed.
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +35,7 @@ from rmbench.errors import InputError
 from rmbench.gap.jsonable import jsonable, write_whole
 from rmbench.gap.selection import SearchSettings, bic, confidences, selection_weights, significant
 from rmbench.gap.sources import PoseModel, Source, source_library
+from rmbench.io.strict_json import strict_dumps
 from rmbench.tracker.chain import _skew
 
 _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
@@ -171,7 +171,8 @@ class PoseErrorMap:
     bins : dict
         ``{joint: (edges rad (n_bins + 1,), rms m (n_bins,))}`` over each joint's angle, and
         ``{"tcp_x" | "tcp_y" | "tcp_z": (edges m, rms m)}`` over the workspace (the nominal TCP
-        in the base frame).
+        in the base frame). A bin without a reading has rms NaN (``null`` in :meth:`to_dict`,
+        whose ``empty`` lists those bins).
     """
 
     rms: np.ndarray
@@ -196,7 +197,8 @@ class PoseErrorMap:
         return {"rms": self.rms.tolist(), "rms_total": self.rms_total, "max_total": self.max_total,
                 "noise_rms": self.noise_rms, "above_noise": self.above_noise,
                 "explains": self.explains,
-                "bins": {k: {"edges": e.tolist(), "rms": r.tolist()} for k, (e, r) in self.bins.items()}}
+                "bins": {k: {"edges": e.tolist(), "rms": r.tolist(), "empty": np.flatnonzero(~np.isfinite(r)).tolist()}
+                         for k, (e, r) in self.bins.items()}}
 
 
 class FittedPose:
@@ -305,7 +307,7 @@ class TrackerDiagnosis:
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / "diagnosis.json", "csv": out / "sources.csv",
                  "figure": out / "pose_errors.png"}
-        write_whole(paths["json"], json.dumps(self.to_json(), indent=1))
+        write_whole(paths["json"], strict_dumps(self.to_json(), indent=1))
         rows = ["name,kind,location,chosen,share,confidence,heldout_rms_m,heldout_max_m,description"]
         for s in self.sources:
             rows.append(f"{s.name},{s.kind},{s.location},{int(s.chosen)},{s.share:.4f},"

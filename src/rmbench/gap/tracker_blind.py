@@ -28,9 +28,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from rmbench.gap.jsonable import jsonable
 from rmbench.gap.sources import PoseModel
 from rmbench.gap.tracker import TrackerData, TrackerSettings, diagnose_tracker
+from rmbench.io.strict_json import strict_dumps
 
 __all__ = ["HiddenSource", "TrackerCase", "TrueRobot", "draw_sources", "run_tracker_case", "run_tracker_blind",
            "summarise_tracker", "VISIBLE"]
@@ -350,7 +350,7 @@ def run_tracker_blind(cases: int, seed: int, *, out=None, progress=None, **kw) -
         case = run_tracker_case(i, seed, **kw).to_dict()
         if out is not None:
             with open(out, "a") as f:
-                f.write(json.dumps(jsonable(case)) + "\n")
+                f.write(strict_dumps(case) + "\n")
         results.append(case)
         if progress:
             progress(i, case)

@@ -1,7 +1,7 @@
 """Virtual impact campaigns: many postures, run in parallel, written as they finish, resumable.
 
-Each posture is an independent task (dask.distributed: a local cluster by default, or an existing
-scheduler). Its random numbers come from ``(seed, posture index)``, so results do not depend on the
+Each posture is an independent task (local worker processes by default, or the workers of an
+existing dask.distributed scheduler). Its random numbers come from ``(seed, posture index)``, so results do not depend on the
 number of workers or on the order of completion. Each finished posture is written at once to
 ``OUT.parts/``; a rerun skips the postures already there; when all are done they are assembled into
 one dataset (``OUT``) and the parts are removed.
@@ -10,7 +10,6 @@ one dataset (``OUT``) and the parts are removed.
 from __future__ import annotations
 
 import functools
-import os
 import time
 import traceback
 from dataclasses import dataclass
@@ -25,6 +24,7 @@ from rmbench.impact.sensors import COORDS, sensor_set
 from rmbench.robot import OperatingPoint, Posture, Robot, seed_grid
 from rmbench.robot.model import Band
 from rmbench.robot.variant import condensed, with_tool_masses
+from rmbench.threads import available_cores, worker_init, worker_threads
 
 __all__ = ["Campaign", "postures_of", "run_posture", "run_campaign", "dry_run"]
 
@@ -175,7 +175,8 @@ def run_posture(campaign: Campaign, index: int, posture: Posture) -> dict:
             op_t = tested.at(op_bare.q_cmd) if tested is not campaign.robot else op_bare
             freq = band_lines(bcfg)
             h_ex, h_bare, modes, modes_bare = exact_band(op_t, op_bare, sensors, band, freq, COORDS)
-            op_sim = campaign.sim_robots[name].at(op_bare.q_cmd) if cfg.method == "time" else op_t
+            sim = campaign.sim_robots[name]
+            op_sim = sim.at(op_bare.q_cmd) if cfg.method == "time" and sim is not tested else op_t
             h_ex_in = h_ex[:, :, [COORDS.index(c) for c in coords]]
             (h, coh), steps, over = measure_band(
                 op_sim, op_t, sensors, bcfg, band, campaign.hammer_gain[name], cfg.hits.averages,
@@ -211,7 +212,6 @@ def _campaign_from_json(config_json: str, toml: str) -> Campaign:
 
 
 def _task(config_json: str, toml: str, index: int, posture: tuple) -> dict:
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     return run_posture(_campaign_from_json(config_json, toml), index, Posture(*posture))
 
 
@@ -249,8 +249,10 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
             for i in todo:
                 parts.write(_task(config_json, toml, i, _tuple(postures[i])))
                 bar.update(1)
+        elif scheduler is None:
+            _run_local(todo, postures, config_json, toml, parts, bar, workers)
         else:
-            _run_dask(todo, postures, config_json, toml, parts, bar, workers, scheduler)
+            _run_dask([(i, postures[i]) for i in todo], config_json, toml, parts, bar, scheduler)
     bar.close()
     ds = parts.assemble(toml, postures)
     dataset.save(ds, out)
@@ -277,30 +279,43 @@ def is_complete(cfg: CampaignConfig, out: str | Path, *, n_postures: int | None 
     return digest == cfg.digest and n == n_postures
 
 
-def _run_dask(todo, postures, config_json, toml, parts, bar, workers, scheduler):
-    from dask.distributed import Client, LocalCluster, as_completed
+def _run_local(todo, postures, config_json, toml, parts, bar, workers):
+    """Postures in local worker processes, each on its share of the cores (rmbench.threads).
 
-    if scheduler is not None:
-        client = Client(scheduler)
-        cluster = None
-    else:
-        n = workers or os.cpu_count() or 1
-        os.environ["OMP_NUM_THREADS"] = "1"
-        # CRITICAL: a worker's heartbeat racing the scheduler's shutdown logs an ERROR with a
-        # traceback (seen in the demo); a task's own failure still reaches us through its result
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=50)
-        client = Client(cluster)
+    A process pool rather than a local dask cluster: dask's start-up and shutdown cost a few
+    seconds a run, and its nanny starts workers with ``MALLOC_TRIM_THRESHOLD_`` set, which makes
+    glibc map every array over 128 kB afresh and fault it in page by page (0.1 s a posture).
+    """
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    n = min(workers or available_cores(), len(todo))
+    # fork: the workers start with this process's imports; spawn would import everything again
+    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("fork"), initializer=worker_init,
+                             initargs=(worker_threads(n),)) as pool:
+        futures = [pool.submit(_task, config_json, toml, i, _tuple(postures[i])) for i in todo]
+        try:
+            for fut in as_completed(futures):
+                parts.write(fut.result())
+                bar.update(1)
+        except BaseException:   # an interrupt: what finished is in OUT.parts/, the rest resumes later
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+
+
+def _run_dask(todo, config_json, toml, parts, bar, scheduler):
+    """Postures ``todo`` (index, posture) on an existing dask scheduler (a cluster)."""
+    from dask.distributed import Client, as_completed
+
+    client = Client(scheduler)
     try:
-        futures = [client.submit(_task, config_json, toml, i, _tuple(postures[i]), key=f"posture-{i}-{parts.digest}",
-                                 pure=False) for i in todo]
+        futures = [client.submit(_task, config_json, toml, i, _tuple(posture), key=f"posture-{i}-{parts.digest}",
+                                 pure=False) for i, posture in todo]
         for fut in as_completed(futures):
             parts.write(fut.result())
             bar.update(1)
     finally:
         client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def _tuple(p: Posture) -> tuple:

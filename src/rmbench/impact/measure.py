@@ -165,9 +165,13 @@ def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gai
     flex, read_full = _condensation(op_sim, op_full, sensors)
     sums = [SpectralSums(len(freq), 4) for _ in coords]
     hits = [[draw_hit(c, hcfg, rng) for c in coords] for _ in range(n_avg)]
-    qfrc = np.empty((len(coords) * n_avg, n_step, op_sim.robot.model.nv))
-    forces = np.empty((len(coords) * n_avg, n_step))
-    static = np.zeros((len(coords) * n_avg, 4))
+    n_hit = len(coords) * n_avg
+    # a spinning spindle's unforced run rides along as the last history of the same rollout
+    spinning = bool(op_sim.robot.spindle_rpm)
+    qfrc = np.empty((n_hit + spinning, n_step, op_sim.robot.model.nv))
+    qfrc[n_hit:] = 0.0
+    forces = np.empty((n_hit, n_step))
+    static = np.zeros((n_hit, 4))
     for a in range(n_avg):
         rows_sim = hammer_rows(op_sim, coords, band.s_1a, hits[a])
         rows_full = hammer_rows(op_full, coords, band.s_1a, hits[a]) if flex is not None else None
@@ -182,28 +186,32 @@ def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gai
                     op_full.linear.K[np.ix_(flex, flex)], rows_full[k][flex])
     q0 = op_sim.data.qpos
     states = simulate(op_sim, qfrc, dt=dt, integrator=integrator)
-    if op_sim.robot.spindle_rpm:
-        unforced = simulate(op_sim, np.zeros_like(qfrc[:1]), dt=dt, integrator=integrator)[0]
-        states = states - (unforced - op_sim.data.qpos)[None]
-    overloads = 0
-    for j in range(len(forces)):
-        k = j % len(coords)
+    del qfrc
+    drift = states[-1] - q0 if spinning else None   # the unforced run's motion, subtracted
+    disp = np.empty((n_hit, n_step, 4))
+    for j in range(n_hit):   # hit by hit: one history's arrays stay in the cache
+        q = states[j] - drift if spinning else states[j]
         # the states are those at the end of each step; the force sample stands for the step's
         # midpoint, so the response is read there too (read at the end, it ran ω dt/2 ahead):
         # cubic interpolation between the states at the step's start and end
-        disp = (_midpoints(states[j], q0) - q0) @ read_sim.T + forces[j][:, None] * static[j][None, :]
-        if accel:
-            resp = _second_derivative(disp, dt)
-            if sensors.highpass > 0:
-                b, a_ = signal.bilinear([1, 0], [1, 2 * np.pi * sensors.highpass], fs * sub)
-                resp = signal.lfilter(b, a_, resp, axis=0)
-        else:
-            resp = disp
-        # anti-aliasing FIR and decimation to the DAQ rate, force and responses alike
-        f_rec = _record(forces[j], sub, n_rec, pre)
-        y_rec = np.stack([_record(resp[:, i], sub, n_rec, pre) for i in range(4)], axis=1)
-        f_rec = hammer_gain * f_rec + load_noise * rng.standard_normal(n_rec)
-        y_rec = sensors.gain * y_rec + sensors.noise * rng.standard_normal((n_rec, 4))
+        mid = _midpoints(q, q0)
+        mid -= q0
+        disp[j] = mid @ read_sim.T + forces[j][:, None] * static[j][None, :]
+    del states
+    if accel:
+        resp = _second_derivative(disp, dt)
+        if sensors.highpass > 0:
+            b, a_ = signal.bilinear([1, 0], [1, 2 * np.pi * sensors.highpass], fs * sub)
+            resp = signal.lfilter(b, a_, resp, axis=-2)
+    else:
+        resp = disp
+    # anti-aliasing FIR and decimation to the DAQ rate, force and responses alike
+    rec = _record(np.concatenate([forces[:, :, None], resp], axis=2), sub, n_rec, pre)
+    overloads = 0
+    for j in range(n_hit):   # noise is drawn hit by hit, in the order of the hits
+        k = j % len(coords)
+        f_rec = hammer_gain * rec[j, :, 0] + load_noise * rng.standard_normal(n_rec)
+        y_rec = sensors.gain * rec[j, :, 1:] + sensors.noise * rng.standard_normal((n_rec, 4))
         if sensors.resolution > 0:
             y_rec = np.round(y_rec / sensors.resolution) * sensors.resolution
         over = np.abs(y_rec) > sensors.full_range
@@ -221,7 +229,7 @@ def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gai
         hk, ck = h1(s)
         h[:, :, k] = -hk / omega[:, None] ** 2 if accel else hk
         coh[:, :, k] = ck
-    return (h, coh), n_step * len(forces), overloads
+    return (h, coh), n_step * n_hit, overloads
 
 
 def integrator_of(band_cfg) -> str:
@@ -269,10 +277,12 @@ def _midpoints(ends: np.ndarray, rest: np.ndarray) -> np.ndarray:
 
     Four-point (cubic) interpolation, error of order (ω dt)⁴: the value at ``t_k + dt/2`` is
     ``(−y(t_{k−1}) + 9 y(t_k) + 9 y(t_{k+1}) − y(t_{k+2})) / 16``, with the structure at ``rest``
-    up to ``t_0`` and the last value held past the end.
+    up to ``t_0`` and the last value held past the end. ``ends`` has shape (..., n_step, n) (time
+    on the second-last axis), ``rest`` shape (n,).
     """
-    y = np.vstack([rest[None], rest[None], ends, ends[-1:]])   # y(t_{-1}), y(t_0), y(t_1) ...
-    return (-y[:-3] + 9 * y[1:-2] + 9 * y[2:-1] - y[3:]) / 16
+    rest = np.broadcast_to(rest, ends.shape[:-2] + (1,) + ends.shape[-1:])
+    y = np.concatenate([rest, rest, ends, ends[..., -1:, :]], axis=-2)   # y(t_{-1}), y(t_0), y(t_1) ...
+    return _stencil(y, ((0, -1), (1, 9), (2, 9), (3, -1)), 16)
 
 
 def _second_derivative(y: np.ndarray, dt: float) -> np.ndarray:
@@ -280,19 +290,39 @@ def _second_derivative(y: np.ndarray, dt: float) -> np.ndarray:
     five-point stencil, error (ω dt)⁴/90: 0.009 % at the band's ω dt ≤ 0.3, where the central
     difference's (ω dt)²/12 took 0.75 % off an accelerometer's reading at f_max. Before the first
     midpoint the structure is at rest (the hit's force, and the acceleration with it, act from the
-    first step on); past the last the last value is held."""
-    rest = np.zeros_like(y[:2])
-    y = np.concatenate([rest, y, y[-1:], y[-1:]])
-    return (-y[4:] + 16 * y[3:-1] - 30 * y[2:-2] + 16 * y[1:-3] - y[:-4]) / (12 * dt**2)
+    first step on); past the last the last value is held. Time runs along the second-last axis."""
+    rest = np.zeros_like(y[..., :2, :])
+    last = y[..., -1:, :]
+    y = np.concatenate([rest, y, last, last], axis=-2)
+    return _stencil(y, ((4, -1), (3, 16), (2, -30), (1, 16), (0, -1)), 12 * dt**2)
+
+
+def _stencil(y: np.ndarray, terms, denominator: float) -> np.ndarray:
+    """``Σ c · y[k + offset] / denominator`` along the second-last axis, for ``(offset, c)`` in
+    ``terms``, summed in their order (the written-out expression's roundoff) with two arrays of
+    the result's size, where the expression makes one per operation."""
+    n = y.shape[-2] - max(o for o, _ in terms)
+    term = [y[..., o:o + n, :] for o, _ in terms]
+    out = np.multiply(terms[0][1], term[0])
+    tmp = np.empty_like(out)
+    for (_, c), t in zip(terms[1:], term[1:]):
+        out += np.multiply(c, t, out=tmp)
+    out /= denominator
+    return out
 
 
 def _record(x: np.ndarray, sub: int, n_rec: int, pre: int = 0) -> np.ndarray:
     """Anti-alias, decimate by ``sub`` and pad with the structure at rest to ``n_rec`` samples,
-    ``pre`` of them before the hit (``x`` starts at the hit, a deviation from rest)."""
-    x = np.concatenate([np.zeros(pre * sub), x])
-    y = signal.resample_poly(x, 1, sub) if sub > 1 else x
-    out = np.zeros(n_rec)
-    out[: min(n_rec, len(y))] = y[:n_rec]
+    ``pre`` of them before the hit (``x`` starts at the hit, a deviation from rest).
+
+    ``x`` has shape (n_hit, n_step, n_channel); each channel is filtered on its own. Returns
+    shape (n_hit, n_rec, n_channel).
+    """
+    x = np.pad(x, ((0, 0), (pre * sub, 0), (0, 0)))
+    y = signal.resample_poly(x, 1, sub, axis=1) if sub > 1 else x
+    out = np.zeros((len(x), n_rec, x.shape[2]))
+    m = min(n_rec, y.shape[1])
+    out[:, :m] = y[:, :m]
     return out
 
 

@@ -218,11 +218,17 @@ def scan_missing(freq, H, W, lam, residuals, grid, zetas=SCAN_ZETA):
     cand = -zz * wn + 1j * wn * np.sqrt(1 - zz**2)
     c1, c2 = basis(cand)
     C = np.stack([np.concatenate([c1.real, c1.imag]), np.concatenate([c2.real, c2.imag])], -1)
-    C = C - np.einsum("nk,kcj->ncj", Q, np.einsum("nk,ncj->kcj", Q, C))  # (2 n_f, n_cand, 2)
-    G = np.einsum("ncj,nci->cji", C, C)               # (n_cand, 2, 2)
-    P = np.einsum("ncj,ne->cje", C, r0)              # (n_cand, 2, n_entries)
-    sol = np.linalg.solve(G + 1e-300, P)
-    gain = np.einsum("cje,cje->c", P, sol)
+    # projected off the current basis as matrix products (BLAS): (2 n_f, n_cand · 2)
+    Cf = C.reshape(len(C), -1)
+    Cf = Cf - Q @ (Q.T @ Cf)
+    C = Cf.reshape(C.shape)                                           # (2 n_f, n_cand, 2)
+    g00, g01, g11 = (C[..., 0] ** 2).sum(0), (C[..., 0] * C[..., 1]).sum(0), (C[..., 1] ** 2).sum(0)
+    P = (Cf.T @ r0).reshape(len(cand), 2, -1)                        # (n_cand, 2, n_entries)
+    # each candidate's 2 x 2 normal equations in closed form (Cramer)
+    det = g00 * g11 - g01**2 + 1e-300
+    s0 = (g11[:, None] * P[:, 0] - g01[:, None] * P[:, 1]) / det[:, None]
+    s1 = (g00[:, None] * P[:, 1] - g01[:, None] * P[:, 0]) / det[:, None]
+    gain = (P[:, 0] * s0 + P[:, 1] * s1).sum(-1)
     n_e = b.shape[1]
     dof = b.size - n_e * (Q.shape[1] + 2)
     rss = float(np.sum(r0**2))

@@ -8,7 +8,6 @@ the errors are stored beside the fit.
 
 from __future__ import annotations
 
-import os
 import time
 import warnings
 from concurrent.futures import ProcessPoolExecutor
@@ -22,6 +21,7 @@ from rmbench.errors import InputError
 from rmbench.impact.dataset import mac, posture_positions, track_modes
 from rmbench.modal.residual import RESIDUAL_TERMS, out_of_band_terms
 from rmbench.robot.modes import PARAMS, ModeTable
+from rmbench.threads import available_cores, worker_init, worker_threads
 
 __all__ = ["fit_posture", "fit_campaign", "truth_errors", "truth_scores", "renormalise_phi_l",
            "mode_vectors"]
@@ -66,7 +66,6 @@ def fit_posture(freq: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, *
 
 
 def _task(args):
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     freq, h, coh, n_modes = args
     return fit_posture(freq, h, coh, n_modes=n_modes)
 
@@ -124,7 +123,9 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     if workers == 0 or len(jobs) < 4:
         results = [_task(j) for j in jobs]
     else:
-        with ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1) as pool:
+        n = workers or available_cores()
+        # forked workers inherit this process's thread pools: each its part of the share
+        with ProcessPoolExecutor(max_workers=n, initializer=worker_init, initargs=(worker_threads(n),)) as pool:
             results = list(pool.map(_task, jobs, chunksize=max(1, len(jobs) // (4 * (workers or 2)))))
     elapsed = time.perf_counter() - t0
     by_key = dict(zip(keys, results))

@@ -64,9 +64,10 @@ from rmbench.predict.cluster import (ModeCluster, cluster_features, cluster_pole
                                      poles_of, round_off_features, veering_clusters)
 from rmbench.predict.data import constant_tasks, frequency_ordered, training_set
 from rmbench.predict.gauge import _vectors, from_gauge, gauge_directions, to_gauge
-from rmbench.predict.gp import MTGP
+from rmbench.predict.gp import MTGP, _torch
 from rmbench.predict.mtgp import GroupedMTGP
 from rmbench.robot.modes import PARAMS
+from rmbench.threads import run_concurrently
 
 __all__ = ["PosturePredictor", "ExtrapolationWarning", "predicted_frf", "SAVEABLE"]
 
@@ -135,8 +136,7 @@ class PosturePredictor:
         (:func:`~rmbench.predict.data.frequency_ordered`), else as the modal stage tracked them."""
         if self.order == "frequency":
             ds = frequency_ordered(ds)
-        self._fit_clusters(ds)
-        self._fit_pole_clusters(ds)
+        plain = ds                         # the clusters learn from the dataset's own vectors
         self.gauge_worst_ = None
         if self.vectors == "gauge" and "modal" in ds:
             if "phiL_1aY" not in ds:     # φL fixed at 1aY everywhere (DATA.md's default)
@@ -149,11 +149,13 @@ class PosturePredictor:
             raise InputError(f"{len(ts.X)} usable postures: a Gaussian process needs at least three")
         found = np.isfinite(ts.Y).any(axis=0)
         self.live_ = np.flatnonzero(found)
-        t0 = time.perf_counter()
-        learner = (make_learner(self.model, ts, self.live_) if self.model in MULTI_TASK
-                   else PerTask(self.model))
-        self.learner_ = learner.fit(ts.X, ts.Y[:, self.live_])
-        self.train_seconds_ = time.perf_counter() - t0
+        if self.model in MULTI_TASK:
+            _torch()   # loaded before the threads: run_concurrently divides its pool among them
+        # the parameters, the clusters and the residual terms are independent learners: they run
+        # side by side on the process's share of the cores (each deterministic, so the result is
+        # the one of a run in turn)
+        run_concurrently([lambda: self._fit_parameters(ts), lambda: self._fit_clusters(plain),
+                          lambda: self._fit_pole_clusters(plain), lambda: self._fit_residuals(ds)])
         modal = ds["modal"]
         self.tasks_ = ts.tasks
         self.modes_ = np.asarray(modal["mode"].values, int)
@@ -167,9 +169,16 @@ class PosturePredictor:
                                    if constant_tasks(ts.Y[:, j:j + 1])[0] and found[j] else np.nan
                                    for j in range(len(ts.tasks))])
         self.source_ = str(ds.attrs.get("upstream", ""))
-        self._fit_residuals(ds)
         self._hull()
         return self
+
+    def _fit_parameters(self, ts) -> None:
+        """Learn the modal parameters of the training set (the live columns)."""
+        t0 = time.perf_counter()
+        learner = (make_learner(self.model, ts, self.live_) if self.model in MULTI_TASK
+                   else PerTask(self.model))
+        self.learner_ = learner.fit(ts.X, ts.Y[:, self.live_])
+        self.train_seconds_ = time.perf_counter() - t0
 
     def _fit_residuals(self, ds: xr.Dataset) -> None:
         """Learn the bands' residual terms: 3 x 16 complex entries per band, real and imaginary

@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-__all__ = ["stable_step", "simulate", "hold_commands", "site_positions", "pulse_check"]
+__all__ = ["stable_step", "stepping_model", "simulate", "hold_commands", "site_positions", "pulse_check"]
 
 
 # Stability limits of ω_max·dt on an undamped oscillator: semi-implicit Euler 2, RK4 2.8.
@@ -24,6 +24,26 @@ def stable_step(op, *, integrator: str = "rk4", safety: float = 0.7) -> float:
     """A stable time step for the operating point's fastest mode, s."""
     w_max = float(np.abs(op.linear.modes().poles).max())
     return safety * _LIMIT[integrator] / w_max
+
+
+def stepping_model(op, *, dt: float, integrator: str = "rk4") -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The operating point's model set up for time stepping, and its data at the equilibrium.
+
+    A fresh model of ``op.robot``'s MJCF with time step ``dt`` (s), the integrator (``"rk4"`` or
+    ``"euler"``) and the constraint solver off (small motions about equilibrium: no contact, no
+    joint limit reached); the data hold the equilibrium's full physics state and servo commands.
+    """
+    m = mujoco.MjModel.from_xml_string(op.robot.xml)
+    m.opt.timestep = dt
+    m.opt.integrator = _INTEGRATOR[integrator]
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    d = mujoco.MjData(m)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.zeros(mujoco.mj_stateSize(m, spec))
+    mujoco.mj_getState(op.robot.model, op.data, state, spec)
+    mujoco.mj_setState(m, d, state, spec)
+    d.ctrl[:] = op.data.ctrl
+    return m, d
 
 
 def simulate(op, qfrc: np.ndarray, *, dt: float, ctrl: np.ndarray | None = None,
@@ -54,21 +74,16 @@ def simulate(op, qfrc: np.ndarray, *, dt: float, ctrl: np.ndarray | None = None,
     single = qfrc.ndim == 2
     if single:
         qfrc = qfrc[None]
-    m = mujoco.MjModel.from_xml_string(op.robot.xml)
-    m.opt.timestep = dt
-    m.opt.integrator = _INTEGRATOR[integrator]
-    # small motions about equilibrium: no contacts, no joint limit reached, so the constraint
-    # solver has nothing to do
-    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    m, d = stepping_model(op, dt=dt, integrator=integrator)
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state0 = np.zeros(mujoco.mj_stateSize(m, spec))
-    mujoco.mj_getState(op.robot.model, op.data, state0, spec)
+    mujoco.mj_getState(m, d, state0, spec)
     nb, n = qfrc.shape[:2]
     u = np.empty((nb, n, m.nu + m.nv))
     u[:, :, : m.nu] = hold_commands(op, n, dt) if ctrl is None else ctrl
     u[:, :, m.nu:] = qfrc
     control_spec = mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_QFRC_APPLIED
-    state, _ = rollout.rollout(m, mujoco.MjData(m), np.tile(state0, (nb, 1)), u, control_spec=control_spec)
+    state, _ = rollout.rollout(m, d, np.tile(state0, (nb, 1)), u, control_spec=control_spec)
     q = state[:, :, 1: 1 + m.nq]
     return q[0] if single else q
 

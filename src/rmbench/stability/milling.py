@@ -31,6 +31,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
+from rmbench.threads import worker_init, worker_threads
 
 __all__ = ["MillingRun", "mill", "chatter_metrics", "mill_grid"]
 
@@ -64,6 +65,13 @@ class MillingRun:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> MillingRun:
+        """A run back from :meth:`to_dict` or its strict JSON, where a non-finite value is null:
+        ``metric`` and ``growth`` null read back as inf (a runaway's), another float as NaN."""
+        unbounded = {"metric", "growth"}
+        return cls(**{k: (np.inf if k in unbounded else np.nan) if v is None else v for k, v in d.items()})
 
 
 def chatter_metrics(q: np.ndarray, dt: float, period: float) -> dict:
@@ -223,11 +231,14 @@ def mill_grid(robot: str, tool: str | None, posture, cutting: Cutting, speeds_rp
     workers : int
         Processes.
     out : str or Path, optional
-        JSON-lines file of finished runs: a rerun skips the pairs already there.
+        JSON-lines file of finished runs (strict JSON: a runaway's unbounded metric and growth
+        are null): a rerun skips the pairs already there.
     """
     import json
     from concurrent.futures import ProcessPoolExecutor
     from pathlib import Path
+
+    from rmbench.io.strict_json import strict_dumps
 
     speeds = np.atleast_1d(np.asarray(speeds_rpm, float))
     dep = np.asarray(depths, float)
@@ -248,12 +259,12 @@ def mill_grid(robot: str, tool: str | None, posture, cutting: Cutting, speeds_rp
 
         bar = tqdm(total=len(pairs), initial=len(pairs) - len(todo), disable=not progress, unit="cut")
         if workers > 1 and len(tasks) > 1:
-            with ProcessPoolExecutor(workers) as pool:
+            with ProcessPoolExecutor(workers, initializer=worker_init, initargs=(worker_threads(workers),)) as pool:
                 results = pool.map(_grid_task, tasks)
                 for r in results:
                     done[(round(r["rpm"], 6), round(r["depth"], 12))] = r
                     if sink:
-                        sink.write(json.dumps(r) + "\n")
+                        sink.write(strict_dumps(r) + "\n")
                         sink.flush()
                     bar.update()
         else:
@@ -261,11 +272,11 @@ def mill_grid(robot: str, tool: str | None, posture, cutting: Cutting, speeds_rp
                 r = _grid_task(t)
                 done[(round(r["rpm"], 6), round(r["depth"], 12))] = r
                 if sink:
-                    sink.write(json.dumps(r) + "\n")
+                    sink.write(strict_dumps(r) + "\n")
                     sink.flush()
                 bar.update()
         bar.close()
     finally:
         if sink:
             sink.close()
-    return [MillingRun(**done[(round(s, 6), round(a, 12))]) for s, a in pairs]
+    return [MillingRun.from_dict(done[(round(s, 6), round(a, 12))]) for s, a in pairs]

@@ -1,0 +1,110 @@
+"""Threads per process: BLAS, OpenMP and torch pools sized to the process's share of the cores.
+
+rmbench runs parallel work in worker processes (campaign postures, modal fits, blind cases, cuts).
+Thread pools sized to the machine in every process oversubscribe the cores (workers × BLAS
+threads), and spinning BLAS and OpenMP threads then take turns on a core and thrash (a 12-posture
+modal fit on 2 cores: 7 s with single-threaded workers, 65 s with two BLAS threads each). So:
+
+- a command's own pools take its share of the cores: ``RMBENCH_THREADS``, or every core this
+  process may run on;
+- a worker of a pool of ``w`` takes ``share // w`` threads (one each on the usual 2 cores and 2
+  workers), set by :func:`worker_init` as the pool's initializer;
+- idle OpenMP threads sleep rather than spin (``OMP_WAIT_POLICY=PASSIVE``) so that a job beside
+  another does not burn the cores it waits on.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+from rmbench.errors import InputError
+
+__all__ = ["THREAD_VARIABLES", "available_cores", "process_threads", "worker_threads", "limit_threads",
+           "worker_init", "run_concurrently"]
+
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
+                    "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+"""Environment variables that size the thread pools of processes started from this one."""
+
+
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity, else the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        return os.cpu_count() or 1
+
+
+def process_threads() -> int:
+    """This command's share of the cores: ``RMBENCH_THREADS``, else :func:`available_cores`.
+
+    Raises
+    ------
+    InputError
+        ``RMBENCH_THREADS`` is not a positive whole number.
+    """
+    raw = os.environ.get("RMBENCH_THREADS")
+    if raw is None:
+        return available_cores()
+    try:
+        n = int(raw)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise InputError(f"RMBENCH_THREADS must be a positive whole number, got {raw!r}")
+    return n
+
+
+def worker_threads(workers: int) -> int:
+    """Threads of each of ``workers`` worker processes: the share divided among them, at least 1."""
+    return max(1, process_threads() // max(int(workers), 1))
+
+
+def limit_threads(n: int) -> None:
+    """Size this process's BLAS and OpenMP pools (threadpoolctl) and torch's to ``n`` threads, and
+    the environment so that processes it starts begin with ``n`` as well."""
+    from threadpoolctl import threadpool_limits
+
+    for name in THREAD_VARIABLES:
+        os.environ[name] = str(n)
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")   # read when an OpenMP runtime loads
+    threadpool_limits(limits=n)   # the pools already loaded (numpy's OpenBLAS, scipy's, torch's OpenMP)
+    if "torch" in sys.modules:    # torch reads OMP_NUM_THREADS only when it loads
+        sys.modules["torch"].set_num_threads(n)
+
+
+def worker_init(n: int = 1) -> None:
+    """Initializer of a worker process: ``n`` threads in every pool (see :func:`worker_threads`)."""
+    limit_threads(n)
+
+
+def run_concurrently(calls, threads: int | None = None) -> list:
+    """Independent calls (no arguments) on up to ``threads`` threads, default this process's
+    share of the cores; their results in order, and the first exception raised here.
+
+    For calls that spend their time in compiled code that releases the GIL (torch, BLAS): meanwhile
+    the BLAS and torch pools are divided among the threads, so that together they keep to the
+    share. The calls must not touch process-wide state (the warnings filters, random seeds drawn
+    from, the working folder).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from threadpoolctl import threadpool_limits
+
+    calls = list(calls)
+    n = min(threads or process_threads(), len(calls))
+    if n <= 1:
+        return [call() for call in calls]
+    torch = sys.modules.get("torch")
+    before = torch.get_num_threads() if torch is not None else None
+    each = max(1, (before or process_threads()) // n)
+    if torch is not None:
+        torch.set_num_threads(each)
+    try:
+        with threadpool_limits(limits=each, user_api="blas"), ThreadPoolExecutor(n) as pool:
+            futures = [pool.submit(call) for call in calls]
+            return [f.result() for f in futures]
+    finally:
+        if torch is not None:
+            torch.set_num_threads(before)
