@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from rmbench.threads import available_cores, process_threads, worker_init, worker_threads
+from rmbench.threads import available_cores, process_threads, run_concurrently, worker_init, worker_threads
 
 
 def _pool_threads():
@@ -27,8 +27,11 @@ def test_a_forked_worker_runs_single_threaded_whatever_its_parent_uses():
 
 
 def test_a_commands_share_is_its_cores_unless_rmbench_threads_says_otherwise(monkeypatch):
-    monkeypatch.delenv("RMBENCH_THREADS", raising=False)
+    for name in ("RMBENCH_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(name, raising=False)
     assert process_threads() == available_cores()
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")   # a limit given the usual way stands
+    assert process_threads() == 1
     monkeypatch.setenv("RMBENCH_THREADS", "3")
     assert process_threads() == 3
 
@@ -82,3 +85,20 @@ def test_a_bad_rmbench_threads_is_a_one_line_error(value):
                           text=True, env={**os.environ, "RMBENCH_THREADS": value})
     assert proc.returncode == 2
     assert proc.stderr.strip().count("\n") == 0 and "RMBENCH_THREADS must be a positive whole number" in proc.stderr
+
+
+def test_concurrent_calls_return_in_order_and_restore_the_thread_pools():
+    import torch
+
+    before = torch.get_num_threads(), [p["num_threads"] for p in threadpool_info()]
+    out = run_concurrently([lambda k=k: k * k for k in range(5)], threads=2)
+    assert out == [0, 1, 4, 9, 16]
+    assert (torch.get_num_threads(), [p["num_threads"] for p in threadpool_info()]) == before
+
+
+def test_a_failing_concurrent_call_raises_its_own_error():
+    def bad():
+        raise ValueError("this learner failed")
+
+    with pytest.raises(ValueError, match="this learner failed"):
+        run_concurrently([lambda: 1, bad], threads=2)

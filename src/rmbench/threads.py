@@ -20,7 +20,8 @@ import sys
 
 from rmbench.errors import InputError
 
-__all__ = ["THREAD_VARIABLES", "available_cores", "process_threads", "worker_threads", "limit_threads",
+__all__ = ["THREAD_VARIABLES", "available_cores", "process_threads", "default_workers", "worker_threads",
+           "limit_threads",
            "worker_init", "run_concurrently"]
 
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
@@ -37,7 +38,8 @@ def available_cores() -> int:
 
 
 def process_threads() -> int:
-    """This command's share of the cores: ``RMBENCH_THREADS``, else :func:`available_cores`.
+    """This command's share of the cores: ``RMBENCH_THREADS``, else :func:`available_cores` or the
+    smallest of ``OMP_NUM_THREADS``, ``OPENBLAS_NUM_THREADS``, ``MKL_NUM_THREADS`` where set.
 
     Raises
     ------
@@ -46,7 +48,10 @@ def process_threads() -> int:
     """
     raw = os.environ.get("RMBENCH_THREADS")
     if raw is None:
-        return available_cores()
+        # a limit the user gave the usual way (OMP_NUM_THREADS=1 ...) stands
+        given = [int(v) for v in (os.environ.get(name, "") for name in THREAD_VARIABLES[:3])
+                 if v.isdigit() and int(v) > 0]
+        return min([available_cores()] + given)
     try:
         n = int(raw)
     except ValueError:
@@ -56,6 +61,12 @@ def process_threads() -> int:
     return n
 
 
+def default_workers() -> int:
+    """Worker processes of a command that is not told how many: ``RMBENCH_THREADS``, else every
+    core this process may run on (``OMP_NUM_THREADS`` and the like size threads, not processes)."""
+    return int(os.environ["RMBENCH_THREADS"]) if os.environ.get("RMBENCH_THREADS") else available_cores()
+
+
 def worker_threads(workers: int) -> int:
     """Threads of each of ``workers`` worker processes: the share divided among them, at least 1."""
     return max(1, process_threads() // max(int(workers), 1))
@@ -63,10 +74,10 @@ def worker_threads(workers: int) -> int:
 
 def limit_threads(n: int) -> None:
     """Size this process's BLAS and OpenMP pools (threadpoolctl) and torch's to ``n`` threads, and
-    the environment so that processes it starts begin with ``n`` as well."""
+    the environment (``RMBENCH_THREADS`` too) so that processes it starts begin with ``n`` as well."""
     from threadpoolctl import threadpool_limits
 
-    for name in THREAD_VARIABLES:
+    for name in THREAD_VARIABLES + ("RMBENCH_THREADS",):
         os.environ[name] = str(n)
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")   # read when an OpenMP runtime loads
     threadpool_limits(limits=n)   # the pools already loaded (numpy's OpenBLAS, scipy's, torch's OpenMP)

@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.io.strict_json import strict_dumps
 
 __all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json", "load_dataset",
            "add_report_option", "report_path"]
@@ -102,4 +101,6 @@ def print_json(obj) -> None:
     (:func:`rmbench.io.strict_json.strict_dumps`); a value JSON cannot hold (a complex number, an
     arbitrary object) raises ``TypeError`` rather than print something invalid.
     """
+    from rmbench.io.strict_json import strict_dumps   # here: rmbench.io loads xarray and pyuff
+
     print(strict_dumps(obj))

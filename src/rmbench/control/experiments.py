@@ -22,7 +22,7 @@ import xarray as xr
 
 from rmbench.control.closed_loop import Hardware, LoopDiverged, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import Controller
-from rmbench.threads import available_cores
+from rmbench.threads import default_workers
 
 __all__ = ["sine_sweep", "eccentric_test", "traced_runs", "excitation_frequencies", "reduction_at", "settle_time",
            "cluster"]
@@ -211,8 +211,8 @@ def cluster(workers: int | None = None, scheduler=None):
         client = Client(scheduler)
     else:
         # dask's nanny starts each worker with its BLAS and OpenMP pools at one thread
-        local = LocalCluster(n_workers=workers or available_cores(), threads_per_worker=1,
-                             processes=True, dashboard_address=None, silence_logs=50)  # as campaign.py
+        local = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
+                             processes=True, dashboard_address=None, silence_logs=50)
         client = Client(local)
     try:
         yield client

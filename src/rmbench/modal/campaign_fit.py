@@ -21,7 +21,7 @@ from rmbench.errors import InputError
 from rmbench.impact.dataset import mac, posture_positions, track_modes
 from rmbench.modal.residual import RESIDUAL_TERMS, out_of_band_terms
 from rmbench.robot.modes import PARAMS, ModeTable
-from rmbench.threads import available_cores, worker_init, worker_threads
+from rmbench.threads import default_workers, worker_init, worker_threads
 
 __all__ = ["fit_posture", "fit_campaign", "truth_errors", "truth_scores", "renormalise_phi_l",
            "mode_vectors"]
@@ -123,7 +123,7 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     if workers == 0 or len(jobs) < 4:
         results = [_task(j) for j in jobs]
     else:
-        n = workers or available_cores()
+        n = workers or default_workers()
         # forked workers inherit this process's thread pools: each its part of the share
         with ProcessPoolExecutor(max_workers=n, initializer=worker_init, initargs=(worker_threads(n),)) as pool:
             results = list(pool.map(_task, jobs, chunksize=max(1, len(jobs) // (4 * (workers or 2)))))

@@ -52,6 +52,7 @@ _NOISE_FLOOR = 1e-6
 _LENGTHSCALE_BOUNDS = (1e-2, 1e2)
 
 
+@functools.lru_cache(maxsize=None)
 def _torch():
     """torch and gpytorch, imported without linear_operator's notice about torch.jit.script (its
     own business, not the user's)."""
@@ -183,7 +184,8 @@ class STGP(MTGP):
 
 def fit_icm(Xs: np.ndarray, Ys: np.ndarray, rank: int, *, iterations: int = 100, seed: int = 0,
             lengthscale_starts=(1.0, 0.3)) -> dict:
-    """Hyperparameters of a batch of ICM models by maximum marginal likelihood, in gpytorch.
+    """Hyperparameters of a batch of ICM models by maximum marginal likelihood: gpytorch's model
+    (:func:`_fit_batch`), its likelihood in closed form (:func:`_fit_batch_kron`).
 
     Parameters
     ----------
@@ -254,6 +256,8 @@ def _batched_icm_kernel(gpytorch):
 
 
 def _fit_batch(torch, gpytorch, Xs, Ys, rank, ls0, iterations) -> dict:
+    """gpytorch's own ICM model of the batch, fitted by L-BFGS: the reference that the closed form
+    (:func:`_fit_batch_kron`, what :func:`fit_icm` runs) is tested against step for step."""
     from linear_operator.utils.errors import NotPSDError
 
     B, n, m = Ys.shape
@@ -476,7 +480,7 @@ def _kron_quad_logdet(torch):
 def _fit_batch_kron(torch, gpytorch, Xs, Ys, rank, ls0, iterations, *, jitter: float = 0.0) -> dict:
     """:func:`_fit_batch` through :func:`icm_nll` (:func:`single_nll` for one task): the same
     hyperparameters, constraints, starts and optimiser as the gpytorch model; ``jitter`` is added
-    to the noise variances in the likelihood (not to the noise reported)."""
+    to the noise variances (in the likelihood and in the noise returned, which the posterior uses)."""
     B, _, m = Ys.shape
     objective = single_nll if m == 1 else icm_nll
     c_ls, c_var, c_noise = _constraints(gpytorch)
@@ -508,7 +512,7 @@ def _fit_batch_kron(torch, gpytorch, Xs, Ys, rank, ls0, iterations, *, jitter: f
         out = {"lengthscales": c_ls.transform(raw[0]).numpy().copy(),
                "Kc": (raw[1] @ raw[1].transpose(-1, -2)
                       + torch.diag_embed(c_var.transform(raw[2]))).numpy().copy(),
-               "noise": c_noise.transform(raw[3]).numpy().copy(),
+               "noise": (c_noise.transform(raw[3]) + jitter).numpy().copy(),
                "mean": raw[4].detach().numpy().copy()}
     per_model[~np.isfinite(per_model)] = np.inf
     if not np.isfinite(per_model).any():
