@@ -7,8 +7,9 @@ modal fit on 2 cores: 7 s with single-threaded workers, 65 s with two BLAS threa
 
 - a command's own pools take its share of the cores: ``RMBENCH_THREADS``, or every core this
   process may run on;
-- a worker of a pool of ``w`` takes ``share // w`` threads (one each on the usual 2 cores and 2
-  workers), set by :func:`worker_init` as the pool's initializer;
+- a command with worker processes starts as many as its share (:func:`default_workers`), each
+  single-threaded (:func:`worker_init`, the pool's initializer): one thread per worker also keeps
+  the results independent of the number of workers, bit for bit;
 - idle OpenMP threads sleep rather than spin (``OMP_WAIT_POLICY=PASSIVE``) so that a job beside
   another does not burn the cores it waits on.
 """
@@ -20,7 +21,7 @@ import sys
 
 from rmbench.errors import InputError
 
-__all__ = ["THREAD_VARIABLES", "available_cores", "process_threads", "default_workers", "worker_threads",
+__all__ = ["THREAD_VARIABLES", "available_cores", "process_threads", "default_workers",
            "limit_threads",
            "worker_init", "run_concurrently"]
 
@@ -67,11 +68,6 @@ def default_workers() -> int:
     return int(os.environ["RMBENCH_THREADS"]) if os.environ.get("RMBENCH_THREADS") else available_cores()
 
 
-def worker_threads(workers: int) -> int:
-    """Threads of each of ``workers`` worker processes: the share divided among them, at least 1."""
-    return max(1, process_threads() // max(int(workers), 1))
-
-
 def limit_threads(n: int) -> None:
     """Size this process's BLAS and OpenMP pools (threadpoolctl) and torch's to ``n`` threads, and
     the environment (``RMBENCH_THREADS`` too) so that processes it starts begin with ``n`` as well."""
@@ -85,9 +81,9 @@ def limit_threads(n: int) -> None:
         sys.modules["torch"].set_num_threads(n)
 
 
-def worker_init(n: int = 1) -> None:
-    """Initializer of a worker process: ``n`` threads in every pool (see :func:`worker_threads`)."""
-    limit_threads(n)
+def worker_init() -> None:
+    """Initializer of a worker process: one thread in every pool (a worker owns one core)."""
+    limit_threads(1)
 
 
 def run_concurrently(calls, threads: int | None = None) -> list:

@@ -34,7 +34,7 @@ from rmbench.errors import RmbenchError
 from rmbench.gap.effects import Change, Effect
 from rmbench.gap.residual import FRF_SEGMENTS, frf_residuals, mode_residuals
 from rmbench.gap.selection import significant
-from rmbench.threads import worker_init, worker_threads
+from rmbench.threads import worker_init
 
 __all__ = ["Objective", "Screen", "Fitted", "screen", "refine", "combined_change", "significant"]
 
@@ -396,15 +396,15 @@ class Refiner:
                      b.design.config.model_dump_json(), b.q_cmd, self.train.meas, self.train.frf,
                      self.train.bands, self.train.postures, self.held.postures)
             self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp.get_context("fork"),
-                                             initializer=_init_worker, initargs=(state, worker_threads(self.workers)))
+                                             initializer=_init_worker, initargs=(state,))
         return self._pool
 
 
 _WORKER: dict = {}
 
 
-def _init_worker(state, threads: int = 1) -> None:
-    worker_init(threads)
+def _init_worker(state) -> None:
+    worker_init()
     from rmbench.gap.design import TestDesign
     from rmbench.gap.model import ModelBench
     from rmbench.impact.config import CampaignConfig

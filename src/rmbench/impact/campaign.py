@@ -24,7 +24,7 @@ from rmbench.impact.sensors import COORDS, sensor_set
 from rmbench.robot import OperatingPoint, Posture, Robot, seed_grid
 from rmbench.robot.model import Band
 from rmbench.robot.variant import condensed, with_tool_masses
-from rmbench.threads import default_workers, worker_init, worker_threads
+from rmbench.threads import default_workers, worker_init
 
 __all__ = ["Campaign", "postures_of", "run_posture", "run_campaign", "dry_run"]
 
@@ -291,8 +291,7 @@ def _run_local(todo, postures, config_json, toml, parts, bar, workers):
 
     n = min(workers or default_workers(), len(todo))
     # fork: the workers start with this process's imports; spawn would import everything again
-    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("fork"), initializer=worker_init,
-                             initargs=(worker_threads(n),)) as pool:
+    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("fork"), initializer=worker_init) as pool:
         futures = [pool.submit(_task, config_json, toml, i, _tuple(postures[i])) for i in todo]
         try:
             for fut in as_completed(futures):

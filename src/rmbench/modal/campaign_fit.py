@@ -21,7 +21,7 @@ from rmbench.errors import InputError
 from rmbench.impact.dataset import mac, posture_positions, track_modes
 from rmbench.modal.residual import RESIDUAL_TERMS, out_of_band_terms
 from rmbench.robot.modes import PARAMS, ModeTable
-from rmbench.threads import default_workers, worker_init, worker_threads
+from rmbench.threads import default_workers, worker_init
 
 __all__ = ["fit_posture", "fit_campaign", "truth_errors", "truth_scores", "renormalise_phi_l",
            "mode_vectors"]
@@ -124,8 +124,8 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
         results = [_task(j) for j in jobs]
     else:
         n = workers or default_workers()
-        # forked workers inherit this process's thread pools: each its part of the share
-        with ProcessPoolExecutor(max_workers=n, initializer=worker_init, initargs=(worker_threads(n),)) as pool:
+        # forked workers inherit this process's thread pools: one thread each
+        with ProcessPoolExecutor(max_workers=n, initializer=worker_init) as pool:
             results = list(pool.map(_task, jobs, chunksize=max(1, len(jobs) // (4 * (workers or 2)))))
     elapsed = time.perf_counter() - t0
     by_key = dict(zip(keys, results))

@@ -31,7 +31,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
-from rmbench.threads import worker_init, worker_threads
+from rmbench.threads import worker_init
 
 __all__ = ["MillingRun", "mill", "chatter_metrics", "mill_grid"]
 
@@ -259,7 +259,7 @@ def mill_grid(robot: str, tool: str | None, posture, cutting: Cutting, speeds_rp
 
         bar = tqdm(total=len(pairs), initial=len(pairs) - len(todo), disable=not progress, unit="cut")
         if workers > 1 and len(tasks) > 1:
-            with ProcessPoolExecutor(workers, initializer=worker_init, initargs=(worker_threads(workers),)) as pool:
+            with ProcessPoolExecutor(workers, initializer=worker_init) as pool:
                 results = pool.map(_grid_task, tasks)
                 for r in results:
                     done[(round(r["rpm"], 6), round(r["depth"], 12))] = r
