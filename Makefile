@@ -35,6 +35,8 @@ bench: $(STAMP)
 	$(BIN)/python bench/modal_robustness.py | tee bench/results/modal_robustness.txt
 	$(BIN)/python bench/gap_blind.py | tee bench/results/gap_blind.txt
 	$(BIN)/python bench/gap_real.py | tee bench/results/gap_real.txt
+	$(BIN)/python bench/calibrate_real.py | tee bench/results/calibrate_real.txt
+	cd bench && ../$(BIN)/python calibrate.py --time-default | tee results/calibrate.txt
 	$(BIN)/python bench/gap_tracker.py | tee bench/results/gap_tracker.txt
 	$(BIN)/python bench/predict.py | tee bench/results/predict.txt
 	$(BIN)/python bench/rcsa.py | tee bench/results/rcsa.txt

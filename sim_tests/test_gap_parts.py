@@ -9,8 +9,8 @@ import xarray as xr
 
 from rmbench.errors import InputError
 from rmbench.gap import Change, GapDataWarning, MeasuredModes, ModelBench, TestDesign, library, measured_data
-from rmbench.gap.design import SensorOffset
-from rmbench.gap.residual import UNPAIRED, hammer_leak, mode_residuals, overlap, pair
+from rmbench.calibrate.design import SensorOffset
+from rmbench.calibrate.residual import UNPAIRED, hammer_leak, mode_residuals, overlap, pair
 from rmbench.impact import load_config, parse_config
 from rmbench.robot import Posture, Robot
 

@@ -26,6 +26,9 @@ def register(sub) -> None:
     d.add_argument("--repeatability", type=float, default=0.2,
                    help="with --readings and no sigma columns: the robot's rated ISO 9283 RP, mm (default 0.2)")
     d.add_argument("--test", default=None, help="campaign TOML of the test design (default: the data's own)")
+    d.add_argument("--calibrate", nargs="?", const="default", default=None, metavar="GROUPS",
+                   help="calibrate the ordinary parameters first (groups as for 'model calibrate', default "
+                        "joints,damping,servo,masses), then search the structural effects on the calibrated model")
     d.add_argument("--out", default=None, help="directory for figures, tables and the updated variant MJCF")
     d.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     d.add_argument("--json", action="store_true", help="print the diagnosis as JSON")
@@ -71,8 +74,13 @@ def cmd_diagnose(args) -> int:
     report_path(args)
     if args.readings is not None:
         return _diagnose_readings(args)
-    from rmbench.gap import diagnose
-    from rmbench.gap.measured import GapDataWarning
+    from rmbench.calibrate.measured import GapDataWarning
+    from rmbench.gap import DiagnosisSettings, diagnose
+    from rmbench.robot.parameters import parse_groups
+
+    settings = DiagnosisSettings()
+    if args.calibrate is not None:
+        settings = DiagnosisSettings(calibrate=parse_groups(args.calibrate))
 
     test = None
     if args.test is not None:
@@ -87,7 +95,7 @@ def cmd_diagnose(args) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", GapDataWarning)
         dg = diagnose(args.robot or "irb6660", data, test=test, tool=args.tool, workers=args.workers,
-                      progress=say)
+                      settings=settings, progress=say)
     for w in caught:
         if issubclass(w.category, GapDataWarning):
             print(f"rmbench: warning: {w.message}", file=sys.stderr)
@@ -97,8 +105,16 @@ def cmd_diagnose(args) -> int:
     if args.json:
         print_json(dg.to_json(paths.get("variant")))
         return 0
-    print(f"verdict: {dg.verdict} (nominal gap: χ² {dg.nominal_chi2:.0f} over {dg.n_residuals} "
-          f"normalised residuals)")
+    if dg.calibration is not None:
+        c = dg.calibration
+        ident = [p["name"] for p in c["params"] if p["identifiability"] == "identifiable"]
+        h0, h1 = c["heldout_errors"].get("before", {}), c["heldout_errors"].get("after", {})
+        print(f"calibrated {len(c['params'])} parameters ({', '.join(c['groups'])}); identifiable: "
+              f"{', '.join(ident) or 'none'}")
+        if h0 and h1 and h0.get("f_err_mean") is not None:
+            print(f"  held-out |f error| mean {100 * h0['f_err_mean']:.2f} % -> {100 * h1['f_err_mean']:.2f} %")
+    print(f"verdict: {dg.verdict} ({'calibrated' if dg.calibration is not None else 'nominal'} model's gap: "
+          f"χ² {dg.nominal_chi2:.0f} over {dg.n_residuals} normalised residuals)")
     print(f"where: {dg.localisation}")
     for i, e in enumerate(dg.effects[:8]):
         mark = "*" if e.chosen else " "

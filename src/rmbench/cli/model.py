@@ -1,4 +1,4 @@
-"""``rmbench model info``, ``rmbench model variant`` and ``rmbench model build``."""
+"""``rmbench model info``, ``variant`` and ``build`` (``calibrate`` and ``suggest``: :mod:`rmbench.cli.calibrate`)."""
 
 from __future__ import annotations
 
@@ -60,6 +60,10 @@ def register(sub) -> None:
                         "as on the milling robot")
     b.add_argument("--json", action="store_true", help="print a JSON summary")
     b.set_defaults(func=cmd_build)
+
+    from rmbench.cli.calibrate import register_model_commands
+
+    register_model_commands(msub)
 
 
 def cmd_info(args) -> int:

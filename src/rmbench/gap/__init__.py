@@ -13,10 +13,10 @@ unmodelled effect causes it, and how far the gap shrinks once that effect is in 
     dg.verdict, [s.name for s in dg.chosen], dg.heldout_before, dg.heldout_after
 """
 
-from rmbench.gap.design import SensorOffset, TestDesign
+from rmbench.calibrate.design import SensorOffset, TestDesign
 from rmbench.gap.diagnosis import Diagnosis, DiagnosisSettings, EffectResult, diagnose, load_data
 from rmbench.gap.effects import KINDS, Change, Effect, Param, library
-from rmbench.gap.measured import GapDataWarning, MeasuredModes, measured_data
+from rmbench.calibrate.measured import GapDataWarning, MeasuredModes, measured_data
 from rmbench.gap.model import ModelBench, ModelModes
 from rmbench.gap.sources import PoseModel, Source, source_library
 from rmbench.gap.tracker import (FittedPose, PoseErrorMap, SourceResult, TrackerData,

@@ -339,7 +339,7 @@ def _campaign_toml(robot_name: str, tool, postures, method: str, seed: int, *, c
 
 def _visible_db(nominal: Robot, xml: str, design, placement, rpm, q_cmd) -> float:
     """Largest band-rms change of the exact as-tested FRF (dB) over the given commands."""
-    from rmbench.gap.design import SensorOffset
+    from rmbench.calibrate.design import SensorOffset
     from rmbench.impact.measure import hammer_rows
     from rmbench.impact.sensors import COORDS
     from rmbench.robot.variant import with_tool_masses
@@ -367,7 +367,7 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
              workers: int | None = None, workdir: str | Path | None = None,
              nominal: str = "irb6660", tool: str = "dummy", kind: str | None = None) -> CaseResult:
     """Draw, inject, measure, export and import, diagnose and score one blind case."""
-    from rmbench.gap.design import TestDesign
+    from rmbench.calibrate.design import TestDesign
     from rmbench.gap.diagnosis import diagnose
     from rmbench.impact import open_campaign, parse_config, run_campaign
     from rmbench.io import read_uff58, write_uff58

@@ -21,18 +21,18 @@ import numpy as np
 import xarray as xr
 
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
-from rmbench.gap.design import TestDesign
+from rmbench.calibrate.design import TestDesign
 from rmbench.gap.effects import Change, Effect, library
-from rmbench.gap.measured import fit_measured, frf_targets, measured_data, postures_of
+from rmbench.calibrate.measured import fit_measured, frf_targets, measured_data, postures_of
 from rmbench.gap.model import ModelBench
-from rmbench.gap.residual import mode_residuals
+from rmbench.calibrate.residual import mode_residuals
 from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, _peak, per_posture_chi2
 from rmbench.gap.jsonable import write_whole
 from rmbench.gap.selection import SearchSettings, confidences, selection_weights, significant
 from rmbench.gap.where import GapMap, gap_map
 from rmbench.io.strict_json import strict_dumps
 
-__all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings"]
+__all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings", "structural_kinds"]
 
 _DB = 20 / np.log(10)
 
@@ -53,11 +53,17 @@ class DiagnosisSettings(SearchSettings):
     max_held : int
         Most held-out postures the candidates are scored on (spread evenly); postures beyond
         ``max_train + max_held`` enter the gap map and the significance test only.
+    calibrate : tuple of str or None
+        Parameter groups (:mod:`rmbench.robot.parameters`) calibrated on the training postures
+        before the search (:mod:`rmbench.calibrate`); the search then runs on the calibrated
+        model, for the structural effects only (the library's kinds that the calibrated groups
+        do not cover).
     """
 
     pairs_of: int = 3
     max_train: int = 16
     max_held: int = 32
+    calibrate: tuple | None = None
 
 
 @dataclass(frozen=True)
@@ -145,6 +151,10 @@ class Diagnosis:
     seconds : dict
         Time of each step.
     notes : tuple of str
+    calibration : dict or None
+        With ``settings.calibrate``: each parameter's nominal, value, 95 % interval and
+        identifiability, and the held-out frequency and damping errors before and after
+        (:meth:`rmbench.calibrate.Calibration.to_json`, less the per-mode rows).
     """
 
     verdict: str
@@ -163,6 +173,7 @@ class Diagnosis:
     models: tuple
     seconds: dict
     notes: tuple = field(default=())
+    calibration: dict | None = None
 
     def __post_init__(self):
         if self.verdict not in ("explained", "unexplained", "no significant gap"):
@@ -177,7 +188,8 @@ class Diagnosis:
                 "nominal_chi2_per_residual": self.nominal_chi2 / max(self.n_residuals, 1),
                 "nominal_peak_residual": self.nominal_peak,
                 "design_changes": list(self.design_changes),
-                "variant": variant_path, "seconds": self.seconds, "notes": list(self.notes)}
+                "variant": variant_path, "seconds": self.seconds, "notes": list(self.notes),
+                "calibration": self.calibration}
 
     def save(self, directory: str | Path) -> dict:
         """Write ``diagnosis.json``, ``effects.csv``, ``gap_modes.csv`` (and
@@ -299,8 +311,50 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
     _check_match(bench, meas, bands)
     train, held = _split(ds, settings.heldout)
     train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
-    return _diagnose(robot, design, bench, meas, frf, bands, _xyt(ds), ds, train, held, settings,
-                     workers, say, t)
+    calibration = None
+    if settings.calibrate:
+        robot, calibration = _calibrated(robot, design, postures, meas, bands, train, held, settings,
+                                         workers, say, data)
+        bench = ModelBench(robot, design, bench.q_cmd)
+        t["calibrate"] = time.perf_counter()
+    dg = _diagnose(robot, design, bench, meas, frf, bands, _xyt(ds), ds, train, held, settings,
+                   workers, say, t)
+    if calibration is None:
+        return dg
+    from dataclasses import replace
+
+    return replace(dg, calibration=calibration)
+
+
+# library kinds an ordinary-parameter group already fits
+_COVERED = {"joints": "joint_stiffness", "damping": "joint_damping", "servo": "servo_stiffness",
+            "base": "base_compliance", "tool": "tool_contact_stiffness"}
+
+
+def structural_kinds(groups) -> tuple:
+    """The library's kinds left to search once ``groups`` are calibrated."""
+    from rmbench.gap.effects import KINDS
+
+    covered = {_COVERED[g] for g in groups if g in _COVERED}
+    return tuple(k for k in KINDS if k not in covered)
+
+
+def _calibrated(robot, design, postures, meas, bands, train, held, settings, workers, say, data):
+    """The nominal calibrated on the training postures, and the calibration's account."""
+    from rmbench.calibrate import CalibrationSettings, ModalData, calibrate
+    from rmbench.robot import Robot
+
+    name = data.name if isinstance(data, Path) else (Path(data).name if isinstance(data, str) else "dataset")
+    md = ModalData(tuple(postures), tuple(meas), tuple(bands), design, name)
+    cal = calibrate(robot, md.subset(list(train) + list(held)),
+                    held=list(range(len(train), len(train) + len(held))),
+                    settings=CalibrationSettings(groups=tuple(settings.calibrate), workers=workers),
+                    progress=say)
+    fitted = Robot(cal.xml, name=robot.name, tool=robot.tool, spindle_rpm=robot.spindle_rpm)
+    account = cal.to_json()
+    account.pop("heldout_modes", None)
+    account["groups"] = list(settings.calibrate)
+    return fitted, account
 
 
 def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, settings, workers,
@@ -325,6 +379,9 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
     effects = library(robot, design)
     if settings.kinds is not None:
         effects = [e for e in effects if e.kind in settings.kinds]
+    if settings.calibrate:
+        keep = structural_kinds(settings.calibrate)
+        effects = [e for e in effects if e.kind in keep]
     if not significant(chi2_all, obj_all.n, p=settings.p_noise, peak=peak_all):
         t["end"] = time.perf_counter()
         return Diagnosis(verdict="no significant gap", effects=(), where=where, where_after=None,

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rmbench.gap.design import SensorOffset
+from rmbench.calibrate.design import SensorOffset
 from rmbench.impact.sensors import COORDS
 
 __all__ = ["Param", "Change", "Effect", "library", "KINDS"]

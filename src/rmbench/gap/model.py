@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import re
 from collections import OrderedDict
-from dataclasses import dataclass
 
 import numpy as np
 
+from rmbench.calibrate.modes import ModelModes, modes_seen
 from rmbench.errors import RmbenchError
 from rmbench.gap.effects import Change
 from rmbench.impact.measure import hammer_rows
@@ -25,39 +25,9 @@ from rmbench.robot.linear import complex_modes
 from rmbench.robot.load_stiffness import REFERENCE_DEFLECTION
 from rmbench.robot.variant import make_variant, parse_edit, with_tool_masses
 
-__all__ = ["ModelModes", "ModelBench"]
+__all__ = ["ModelModes", "ModelBench"]   # ModelModes: rmbench.calibrate.modes
 
-_EXTEND = 1.25        # model modes this far outside a band may pair with measured ones
 _FAST = re.compile(r"^[\w-]+\.(stiffness|damping|kp|kv)\*=")
-_EDGE = 1.02         # a mode this close to a band edge may be fitted as an out-of-band term
-_VISIBLE = 0.002      # model modes below this share of the band's peak are ignored
-
-
-@dataclass(frozen=True)
-class ModelModes:
-    """Modes of a model at one posture in one band, as the test design sees them.
-
-    Attributes
-    ----------
-    f_n : ndarray, shape (n,), Hz
-    zeta : ndarray, shape (n,)
-    residue : ndarray, shape (n, 4, 4), complex, m/(N·s)
-        ``φR φLᵀ`` of each mode at the design's sensors (rows) and hit points (columns).
-    peak : ndarray, shape (n,)
-        Peak of the mode's contribution as a share of the band's peak receptance.
-    inside : ndarray of bool, shape (n,)
-        Whether the mode lies inside the band (2 % clear of its edges), where a test must see it;
-        modes beyond the edges show only as the out-of-band terms of a fit.
-    """
-
-    f_n: np.ndarray
-    zeta: np.ndarray
-    residue: np.ndarray
-    peak: np.ndarray
-    inside: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.f_n)
 
 
 class ModelBench:
@@ -149,7 +119,7 @@ class ModelBench:
         hit = self._modes.get(key)
         if hit is not None:
             return hit
-        out = _modes_of(*self._view(change, p, band))
+        out = modes_seen(*self._view(change, p, band))
         _put(self._modes, key, out, self._cache)
         return out
 
@@ -176,7 +146,7 @@ class ModelBench:
     def modes_fast(self, base: Change, delta: Change, p: int, band: str) -> ModelModes:
         """Modes of ``base + delta`` with ``delta`` applied to ``base``'s linearisation (the
         equilibrium's shift under ``delta`` neglected: first order, for screening)."""
-        return _modes_of(*self._view(base, p, band, delta))
+        return modes_seen(*self._view(base, p, band, delta))
 
     def frf_fast(self, base: Change, delta: Change, p: int, band: str, freq) -> np.ndarray:
         cm, out_rows, in_rows, _ = self._view(base, p, band, delta)
@@ -218,25 +188,6 @@ def _put(cache: OrderedDict, key, value, size: int) -> None:
     cache.move_to_end(key)
     while len(cache) > size:
         cache.popitem(last=False)
-
-
-def _modes_of(cm, out, inp, b) -> ModelModes:
-    """The modes of ``cm`` a test of band ``b`` sees at rows ``out`` (sensors), ``inp`` (hits)."""
-    r = out @ cm.phi_r                      # (4, n)
-    lt = inp @ cm.phi_l
-    f = cm.f_n
-    resid = np.einsum("om,im->moi", r, lt)  # (n, 4, 4)
-    peak = np.abs(resid).reshape(len(f), -1).max(axis=1) / np.maximum(np.abs(cm.poles.real), 1e-300)
-    # the band's peak receptance: on a coarse grid, and at each in-band mode (a light mode's
-    # peak falls between grid lines)
-    in_band = (f >= b.f_min) & (f <= b.f_max) & ~cm.real_pole
-    lines = np.concatenate([np.linspace(b.f_min, b.f_max, 60), f[in_band]])
-    band_peak = float(np.abs(cm.frf(lines, out, inp)).max())
-    keep = ((f >= b.f_min / _EXTEND) & (f <= b.f_max * _EXTEND) & ~cm.real_pole
-            & (peak >= _VISIBLE * band_peak))
-    inside = (f >= b.f_min * _EDGE) & (f <= b.f_max / _EDGE)
-    return ModelModes(f_n=f[keep], zeta=cm.zeta[keep], residue=resid[keep],
-                      peak=peak[keep] / band_peak, inside=inside[keep])
 
 
 def _perturbed(op, delta: Change):

@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.gap.design import TestDesign
+from rmbench.calibrate.design import TestDesign
 from rmbench.gap.diagnosis import DiagnosisSettings, _diagnose
 from rmbench.gap.effects import Change
-from rmbench.gap.measured import MeasuredModes
+from rmbench.calibrate.measured import MeasuredModes
 from rmbench.gap.model import ModelBench
 from rmbench.robot import Posture
 

@@ -32,7 +32,7 @@ from scipy.optimize import least_squares, lsq_linear
 
 from rmbench.errors import RmbenchError
 from rmbench.gap.effects import Change, Effect
-from rmbench.gap.residual import FRF_SEGMENTS, frf_residuals, mode_residuals
+from rmbench.calibrate.residual import FRF_SEGMENTS, frf_residuals, mode_residuals
 from rmbench.gap.selection import significant
 from rmbench.threads import worker_init
 
@@ -67,7 +67,7 @@ class Objective:
     """The normalised gap vector over a set of postures, for any change of the model.
 
     Per posture and band: the modal residuals of every measured mode and the FRF segment
-    residuals (:mod:`rmbench.gap.residual`).
+    residuals (:mod:`rmbench.calibrate.residual`).
 
     Parameters
     ----------
@@ -405,7 +405,7 @@ _WORKER: dict = {}
 
 def _init_worker(state) -> None:
     worker_init()
-    from rmbench.gap.design import TestDesign
+    from rmbench.calibrate.design import TestDesign
     from rmbench.gap.model import ModelBench
     from rmbench.impact.config import CampaignConfig
     from rmbench.robot import Robot

@@ -2,7 +2,7 @@
 
 Per measured mode (posture, band) the paired model mode's frequency, damping, residue-scale and
 shape gaps, each also as a z-score against the measurement's uncertainty (standard error and the
-floors of :mod:`rmbench.gap.residual`); per posture and band the FRF log-magnitude gap of each entry
+floors of :mod:`rmbench.calibrate.residual`); per posture and band the FRF log-magnitude gap of each entry
 class (direct, same direction, X↔Y cross) against the noise the coherence implies; and a summary
 by tracked mode, band and entry class of what exceeds the noise (|z| > 3, or an FRF gap beyond
 three times its noise).
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rmbench.gap.residual import SLOT_NAMES, hammer_leak, mode_residuals
+from rmbench.calibrate.residual import SLOT_NAMES, hammer_leak, mode_residuals
 
 __all__ = ["GapMap", "gap_map", "entry_class", "ENTRY_CLASSES"]
 
@@ -111,7 +111,7 @@ def gap_map(bench, meas, ds, bands, change, postures_xyt, *, averages: int = 3,
         Hits averaged per FRF (the coherence's noise formula).
     scatter : dict, optional
         Per band, the hammer's direction scatter (rad): its leak into the cross entries is part
-        of their noise (:func:`rmbench.gap.residual.hammer_leak`).
+        of their noise (:func:`rmbench.calibrate.residual.hammer_leak`).
     """
     coords = ["1X", "1Y", "1aX", "1aY"] if ds is None else [str(c) for c in ds.out.values]
     classes = {c: [(i, j) for i, o in enumerate(coords) for j, k in enumerate(coords)

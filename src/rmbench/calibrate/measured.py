@@ -16,7 +16,8 @@ import xarray as xr
 from rmbench.errors import InputError
 from rmbench.robot import Posture
 
-__all__ = ["MeasuredModes", "GapDataWarning", "measured_data", "fit_measured", "frf_targets"]
+__all__ = ["MeasuredModes", "GapDataWarning", "measured_data", "fit_measured", "modes_of_fit", "frf_targets",
+           "postures_of"]
 
 _TRUTH = ("H_exact", "H_exact_bare", "modal_exact", "modal_exact_bare")
 _KEEP_ATTRS = ("config", "rmbench_dataset_version", "original_kind", "sensor_spacing_low",
@@ -110,9 +111,17 @@ def fit_measured(ds: xr.Dataset, bands, *, workers: int | None = None) -> tuple[
     fit : xarray.Dataset
         The modal dataset of :func:`rmbench.modal.campaign_fit.fit_campaign`.
     """
-    from rmbench.modal.campaign_fit import fit_campaign, mode_vectors
+    from rmbench.modal.campaign_fit import fit_campaign
 
     fit = fit_campaign(ds, bands=tuple(bands), workers=workers)
+    return modes_of_fit(fit, bands), fit
+
+
+def modes_of_fit(fit: xr.Dataset, bands) -> list[dict]:
+    """Per posture ``{band: MeasuredModes}`` of a modal fit (:func:`rmbench.modal.fit_campaign`'s
+    dataset, or a ``rmbench modal fit --out`` file)."""
+    from rmbench.modal.campaign_fit import mode_vectors
+
     n_post = fit.sizes["posture"]
     out = []
     fit_bands = list(fit.fit_band.values)
@@ -135,7 +144,7 @@ def fit_measured(ds: xr.Dataset, bands, *, workers: int | None = None) -> tuple[
                                    residue=np.array(res, complex).reshape(len(sel), 4, 4),
                                    residue_std=np.array(rstd), mode_id=np.array(sel, int), fit_ok=ok)
         out.append(per)
-    return out, fit
+    return out
 
 
 def frf_targets(ds: xr.Dataset, fit: xr.Dataset, bands, averages: int,
@@ -146,9 +155,9 @@ def frf_targets(ds: xr.Dataset, fit: xr.Dataset, bands, averages: int,
     estimate of ``n`` averages) or, for data without coherence (a UFF58 import), from the modal
     fit's residual (its NMSE spread evenly over the band: constant absolute noise per FRF).
     ``scatter`` maps a band to its hammer's direction scatter (rad), whose leak from the other
-    direction's response is added to the cross entries (:func:`rmbench.gap.residual.hammer_leak`).
+    direction's response is added to the cross entries (:func:`rmbench.calibrate.residual.hammer_leak`).
     """
-    from rmbench.gap.residual import frf_target, hammer_leak
+    from rmbench.calibrate.residual import frf_target, hammer_leak
 
     out = []
     fit_bands = list(fit.fit_band.values)

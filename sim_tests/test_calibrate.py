@@ -1,0 +1,208 @@
+"""Specification of model updating: parameters as data, the calibration's recovery of a known
+robot from its exact modes, its account of what the data do not determine, its files and errors."""
+
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from rmbench.calibrate import (CalibrationSettings, MeasuredModes, ModalData, ModalModel, TestDesign,
+                               calibrate, read_modal_table)
+from rmbench.errors import InputError
+from rmbench.impact import load_config
+from rmbench.robot import Posture, Robot
+from rmbench.robot.parameters import ParameterSet, parameter_set, parse_groups
+
+POSTURES = [Posture.from_mm_deg(1800, -200, 0), Posture.from_mm_deg(1500, 100, 40),
+            Posture.from_mm_deg(1300, 300, -60), Posture.from_mm_deg(1900, -100, 20),
+            Posture.from_mm_deg(1700, 300, 60)]
+# the "real" robot: three gearboxes off their data sheet, by a plain edit of the MJCF text
+TRUE_STIFFNESS = {"j2_flex": 1.3, "j3_flex": 0.75, "j5_flex": 1.2}
+
+
+@pytest.fixture(scope="module")
+def design():
+    return TestDesign.from_config(load_config("seed_full"))
+
+
+def _exact_data(robot, design, postures) -> ModalData:
+    """The modes a noise-free test of ``robot`` would give: those a test must see (inside a band,
+    above 1 % of its peak), with no standard errors."""
+    q = np.array([robot.ik(p).q for p in postures])
+    mm = ModalModel(robot, ParameterSet([]), design, q, ("low", "high"))
+    modes = []
+    for p in range(len(postures)):
+        per = {}
+        for b in ("low", "high"):
+            m = mm.modes(np.zeros(0), p, b)
+            k = (m.peak >= 0.01) & m.inside
+            n = int(k.sum())
+            per[b] = MeasuredModes(f_n=m.f_n[k], zeta=m.zeta[k], f_std=np.zeros(n), zeta_std=np.zeros(n),
+                                   residue=m.residue[k], residue_std=np.zeros(n), mode_id=np.arange(n))
+        modes.append(per)
+    return ModalData(tuple(postures), tuple(modes), ("low", "high"), design, "exact")
+
+
+@pytest.fixture(scope="module")
+def truth(irb):
+    xml = irb.xml
+    for joint, factor in TRUE_STIFFNESS.items():
+        k = irb.model.jnt_stiffness[irb.model.joint(joint).id]
+        old = f'<joint name="{joint}" stiffness="{k:.0f}"'
+        assert old in xml, "the nominal MJCF writes this joint's stiffness first, as an integer"
+        xml = xml.replace(old, f'<joint name="{joint}" stiffness="{k * factor:.9g}"')
+    return Robot(xml, name="truth", tool="dummy")
+
+
+@pytest.fixture(scope="module")
+def calibrated(irb, truth, design):
+    data = _exact_data(truth, design, POSTURES)
+    return calibrate(irb, data, held=[4], settings=CalibrationSettings(groups=("joints", "servo"), workers=1))
+
+
+# -- parameters as data ----------------------------------------------------------------------------
+def test_parameter_values_reach_the_compiled_model_and_the_saved_mjcf_alike(irb):
+    robot, params = parameter_set(irb, "all")
+    u = np.random.default_rng(0).uniform(params.lower(), params.upper()) * 0.5
+    fast = copy.copy(robot.model)
+    params.apply_model(fast, u)
+    spec = robot.spec
+    params.apply_spec(spec, u)
+    saved = spec.compile()
+    for field in ("jnt_stiffness", "dof_damping", "actuator_gainprm", "actuator_biasprm", "body_mass",
+                  "body_inertia", "body_ipos"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(saved, field), rtol=1e-12, atol=0,
+                                   err_msg=field)
+
+
+def test_every_group_names_where_its_parameters_live(irb):
+    _, params = parameter_set(irb, "all")
+    assert set(params.groups) == {"joints", "damping", "servo", "masses", "com", "base", "tool"}
+    assert "j2_flex.stiffness" in params.names and "a2.kp" in params.names
+    assert {"upper_arm.com_x", "upper_arm.com_y", "upper_arm.com_z"} <= set(params.names)   # lateral too
+    assert "base.tilt_compliance" in params.names and "tool_contact.rotation" in params.names
+
+
+def test_an_unknown_group_is_a_one_line_error():
+    with pytest.raises(InputError, match="unknown parameter group 'springs'"):
+        parse_groups("joints,springs")
+
+
+# -- calibration -----------------------------------------------------------------------------------
+def test_calibration_recovers_the_stiffness_of_a_robot_from_its_exact_modes(calibrated):
+    # noise-free modes of a robot that differs only in the calibrated parameters: the fit has no
+    # reason to miss by more than its convergence tolerance
+    by = {p.name: p for p in calibrated.params}
+    for joint, factor in TRUE_STIFFNESS.items():
+        p = by[f"{joint}.stiffness"]
+        assert p.value / (p.nominal * factor) == pytest.approx(1, abs=0.01), joint
+        assert p.identifiability == "identifiable"
+
+
+def test_servo_gains_in_series_with_soft_gearboxes_are_reported_not_identifiable(calibrated):
+    # each servo is 10-60x stiffer than the gearbox behind it: the modes hardly feel it, so the
+    # data leave it at its prior (the nominal) and say so
+    for p in calibrated.params:
+        if p.group == "servo":
+            assert p.identifiability == "not identifiable", p.name
+            assert p.value == pytest.approx(p.nominal, rel=0.05)
+
+
+def test_heldout_frequencies_improve_after_calibration(calibrated):
+    s = calibrated.heldout_summary()
+    assert s["before"]["f_err_p95"] > 0.02          # the nominal is off by the stiffness changes
+    assert s["after"]["f_err_p95"] < 0.002          # the calibrated model reproduces them
+    assert s["after"]["unpaired"] == 0
+
+
+def test_the_calibrated_mjcf_is_the_model_that_was_fitted(calibrated, truth, design):
+    robot = Robot(calibrated.xml, name="calibrated", tool="dummy")
+    assert calibrated.xml.startswith("<!-- calibrated by rmbench to exact")
+    after = _exact_data(robot, design, POSTURES[:1]).modes[0]["low"]
+    true = _exact_data(truth, design, POSTURES[:1]).modes[0]["low"]
+    # the MJCF keeps 9 significant digits of each value; the fit converged to 1e-3 of the truth
+    np.testing.assert_allclose(after.f_n, true.f_n, rtol=2e-3)
+
+
+def test_fewer_data_than_parameters_names_the_undetermined_ones(irb, truth, design):
+    data = _exact_data(truth, design, POSTURES[:1])
+    low = data.modes[0]["low"]
+    one = MeasuredModes(f_n=low.f_n[:2], zeta=low.zeta[:2], f_std=np.zeros(2), zeta_std=np.zeros(2),
+                        residue=low.residue[:2], residue_std=np.zeros(2), mode_id=np.arange(2))
+    thin = ModalData(data.postures, ({"low": one},), ("low",), design, "thin")
+    with pytest.raises(InputError, match=r"2 measured modes \(4 frequencies and dampings\) cannot determine 12"):
+        calibrate(irb, thin, settings=CalibrationSettings(groups=("joints", "damping"), workers=1))
+
+
+def test_unreachable_postures_are_a_one_line_error(irb, truth, design):
+    data = _exact_data(truth, design, POSTURES[:2])
+    far = ModalData((Posture.from_mm_deg(4000, 0, 0),) + data.postures[1:], data.modes, data.bands, design)
+    with pytest.raises(InputError, match="not this robot's"):
+        calibrate(irb, far, settings=CalibrationSettings(groups=("joints",), workers=1))
+
+
+def test_a_nominal_whose_modes_do_not_pair_is_refused(irb, truth, design):
+    data = _exact_data(truth, design, POSTURES[:2])
+    scaled = tuple({b: MeasuredModes(f_n=m.f_n * 3, zeta=m.zeta, f_std=m.f_std, zeta_std=m.zeta_std,
+                                     residue=m.residue, residue_std=m.residue_std, mode_id=m.mode_id)
+                    for b, m in per.items()} for per in data.modes)
+    other = ModalData(data.postures, scaled, data.bands, design)
+    with pytest.raises(InputError, match="do not pair"):
+        calibrate(irb, other, settings=CalibrationSettings(groups=("joints",), workers=1))
+
+
+# -- modal tables ----------------------------------------------------------------------------------
+def test_a_modal_table_with_an_unknown_column_is_refused(tmp_path):
+    path = tmp_path / "modes.csv"
+    path.write_text("x_mm,y_mm,theta_deg,band,f_n,zeta_pct\n1800,-200,0,low,8.19,13.9\n")
+    with pytest.raises(InputError, match="lacks column 'f_n_hz'"):
+        read_modal_table(path)
+    path.write_text("x_mm,y_mm,theta_deg,band,f_n_hz,zeta_pct,f_n_khz\n1800,-200,0,low,8.19,13.9,1\n")
+    with pytest.raises(InputError, match="unknown column 'f_n_khz'"):
+        read_modal_table(path)
+
+
+def test_the_seed_table_reads_as_four_postures_of_nine_modes():
+    from importlib import resources
+
+    path = resources.files("rmbench.gap").joinpath("data", "seed000_irb6660.csv")
+    postures, modes = read_modal_table(path)
+    assert len(postures) == 4
+    assert all(len(per["low"]) == 5 and len(per["high"]) == 4 for per in modes)
+    assert postures[0] == Posture.from_mm_deg(1800, -200, 0)
+
+
+# -- the commands ----------------------------------------------------------------------------------
+def test_model_calibrate_writes_a_model_and_its_tables_and_strict_json(cli, tmp_path):
+    from importlib import resources
+
+    table = resources.files("rmbench.gap").joinpath("data", "seed000_irb6660.csv")
+    out = tmp_path / "cal.xml"
+    code, stdout, _ = cli("model", "calibrate", "--robot", "irb6660", "--tool", "dummy", "--data", str(table),
+                          "--params", "joints,damping", "--heldout", "1", "--out", str(out), "--json")
+    assert code == 0
+    res = json.loads(stdout, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
+    assert {p["name"] for p in res["params"]} >= {"j2_flex.stiffness", "j6_flex.damping"}
+    assert res["heldout_errors"]["before"]["paired"] > 0
+    assert out.exists() and (tmp_path / "cal_params.csv").exists() and (tmp_path / "cal_modes.csv").exists()
+    Robot.load(str(out))        # a robot every command accepts
+
+
+def test_model_calibrate_refuses_too_many_heldout_postures(cli):
+    from importlib import resources
+
+    table = resources.files("rmbench.gap").joinpath("data", "seed000_irb6660.csv")
+    code, _, err = cli("model", "calibrate", "--data", str(table), "--tool", "dummy", "--heldout", "4")
+    assert code != 0 and "--heldout must be between 0 and 3" in err
+
+
+def test_suggest_names_new_postures_that_shrink_the_uncertainty(irb, truth, design):
+    from rmbench.calibrate.suggest import suggest_postures
+
+    data = _exact_data(truth, design, POSTURES[:2])
+    candidates = [Posture.from_mm_deg(x, y, t) for x in (1300, 1900) for y in (-300, 300) for t in (-60, 60)]
+    s = suggest_postures(irb, data, candidates, 2, settings=CalibrationSettings(groups=("joints",), workers=1))
+    assert len(s.postures) == 2 and all(p in candidates for p in s.postures)
+    assert all(g > 0 for g in s.gain)
+    assert all(s.sd_after[k] <= s.sd_before[k] + 1e-12 for k in s.sd_before)

@@ -1,0 +1,621 @@
+"""Model updating: the ordinary parameters of a nominal robot fitted to measured modes.
+
+The residual is the gap diagnosis's (:mod:`rmbench.calibrate.residual`): measured modes paired with
+the model's by an assignment on MAC and frequency, each pair giving its frequency error
+``ln(f_model/f_meas)``, damping error ``ln(ζ_model/ζ_meas)``, residue scale and shape ``√(1 − MAC)``,
+each divided by the measurement's standard error and a floor. Unpaired modes are counted and
+weigh a constant (no gradient), so the vector keeps its layout while the pairing changes from one
+iteration to the next.
+
+The fit is a maximum a posteriori estimate in the parameters' ``u`` (log factors, or offsets), with
+each parameter's prior range read as ±2 standard deviations about the nominal: Tikhonov
+regularisation toward the nominal of unit weight on that scale. It is solved by a bounded trust-region
+Gauss-Newton (scipy's ``least_squares``, ``trf``) with forward-difference sensitivities of the exact
+linearisation (:class:`~rmbench.calibrate.model.ModalModel`); the pairing is held fixed while a
+Jacobian is taken and renewed at every step.
+
+A real robot can sit far from its data sheet (gearboxes ±40 %, a foundation that tilts): its modes
+then lie 10-25 % from the nominal's, some pair with the wrong partner or none, and a local step
+from the nominal stalls. So the fit starts from the best of a few gross starts (all gearboxes
+softer or stiffer together, a softer base) and, when a mode is still unpaired or more than 3 % off
+there, first runs a coarse stage: frequencies only, paired in a ±50 % window, where losing a mode
+costs more than pairing it badly.
+
+Identifiability comes from the posterior: with ``J`` the residual's sensitivity in prior standard
+deviations, the posterior covariance is ``s² (JᵀJ + I)⁻¹`` (``s²`` the reduced χ², when above 1).
+A parameter whose posterior standard deviation is below 0.3 of its prior's is *identifiable*, below
+0.7 *weakly identifiable*, else *not identifiable*: the data leave it at its prior, the nominal,
+as the RCSA stage leaves its contact's rotational damping. Directions the data determine only
+jointly (two joints in series: only their combined compliance) are named from the singular vectors
+of ``J``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares, linear_sum_assignment
+
+from rmbench.calibrate.model import ModalModel
+from rmbench.calibrate.residual import UNPAIRED, Pairing, mode_residuals, pair
+from rmbench.errors import InputError, RmbenchError, UnreachablePosture
+from rmbench.robot.parameters import DEFAULT_GROUPS, parameter_set
+
+__all__ = ["CalibrationSettings", "ParameterEstimate", "Calibration", "calibrate", "mode_errors", "error_summary",
+           "IDENTIFIABLE", "WEAK"]
+
+IDENTIFIABLE = 0.3     # posterior over prior standard deviation below this: identifiable
+WEAK = 0.7             # below this: weakly identifiable
+_DETERMINED = 3.0      # a singular value of J above this (in prior σ): a determined direction
+_LOADING = 0.3         # a parameter's share of a direction to be named in it
+
+
+@dataclass(frozen=True)
+class CalibrationSettings:
+    """How a calibration runs.
+
+    Attributes
+    ----------
+    groups : tuple of str
+        Parameter groups (:data:`rmbench.robot.parameters.GROUPS`).
+    prior_weight : float
+        Multiplies the prior term (1: the prior ranges as stated).
+    max_iter : int
+        Most evaluations of the fine stage (the coarse stage, when the start is far, takes at
+        most 10).
+    step : float
+        Forward-difference step, as a share of each parameter's prior standard deviation.
+    workers : int or None
+        Worker processes for the sensitivities (None: the process's share of the cores).
+    """
+
+    groups: tuple = DEFAULT_GROUPS
+    prior_weight: float = 1.0
+    max_iter: int = 16
+    step: float = 0.02
+    workers: int | None = None
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One calibrated parameter, in its display unit (:attr:`Parameter.label`).
+
+    Attributes
+    ----------
+    name, group, unit : str
+    nominal, value : float
+    interval : (float, float)
+        95 % interval from the posterior covariance.
+    identifiability : str
+        ``"identifiable"``, ``"weak"`` or ``"not identifiable"``.
+    shrink : float
+        Posterior over prior standard deviation (0: determined exactly, 1: the data say nothing).
+    on_bound : bool
+        The estimate sits on its prior range's bound.
+    """
+
+    name: str
+    group: str
+    unit: str
+    nominal: float
+    value: float
+    interval: tuple
+    identifiability: str
+    shrink: float
+    on_bound: bool
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "group": self.group, "unit": self.unit, "nominal": self.nominal,
+                "value": self.value, "interval": list(self.interval),
+                "identifiability": self.identifiability, "posterior_over_prior_sd": self.shrink,
+                "on_bound": self.on_bound}
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A calibrated robot model and the account of what the data determined.
+
+    Attributes
+    ----------
+    params : tuple of ParameterEstimate
+    u : ndarray, shape (n_params,)
+        Calibrated parameters in ``u`` (:mod:`rmbench.robot.parameters`).
+    cov_u : ndarray, shape (n_params, n_params)
+        Posterior covariance in ``u``.
+    combinations : tuple of str
+        Directions the data determine that no single parameter carries alone.
+    chi2_before, chi2_after : float
+        Training χ² (data part) of the nominal and the calibrated model; ``n_residuals`` entries.
+    n_residuals : int
+    train, held : tuple of int
+        Posture indices fitted and held out.
+    modes_train, modes_held : dict
+        ``{"before": rows, "after": rows}`` per measured mode (:func:`mode_errors`).
+    xml : str
+        The calibrated MJCF (a comment on its first line names the source data).
+    iterations : int
+    seconds : float
+    notes : tuple of str
+    """
+
+    params: tuple
+    u: np.ndarray
+    cov_u: np.ndarray
+    combinations: tuple
+    chi2_before: float
+    chi2_after: float
+    n_residuals: int
+    train: tuple
+    held: tuple
+    modes_train: dict
+    modes_held: dict
+    xml: str
+    iterations: int
+    seconds: float
+    notes: tuple = field(default=())
+
+    def heldout_summary(self) -> dict:
+        """Mean and p95 of the held-out |f| and |ζ| errors before and after, unpaired counts."""
+        return {k: error_summary(v) for k, v in self.modes_held.items()}
+
+    def to_json(self) -> dict:
+        return {"params": [p.to_dict() for p in self.params], "combinations": list(self.combinations),
+                "chi2_per_residual": {"before": self.chi2_before / max(self.n_residuals, 1),
+                                      "after": self.chi2_after / max(self.n_residuals, 1)},
+                "n_residuals": self.n_residuals, "train": list(self.train), "held": list(self.held),
+                "train_errors": {k: error_summary(v) for k, v in self.modes_train.items()},
+                "heldout_errors": self.heldout_summary(),
+                "heldout_modes": self.modes_held, "iterations": self.iterations,
+                "seconds": self.seconds, "notes": list(self.notes)}
+
+
+def error_summary(rows) -> dict:
+    f = np.array([abs(r["f_err"]) for r in rows if r["paired"]])
+    z = np.array([abs(r["zeta_err"]) for r in rows if r["paired"]])
+    return {"f_err_mean": float(f.mean()) if len(f) else None,
+            "f_err_p95": float(np.percentile(f, 95)) if len(f) else None,
+            "zeta_err_mean": float(z.mean()) if len(z) else None,
+            "zeta_err_p95": float(np.percentile(z, 95)) if len(z) else None,
+            "paired": int(len(f)), "unpaired": int(sum(not r["paired"] for r in rows))}
+
+
+def mode_errors(mm: ModalModel, u, data, postures) -> list[dict]:
+    """Per measured mode at the given postures: its model partner's relative frequency and
+    damping error (``model/measured − 1``), or unpaired.
+
+    Rows: ``{"posture", "x_mm", "y_mm", "theta_deg", "band", "mode", "f_meas", "f_model",
+    "zeta_meas", "zeta_model", "f_err", "zeta_err", "mac", "paired"}`` (None where unpaired).
+    """
+    rows = []
+    for p in postures:
+        post = data.postures[p]
+        for b in data.bands:
+            meas = data.modes[p].get(b)
+            if meas is None or not len(meas):
+                continue
+            try:
+                model = mm.modes(u, p, b)
+                pr = pair(meas, model)
+            except RmbenchError:
+                model, pr = None, Pairing(np.zeros(0, int), np.zeros(0, int), np.arange(len(meas)), np.zeros(0, int))
+            partner = dict(zip(pr.meas.tolist(), pr.model.tolist()))
+            for i in range(len(meas)):
+                j = partner.get(i)
+                row = {"posture": int(p), "x_mm": 1e3 * post.x, "y_mm": 1e3 * post.y,
+                       "theta_deg": float(np.degrees(post.theta)), "band": b,
+                       "mode": int(meas.mode_id[i]) if meas.mode_id is not None else i,
+                       "f_meas": float(meas.f_n[i]), "zeta_meas": float(meas.zeta[i]), "paired": j is not None,
+                       "f_model": None, "zeta_model": None, "f_err": None, "zeta_err": None, "mac": None}
+                if j is not None:
+                    row.update(f_model=float(model.f_n[j]), zeta_model=float(model.zeta[j]),
+                               f_err=float(model.f_n[j] / meas.f_n[i] - 1),
+                               zeta_err=float(model.zeta[j] / meas.zeta[i] - 1))
+                    rd, rm = meas.residue[i].ravel(), model.residue[j].ravel()
+                    if np.all(np.isfinite(rd)):
+                        row["mac"] = float(np.abs(np.vdot(rd, rm)) ** 2 / (np.vdot(rd, rd).real * np.vdot(rm, rm).real))
+                rows.append(row)
+    return rows
+
+
+class _Problem:
+    """The least-squares problem of one calibration (data residuals and their sensitivities)."""
+
+    def __init__(self, mm: ModalModel, data, postures, settings, *, coarse: bool = False):
+        self.mm, self.data, self.postures = mm, data, list(postures)
+        self.residual = coarse_residuals if coarse else mode_residuals
+        self.sigma = mm.params.sigma()
+        self.steps = settings.step * self.sigma
+        self.keys = [(p, b) for p in self.postures for b in data.bands
+                     if b in data.modes[p] and len(data.modes[p][b])]
+        self.sizes = [4 * len(data.modes[p][b]) + 1 for p, b in self.keys]
+        self.n = int(sum(self.sizes))
+        self.workers = settings.workers
+        self._pool = None
+
+    def residuals(self, u) -> np.ndarray:
+        out = []
+        for (p, b), size in zip(self.keys, self.sizes):
+            try:
+                e, _ = self.residual(self.data.modes[p][b], self.mm.modes(u, p, b))
+            except RmbenchError:      # a posture these values cannot hold: every mode missing
+                e = np.full(size, UNPAIRED)
+            out.append(e)
+        return np.concatenate(out)
+
+    def jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
+        """Residuals at ``u`` and their sensitivity, shape (n,), (n, n_params), per unit of ``u``."""
+        jobs = [(u, p, b) for p, b in self.keys]
+        parts = self._map(jobs)
+        r = np.concatenate([x[0] for x in parts])
+        j = np.vstack([x[1] for x in parts])
+        return r, j
+
+    def _map(self, jobs):
+        from rmbench.threads import default_workers
+
+        workers = default_workers() if self.workers is None else int(self.workers)
+        if workers <= 1 or len(jobs) < 2:
+            return [_sensitivity_job(self, *job) for job in jobs]
+        pool = self._executor(workers)
+        return list(pool.map(_worker_job, jobs, chunksize=max(1, len(jobs) // (4 * workers))))
+
+    def _executor(self, workers):
+        if self._pool is None:
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor
+
+            self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("fork"),
+                                             initializer=_worker_init, initargs=(self,))
+        return self._pool
+
+    def close(self):
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+            self._pool = None
+
+
+_WORKER: dict = {}
+
+
+def _worker_init(problem) -> None:
+    from rmbench.threads import worker_init
+
+    worker_init()
+    _WORKER["problem"] = problem
+
+
+def _worker_job(job):
+    return _sensitivity_job(_WORKER["problem"], *job)
+
+
+def _sensitivity_job(problem: _Problem, u, p, b):
+    meas = problem.data.modes[p][b]
+    size = 4 * len(meas) + 1
+    try:
+        base, stepped = problem.mm.sensitivity(u, p, b, problem.steps)
+    except RmbenchError:
+        return np.full(size, UNPAIRED), np.zeros((size, len(u)))
+    e0, pr = problem.residual(meas, base)
+    jac = np.zeros((size, len(u)))
+    for i, modes in enumerate(stepped):
+        track = _track(base, modes)
+        keep = track[pr.model] >= 0
+        fixed = Pairing(pr.meas[keep], track[pr.model[keep]], pr.unpaired_meas, pr.unpaired_model)
+        e1, _ = problem.residual(meas, modes, fixed)
+        lost = pr.meas[~keep]
+        d = (e1 - e0) / problem.steps[i]
+        d[:-1].reshape(-1, 4)[lost] = 0.0     # a mode the step lost: no derivative
+        jac[:, i] = d
+    return e0, jac
+
+
+_COARSE_F = 0.02          # coarse stage: frequency uncertainty (relative)
+_COARSE_SCALE = 0.4       # coarse pairing: 40 % in frequency weighs as much as MAC 0 -> 1
+_COARSE_MISSING = np.log(1.5) / _COARSE_F   # an unpaired mode weighs as a 50 % frequency error
+
+
+def coarse_residuals(meas, model, pairing: Pairing | None = None) -> tuple[np.ndarray, Pairing]:
+    """The coarse stage's residual of one posture and band, in the layout of
+    :func:`~rmbench.calibrate.residual.mode_residuals` (4 slots a measured mode, 1 a band): each
+    measured mode's frequency error over 2 %, paired by MAC and frequency in a window of ±50 %.
+
+    Far from the truth (a robot whose gearboxes and foundation differ from the data sheet by tens
+    of per cent) the fine residual's floors (0.1 % in frequency) make losing a mode cheaper than
+    pairing it 15 % off; here a lost mode costs more than any pairing, so the fit moves toward
+    pairing every mode.
+    """
+    n, m = len(meas), len(model)
+    if pairing is None:
+        if n and m:
+            a = meas.residue.reshape(n, -1)
+            b = model.residue.reshape(m, -1)
+            num = np.abs(a.conj() @ b.T) ** 2
+            den = np.outer(np.sum(np.abs(a) ** 2, 1), np.sum(np.abs(b) ** 2, 1))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                mac = np.where(np.isfinite(num / den), num / den, 1.0)
+            cost = (1 - mac) + np.abs(np.log(model.f_n[None, :] / meas.f_n[:, None])) / _COARSE_SCALE
+            rows, cols = linear_sum_assignment(cost)
+            good = np.abs(np.log(model.f_n[cols] / meas.f_n[rows])) < np.log(1.5)
+            rows, cols = rows[good], cols[good]
+        else:
+            rows, cols = np.zeros(0, int), np.zeros(0, int)
+        pairing = Pairing(rows, cols, np.setdiff1d(np.arange(n), rows), np.zeros(0, int))
+    e = np.zeros((n, 4))
+    e[pairing.unpaired_meas, 0] = _COARSE_MISSING
+    e[pairing.meas, 0] = np.log(model.f_n[pairing.model] / meas.f_n[pairing.meas]) / _COARSE_F
+    return np.append(e.ravel(), 0.0), pairing
+
+
+def _track(base, stepped) -> np.ndarray:
+    """Index in ``stepped`` of each mode of ``base`` (−1: not found), by MAC and frequency."""
+    out = np.full(len(base), -1)
+    if not len(base) or not len(stepped):
+        return out
+    a = base.residue.reshape(len(base), -1)
+    b = stepped.residue.reshape(len(stepped), -1)
+    num = np.abs(a.conj() @ b.T) ** 2
+    den = np.outer(np.sum(np.abs(a) ** 2, 1), np.sum(np.abs(b) ** 2, 1))
+    mac = num / np.where(den > 0, den, 1)
+    cost = (1 - mac) + np.abs(np.log(stepped.f_n[None, :] / base.f_n[:, None])) / 0.05
+    rows, cols = linear_sum_assignment(cost)
+    good = cost[rows, cols] < 0.5
+    out[rows[good]] = cols[good]
+    return out
+
+
+def calibrate(robot, data, *, held=(), settings: CalibrationSettings = CalibrationSettings(),
+              progress=None) -> Calibration:
+    """Calibrate a nominal robot's ordinary parameters to measured modes.
+
+    Parameters
+    ----------
+    robot : Robot
+        The nominal robot (with its tool).
+    data : ModalData
+        Measured modes at measured postures (:func:`~rmbench.calibrate.data.load_modal_data`).
+    held : sequence of int
+        Posture indices held out of the fit and scored after it.
+    settings : CalibrationSettings
+    progress : callable, optional
+        ``progress(message)`` after each step.
+
+    Raises
+    ------
+    InputError
+        A posture the nominal robot cannot reach or hold, a nominal whose modes do not pair
+        with the data's, fewer data than parameters (naming the undetermined ones).
+    """
+    say = progress or (lambda msg: None)
+    t0 = time.perf_counter()
+    held = sorted({int(h) for h in held})
+    train = [p for p in range(len(data)) if p not in held]
+    if not train:
+        raise InputError("every posture is held out: nothing is left to calibrate on")
+    if any(not 0 <= h < len(data) for h in held):
+        raise InputError(f"held-out posture index out of range (the data have {len(data)} postures)")
+    q = []
+    for post in data.postures:
+        try:
+            q.append(robot.ik(post).q)
+        except UnreachablePosture as err:
+            raise InputError(f"the data's postures are not this robot's: {err}") from None
+    rob, params = parameter_set(robot, settings.groups)
+    mm = ModalModel(rob, params, data.design, np.array(q), data.bands)
+    u0 = np.zeros(len(params))
+    _check_pairing(mm, u0, data, train)
+    problem = _Problem(mm, data, train, settings)
+    sigma = problem.sigma
+    w = np.sqrt(settings.prior_weight)
+    lo, hi = params.lower() / sigma, params.upper() / sigma
+    cache = {}
+
+    def jac_at(z):
+        key = z.tobytes()
+        if key not in cache:
+            cache.clear()
+            r, j = problem.jacobian(z * sigma)
+            cache[key] = (r, j * sigma[None, :])
+        return cache[key]
+
+    def fun(z):
+        r = problem.residuals(z * sigma)
+        return np.concatenate([r, w * z])
+
+    def jac(z):
+        _, j = jac_at(z)
+        return np.vstack([j, w * np.eye(len(z))])
+
+    try:
+        r0, j0 = jac_at(np.zeros(len(params)))
+        chi2_before = float(r0 @ r0)
+        _check_enough(j0, params, problem.n, data, train)
+        say(f"nominal: χ²/residual {chi2_before / problem.n:.3g} over {problem.n} residuals, "
+            f"{len(params)} parameters")
+        coarse = _Problem(mm, data, train, settings, coarse=True)
+
+        def fun_c(z):
+            return np.concatenate([coarse.residuals(z * sigma), w * z])
+
+        z0 = _start(params, fun_c, lo, hi, say)
+        if _far(problem, z0 * sigma):
+            def jac_c(z):
+                _, j = coarse.jacobian(z * sigma)
+                return np.vstack([j * sigma[None, :], w * np.eye(len(z))])
+
+            z0 = least_squares(fun_c, z0, jac=jac_c, bounds=(lo, hi), method="trf",
+                               max_nfev=min(10, settings.max_iter), xtol=1e-3, ftol=1e-4).x
+            say("coarse stage (frequencies in a wide window): done")
+        coarse.close()
+        sol = least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
+                            max_nfev=settings.max_iter, xtol=1e-4, ftol=1e-6, gtol=1e-8)
+        z = sol.x
+        r1, j1 = jac_at(z)
+    finally:
+        problem.close()
+    chi2_after = float(r1 @ r1)
+    say(f"calibrated: χ²/residual {chi2_after / problem.n:.3g} after {sol.nfev} evaluations")
+    estimates, cov_u, combos, notes = _account(params, z, j1, sigma, chi2_after, problem.n, lo, hi)
+    if sol.status == 0:
+        notes.append(f"the fit stopped at its limit of {settings.max_iter} evaluations")
+    u = z * sigma
+    rows_train = {"before": mode_errors(mm, u0, data, train), "after": mode_errors(mm, u, data, train)}
+    rows_held = ({"before": mode_errors(mm, u0, data, held), "after": mode_errors(mm, u, data, held)}
+                 if held else {})
+    xml = _calibrated_xml(rob, params, u, data, settings, train)
+    return Calibration(params=tuple(estimates), u=u, cov_u=cov_u, combinations=tuple(combos),
+                       chi2_before=chi2_before, chi2_after=chi2_after, n_residuals=problem.n,
+                       train=tuple(train), held=tuple(held), modes_train=rows_train,
+                       modes_held=rows_held, xml=xml, iterations=int(sol.nfev),
+                       seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes))
+
+
+def _far(problem, u) -> bool:
+    """Whether the model at ``u`` is far from the data: a measured mode unpaired, or a paired
+    frequency more than 3 % off."""
+    for p, b in problem.keys:
+        meas = problem.data.modes[p][b]
+        try:
+            model = problem.mm.modes(u, p, b)
+        except RmbenchError:
+            return True
+        pr = pair(meas, model)
+        if len(pr.unpaired_meas) or np.any(np.abs(np.log(model.f_n[pr.model] / meas.f_n[pr.meas])) > 0.03):
+            return True
+    return False
+
+
+def _start(params, fun, lo, hi, say) -> np.ndarray:
+    """The best of a few starts (in prior σ), by the coarse residual ``fun``: the nominal, all
+    gearboxes softer or stiffer together, and a softer base. Far from the truth the pairing of modes is ambiguous and a local step
+    cannot tell a better pairing from a worse one; these starts cover the gross differences a
+    real robot has from its data sheet. A nominal on its bound (a rigid base) starts a little
+    inside: a trust-region step is scaled by the distance to the bound, and one that starts on it
+    cannot leave it."""
+    names = params.names
+    joints = [i for i, p in enumerate(params) if p.group == "joints"]
+    base = [i for i, p in enumerate(params) if p.group == "base"]
+    sigma = params.sigma()
+    stiff = [0.0] + ([np.log(0.7), np.log(0.85), np.log(1.2), np.log(1.4)] if joints else [])
+    soft = [0.0] + ([20.0, 40.0, 70.0, 110.0] if base else [])       # µrad/(kN·m)
+    best, best_cost = None, np.inf
+    for ln_k in stiff:
+        for c in soft:
+            z = np.zeros(len(names))
+            z[joints] = ln_k / sigma[joints]
+            if base:
+                z[base] = c / sigma[base]        # u of the base is in µrad/(kN·m)
+            z = np.clip(z, lo + 0.05, hi - 0.05)
+            r = fun(z)
+            cost = float(r @ r)
+            if cost < best_cost:
+                best, best_cost = z, cost
+    if len(stiff) * len(soft) > 1:
+        say(f"start: gearboxes × {np.exp(best[joints[0]] * sigma[joints[0]]) if joints else 1:.2f}"
+            + (f", base {best[base[0]] * sigma[base[0]]:.0f} µrad/(kN·m)" if base else ""))
+    return best
+
+
+def _check_pairing(mm, u0, data, train, *, least: float = 0.3) -> None:
+    total = paired = 0
+    for p in train:
+        for b in data.bands:
+            meas = data.modes[p].get(b)
+            if meas is None or not len(meas):
+                continue
+            try:
+                pr = pair(meas, mm.modes(u0, p, b))
+            except RmbenchError as err:
+                raise InputError(f"the nominal robot cannot hold posture {data.postures[p].label()}: {err}") from None
+            total += len(meas)
+            paired += len(pr.meas)
+    if total == 0:
+        raise InputError("the data hold no measured modes at the training postures")
+    if paired < least * total:
+        raise InputError(f"the nominal's modes do not pair with the data's: only {paired} of {total} measured "
+                         "modes have a model mode within 15 % in frequency and alike in shape "
+                         "(another robot, tool or test design?)")
+
+
+def _check_enough(j, params, n_res, data, train) -> None:
+    """Fewer informative data than parameters: name the ones the data cannot touch."""
+    n_modes = sum(len(data.modes[p][b]) for p in train for b in data.bands if b in data.modes[p])
+    informative = 2 * n_modes       # frequency and damping of each measured mode at the least
+    if informative >= len(params):
+        return
+    s = np.linalg.norm(j, axis=0)
+    order = np.argsort(s)
+    weakest = [params.names[i] for i in order[:len(params) - informative]]
+    raise InputError(f"{n_modes} measured modes ({informative} frequencies and dampings) cannot determine "
+                     f"{len(params)} parameters: at least {', '.join(weakest)} would be undetermined; "
+                     "measure more postures or calibrate fewer groups (--params)")
+
+
+def _account(params, z, j, sigma, chi2, n, lo, hi):
+    """Estimates with intervals and identifiability, the posterior covariance in u, and the
+    combinations the data determine."""
+    k = len(z)
+    info = j.T @ j
+    cov_z = np.linalg.inv(info + np.eye(k))
+    # what the data determine is the information they carry (the unscaled posterior); a model
+    # that does not reach the data's noise widens the intervals, not the verdict
+    sd_info = np.sqrt(np.diag(cov_z))
+    scale = max(1.0, chi2 / max(n - k, 1))
+    cov_z = cov_z * scale
+    sd = np.sqrt(np.diag(cov_z))
+    cov_u = cov_z * np.outer(sigma, sigma)
+    notes = []
+    if scale > 1:
+        notes.append(f"intervals widened by √(χ²/dof) = {np.sqrt(scale):.2f}: the model does not reach the "
+                     "data's noise (an unmodelled effect, or floors below the test's accuracy)")
+    out = []
+    for i, prm in enumerate(params):
+        s = float(sd_info[i])
+        ident = "identifiable" if s < IDENTIFIABLE else ("weak" if s < WEAK else "not identifiable")
+        u_i, du = z[i] * sigma[i], 1.96 * float(sd[i]) * sigma[i]
+        value = prm.display(prm.value(u_i))
+        ends = sorted((prm.display(prm.value(u_i - du)), prm.display(prm.value(u_i + du))))
+        bound = bool(min(z[i] - lo[i], hi[i] - z[i]) < 1e-3)
+        out.append(ParameterEstimate(name=prm.name, group=prm.group, unit=prm.label,
+                                     nominal=prm.display(prm.nominal), value=value, interval=tuple(ends),
+                                     identifiability=ident, shrink=s,
+                                     on_bound=bound))
+    combos = _combinations(params, j, sd_info)
+    return out, cov_u, combos, notes
+
+
+def _combinations(params, j, sd) -> list[str]:
+    """Determined directions (singular value ≥ 3 prior σ) in which a parameter that is not
+    identifiable alone carries a share: "j5_flex.stiffness − j6_flex.stiffness"."""
+    if not j.size:
+        return []
+    _, s, vt = np.linalg.svd(j, full_matrices=False)
+    out = []
+    for sv, v in zip(s, vt):
+        if sv < _DETERMINED:
+            break
+        big = np.flatnonzero(np.abs(v) >= _LOADING)
+        if len(big) < 2 or all(sd[i] < IDENTIFIABLE for i in big):
+            continue
+        sign = np.sign(v[big[np.argmax(np.abs(v[big]))]])
+        terms = " ".join(f"{'+' if sign * v[i] > 0 else '−'} {abs(v[i]):.2f} {params.names[i]}" for i in big)
+        out.append(f"{terms.lstrip('+ ')} (in prior σ; singular value {sv:.3g})")
+    return out
+
+
+def _calibrated_xml(robot, params, u, data, settings, train) -> str:
+    from rmbench.robot.spec import spec_to_xml
+
+    spec = robot.spec
+    params.apply_spec(spec, u)
+    note = (f"calibrated by rmbench to {data.source or 'measured modes'} ({len(train)} postures, bands "
+            f"{', '.join(data.bands)}; groups {', '.join(settings.groups)})")
+    for t in spec.texts:
+        if t.name == "rmbench_calibration":
+            t.data = note
+            break
+    else:
+        spec.add_text(name="rmbench_calibration", data=note)
+    xml = spec_to_xml(spec)
+    return f"<!-- {note.replace('--', '-')} -->\n{xml}"

@@ -1,0 +1,159 @@
+"""A parametrised robot under a test design at commanded postures: its modes for any parameters.
+
+For a parameter vector ``u`` (:mod:`rmbench.robot.parameters`) the values are written into a copy of
+the compiled model (no recompilation), the robot settles at each posture's joint commands under
+gravity and is linearised exactly (METHODS.md §11), and its complex modes are read at the test
+design's sensors and hit points (:func:`~rmbench.calibrate.modes.modes_seen`). Each band has its own
+model: the band's sensors sit on the tool with their masses.
+
+Sensitivities (:meth:`ModalModel.sensitivity`) are forward differences of the exact linearisation.
+Parameters that enter the linear model only through its matrices (joint stiffness and damping,
+servo gains, the base's compliance) are perturbed in M, C, K at the settled state, which costs an
+eigen-analysis; masses and centres of mass move the equilibrium and the gravity stiffness, so the
+robot is settled and linearised again for each.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import mujoco
+import numpy as np
+
+from rmbench.calibrate.modes import ModelModes, modes_seen
+from rmbench.errors import RmbenchError
+from rmbench.impact.measure import hammer_rows
+from rmbench.impact.sensors import COORDS
+from rmbench.robot.linear import complex_modes, equilibrium, linearize
+from rmbench.robot.model import OperatingPoint
+from rmbench.robot.variant import with_tool_masses
+
+__all__ = ["ModalModel", "FAST_KINDS"]
+
+FAST_KINDS = ("stiffness", "damping", "kp", "base")
+
+
+class ModalModel:
+    """The modes of a parametrised robot as a test design sees them, at commanded postures.
+
+    Parameters
+    ----------
+    robot : Robot
+        The robot the parameters describe (from :func:`~rmbench.robot.parameters.parameter_set`).
+    params : ParameterSet
+    design : TestDesign
+    q_cmd : ndarray, shape (n_postures, n_arm), rad
+        Joint commands of the postures (the nominal robot's inverse kinematics).
+    bands : sequence of str
+    """
+
+    def __init__(self, robot, params, design, q_cmd, bands):
+        self.robot = robot
+        self.params = params
+        self.design = design
+        self.q_cmd = np.asarray(q_cmd, float)
+        self.bands = tuple(bands)
+        self._tested = {}
+        for b in self.bands:
+            masses = design.sensors(b).tool_masses()
+            self._tested[b] = with_tool_masses(robot, masses) if masses else robot
+        self._built = {}
+
+    @property
+    def n_postures(self) -> int:
+        return len(self.q_cmd)
+
+    def _model(self, u, band):
+        """The band's compiled model with the values at ``u`` (the last few kept)."""
+        key = (band, np.asarray(u, float).tobytes())
+        hit = self._built.get(key)
+        if hit is not None:
+            return hit
+        base = self._tested[band]
+        model = copy.copy(base.model)
+        self.params.apply_model(model, u)
+        shell = copy.copy(base)     # the same robot with this model: what an OperatingPoint reads
+        shell.model = model
+        if len(self._built) > 4 * len(self.bands):
+            self._built.pop(next(iter(self._built)))
+        self._built[key] = shell
+        return shell
+
+    def operating_point(self, u, p: int, band: str) -> OperatingPoint:
+        """The robot with the values at ``u``, as tested in ``band``, settled at posture ``p``.
+
+        Raises
+        ------
+        RmbenchError
+            If the robot cannot hold the posture with these values.
+        """
+        shell = self._model(u, band)
+        data = mujoco.MjData(shell.model)
+        model = shell.model
+        for name, q in zip(shell.arm_joints, self.q_cmd[p]):
+            data.qpos[model.joint(name).qposadr[0]] = q
+        spin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "spindle_spin")
+        if spin >= 0:
+            data.qvel[model.jnt_dofadr[spin]] = shell.spindle_rpm * 2 * np.pi / 60
+        equilibrium(model, data, shell._held)
+        return OperatingPoint(shell, None, self.q_cmd[p], None, data, linearize(model, data))
+
+    def _rows(self, op, band):
+        b = self.design.band(band)
+        return self.design.sensors(band).reading_rows(op), hammer_rows(op, COORDS, b.s_1a), b
+
+    def modes(self, u, p: int, band: str) -> ModelModes:
+        """Modes at posture ``p`` in ``band`` with the values at ``u`` (settled, linearised: exact)."""
+        op = self.operating_point(u, p, band)
+        out, inp, b = self._rows(op, band)
+        return modes_seen(op.linear.modes(), out, inp, b)
+
+    def sensitivity(self, u, p: int, band: str, steps) -> tuple[ModelModes, list[ModelModes]]:
+        """Modes at ``u`` and with each parameter stepped by ``steps[i]`` (in ``u``).
+
+        Returns
+        -------
+        base : ModelModes
+        stepped : list of ModelModes, one per parameter
+        """
+        u = np.asarray(u, float)
+        op = self.operating_point(u, p, band)
+        out, inp, b = self._rows(op, band)
+        base = modes_seen(op.linear.modes(), out, inp, b)
+        model = op.robot.model
+        names = list(op.linear.dof_names)
+        stepped = []
+        for i, prm in enumerate(self.params):
+            v = u.copy()
+            v[i] += steps[i]
+            if prm.kind in FAST_KINDS:
+                M, C, K = op.linear.M, op.linear.C.copy(), op.linear.K.copy()
+                _perturb(model, names, prm, u[i], v[i], C, K, self.params)
+                stepped.append(modes_seen(complex_modes(M, C, K), out, inp, b))
+            else:
+                op_i = self.operating_point(v, p, band)
+                o_i, i_i, _ = self._rows(op_i, band)
+                stepped.append(modes_seen(op_i.linear.modes(), o_i, i_i, b))
+        return base, stepped
+
+
+def _perturb(model, names, prm, u_old, u_new, C, K, params) -> None:
+    """Add to C and K, in place, what moving ``prm`` from ``u_old`` to ``u_new`` changes."""
+    if prm.kind == "base":
+        k0, k1 = (1 / max(prm.value(x), 1e-14) for x in (u_old, u_new))
+        for t in prm.targets:
+            d = names.index(t)
+            K[d, d] += k1 - k0
+            C[d, d] += params.base_damping(k1) - params.base_damping(k0)
+        return
+    old, new = prm.target_values(u_old), prm.target_values(u_new)
+    for t, a, c in zip(prm.targets, old, new):
+        if prm.kind == "kp":
+            d = names.index(model.joint(int(model.actuator(t).trnid[0])).name)
+            K[d, d] += c - a
+        elif prm.kind == "stiffness":
+            K[names.index(t), names.index(t)] += c - a
+        elif prm.kind == "damping":
+            C[names.index(t), names.index(t)] += c - a
+        else:  # pragma: no cover - FAST_KINDS only
+            raise RmbenchError(f"no matrix perturbation for {prm.kind}")
