@@ -180,12 +180,14 @@ def test_model_calibrate_writes_a_model_and_its_tables_and_strict_json(cli, tmp_
     table = resources.files("rmbench.gap").joinpath("data", "seed000_irb6660.csv")
     out = tmp_path / "cal.xml"
     code, stdout, _ = cli("model", "calibrate", "--robot", "irb6660", "--tool", "dummy", "--data", str(table),
-                          "--params", "joints,damping", "--heldout", "1", "--out", str(out), "--json")
+                          "--params", "joints,damping", "--heldout", "1", "--out", str(out),
+                          "--report", str(tmp_path / "cal.html"), "--json")
     assert code == 0
     res = json.loads(stdout, parse_constant=lambda c: pytest.fail(f"non-strict JSON constant {c}"))
     assert {p["name"] for p in res["params"]} >= {"j2_flex.stiffness", "j6_flex.damping"}
     assert res["heldout_errors"]["before"]["paired"] > 0
-    assert out.exists() and (tmp_path / "cal_params.csv").exists() and (tmp_path / "cal_modes.csv").exists()
+    for name in ("cal.xml", "cal_params.csv", "cal_modes.csv", "cal.html"):
+        assert (tmp_path / name).is_file(), name
     Robot.load(str(out))        # a robot every command accepts
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rmbench.cli._common import print_json
+from rmbench.cli._common import add_report_option, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register_model_commands"]
@@ -30,6 +30,7 @@ def register_model_commands(msub) -> None:
     cal.add_argument("--out", default=None, metavar="CAL.xml",
                      help="calibrated MJCF to write; CAL_params.csv and CAL_modes.csv are written beside it")
     cal.add_argument("--json", action="store_true", help="print the calibration as JSON")
+    add_report_option(cal, "the calibrated parameters and the modes before and after")
     cal.set_defaults(func=cmd_calibrate)
 
     sug = msub.add_parser("suggest", help="name the next postures to test (D-optimal for the parameters)")
@@ -84,6 +85,7 @@ def cmd_calibrate(args) -> int:
     from rmbench.robot.parameters import parse_groups
 
     groups = parse_groups(args.params)
+    report = report_path(args)
     out = Path(args.out) if args.out else None
     if out is not None and (out.suffix.lower() != ".xml" or not out.resolve().parent.is_dir()):
         raise InputError(f"--out must be an .xml file in an existing folder, got {args.out}")
@@ -103,6 +105,9 @@ def cmd_calibrate(args) -> int:
         for path in texts:
             path.with_name(path.name + ".part").replace(path)   # all written before any is replaced
         files = {"model": str(out), "params": str(params_csv), "modes": str(modes_csv)}
+    if report is not None:
+        _report(cal, data, robot, report)
+        files["report"] = str(report)
     if args.json:
         print_json({**cal.to_json(), "files": files, "robot": robot.name, "data": data.source})
         return 0
@@ -137,6 +142,33 @@ def _print(cal) -> None:
 
 def _pct(x) -> str:
     return "-" if x is None else f"{100 * x:.2f} %"
+
+
+def _report(cal, data, robot, path) -> None:
+    from rmbench.calibrate.fit import error_summary
+    from rmbench.report import Page
+
+    page = Page(f"Calibration of {robot.name} to {data.source}",
+                {"robot": robot.name, "data": data.source, "postures": f"{len(cal.train)} fitted, "
+                 f"{len(cal.held)} held out", "seconds": f"{cal.seconds:.1f}"})
+    sec = page.section("Parameters", "Nominal and calibrated values, 95 % intervals from the posterior "
+                       "covariance; a parameter the data do not determine stays at its nominal.")
+    sec.table(["parameter", "unit", "nominal", "calibrated", "95 % interval", "identifiability"],
+              [[p.name, p.unit, f"{p.nominal:.5g}", f"{p.value:.5g}",
+                f"{p.interval[0]:.5g} - {p.interval[1]:.5g}", p.identifiability] for p in cal.params])
+    for key, rows in (("Training postures", cal.modes_train), ("Held-out postures", cal.modes_held)):
+        if not rows:
+            continue
+        s0, s1 = (error_summary(rows[k]) for k in ("before", "after"))
+        sec = page.section(key, f"|f error| mean {_pct(s0['f_err_mean'])} before, {_pct(s1['f_err_mean'])} "
+                           f"after; |zeta error| mean {_pct(s0['zeta_err_mean'])} before, "
+                           f"{_pct(s1['zeta_err_mean'])} after.")
+        sec.table(["x mm", "y mm", "theta deg", "band", "mode", "f measured Hz", "f before Hz", "f after Hz",
+                   "zeta measured", "zeta before", "zeta after"],
+                  [[f"{r0['x_mm']:.0f}", f"{r0['y_mm']:.0f}", f"{r0['theta_deg']:.0f}", r0["band"], r0["mode"],
+                    f"{r0['f_meas']:.3f}", _g(r0["f_model"]), _g(r1["f_model"]), f"{r0['zeta_meas']:.4f}",
+                    _g(r0["zeta_model"]), _g(r1["zeta_model"])] for r0, r1 in zip(rows["before"], rows["after"])])
+    page.write(path)
 
 
 def _params_csv(cal) -> str:
@@ -192,8 +224,9 @@ def cmd_suggest(args) -> int:
     print(f"next {len(s.postures)} postures to test (of {len(candidates)} candidates), best first:")
     for p, g in zip(s.postures, s.gain):
         print(f"  {p.label()} (x mm, y mm, theta deg): confidence volume × {np.exp(-g / 2):.3g}")
-    worst = sorted(s.sd_before, key=lambda k: -s.sd_before[k])[:5]
-    for k in worst:
+    gained = sorted(s.sd_before, key=lambda k: s.sd_after[k] / s.sd_before[k])[:5]
+    print("  parameters they would determine best (posterior over prior sd, now -> after):")
+    for k in gained:
         print(f"  {k}: posterior/prior sd {s.sd_before[k]:.2f} -> {s.sd_after[k]:.2f}")
     for line in s.skipped:
         print(f"  skipped {line}")
