@@ -605,17 +605,12 @@ def _combinations(params, j, sd) -> list[str]:
 
 
 def _calibrated_xml(robot, params, u, data, settings, train) -> str:
-    from rmbench.robot.spec import spec_to_xml
+    from rmbench.robot.spec import set_custom_text, spec_to_xml
 
     spec = robot.spec
     params.apply_spec(spec, u)
     note = (f"calibrated by rmbench to {data.source or 'measured modes'} ({len(train)} postures, bands "
             f"{', '.join(data.bands)}; groups {', '.join(settings.groups)})")
-    for t in spec.texts:
-        if t.name == "rmbench_calibration":
-            t.data = note
-            break
-    else:
-        spec.add_text(name="rmbench_calibration", data=note)
+    set_custom_text(spec, "rmbench_calibration", note)
     xml = spec_to_xml(spec)
     return f"<!-- {note.replace('--', '-')} -->\n{xml}"

@@ -9,7 +9,7 @@ import numpy as np
 from rmbench.errors import InputError
 
 __all__ = ["command_group", "add_robot_options", "load_robot", "resolve_posture", "print_json", "load_dataset",
-           "add_report_option", "report_path"]
+           "add_report_option", "report_path", "read_test_design"]
 
 
 def command_group(sub, name: str, help: str):
@@ -52,6 +52,16 @@ def report_path(args, option: str = "--report"):
     if not path.resolve().parent.is_dir():
         raise InputError(f"folder for {option} does not exist: {path.parent}")
     return path
+
+
+def read_test_design(args) -> str | None:
+    """Text of the ``--test`` campaign TOML (the test design), or None when not given."""
+    if args.test is None:
+        return None
+    path = Path(args.test)
+    if not path.is_file():
+        raise InputError(f"test design file not found: {path}")
+    return path.read_text()
 
 
 def load_robot(args):

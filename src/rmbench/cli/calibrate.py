@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rmbench.cli._common import add_report_option, print_json, report_path
+from rmbench.cli._common import add_report_option, print_json, read_test_design, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register_model_commands"]
@@ -56,14 +56,8 @@ def _load(args):
     from rmbench.calibrate import load_modal_data
     from rmbench.robot import Robot
 
-    test = None
-    if args.test is not None:
-        path = Path(args.test)
-        if not path.is_file():
-            raise InputError(f"no such test design file: {args.test}")
-        test = path.read_text()
     robot = Robot.load(args.robot, tool=args.tool)
-    data = load_modal_data(args.data, test=test, workers=args.workers)
+    data = load_modal_data(args.data, test=read_test_design(args), workers=args.workers)
     return robot, data
 
 

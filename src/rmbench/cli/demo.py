@@ -313,23 +313,10 @@ def _demo_gap(out: Path, workers, page) -> None:
     import warnings
 
     from rmbench.gap import GapDataWarning, diagnose
-    from rmbench.impact import load_config, run_campaign
-    from rmbench.robot import Robot, seed_grid
-    from rmbench.robot.variant import make_variant
 
-    nominal = Robot.load("irb6660", tool="dummy")
-    true = out / "demo_gap_true_robot.xml"
-    true.write_text(make_variant(nominal, ["j3_flex.stiffness*=0.8"]))
-    grid = seed_grid()                  # 16 of the seed's 112 postures: every (x, y), θ in turn
-    postures = [grid[7 * k + k % 7] for k in range(16)]
-    rows = [[1e3 * p.x, 1e3 * p.y, float(np.degrees(p.theta))] for p in postures]
-    cfg = load_config("seed_full").with_overrides(
-        name="demo_gap", method="linear", robot_name=str(true), robot_commands_from="irb6660",
-        grid={"kind": "list", "postures": rows})
-    data = out / "demo_gap_campaign.nc"
-    print(f"\nsim-to-real gap: a 'real' robot with j3 20 % softer than the model, {len(postures)} postures "
+    print("\nsim-to-real gap: a 'real' robot with j3 20 % softer than the model, 16 postures "
           "commanded by the model's IK (linear-path campaign)")
-    run_campaign(cfg, data, workers=workers, progress=False)
+    data = _commanded_campaign(out, "demo_gap", ["j3_flex.stiffness*=0.8"], 0, workers)
     with warnings.catch_warnings():     # the bench's file carries ground truth; the diagnosis sets it aside
         warnings.simplefilter("ignore", GapDataWarning)
         dg = diagnose("irb6660", data, tool="dummy", workers=workers)
@@ -347,33 +334,44 @@ def _demo_gap(out: Path, workers, page) -> None:
     gap_sections(page, out / "demo_gap")
 
 
+def _commanded_campaign(out: Path, name: str, edits, shift: int, workers) -> Path:
+    """A linear-path campaign of the stand-in changed by ``edits`` (its MJCF written as
+    ``NAME_true_robot.xml``), commanded by the nominal model's IK at 16 of the seed's 112
+    postures: every (x, y) once, θ stepping through the grid (``shift`` picks another θ
+    sequence). Returns the campaign file ``NAME_campaign.nc``."""
+    from rmbench.impact import load_config, run_campaign
+    from rmbench.robot import Robot, seed_grid
+    from rmbench.robot.variant import make_variant
+
+    true = out / f"{name}_true_robot.xml"
+    true.write_text(make_variant(Robot.load("irb6660", tool="dummy"), edits))
+    grid = seed_grid()
+    postures = [grid[7 * k + ((1 + 2 * shift) * k + shift) % 7] for k in range(16)]
+    rows = [[1e3 * p.x, 1e3 * p.y, float(np.degrees(p.theta))] for p in postures]
+    cfg = load_config("seed_full").with_overrides(
+        name=name, method="linear", robot_name=str(true), robot_commands_from="irb6660",
+        grid={"kind": "list", "postures": rows})
+    data = out / f"{name}_campaign.nc"
+    run_campaign(cfg, data, workers=workers, progress=False)
+    return data
+
+
 def _demo_calibrate(out: Path, workers, page) -> None:
     """A robot whose gearboxes, damping and link masses all differ from its data sheet (the demo is
     not told by how much): a 16-posture campaign, the model calibrated on 12, checked on 4."""
     import warnings
 
     from rmbench.calibrate import CalibrationSettings, calibrate, error_summary, load_modal_data
-    from rmbench.impact import load_config, run_campaign
-    from rmbench.robot import Robot, seed_grid
-    from rmbench.robot.variant import make_variant
+    from rmbench.robot import Robot
 
     nominal = Robot.load("irb6660", tool="dummy")
     rng = np.random.default_rng(2026)
     edits = [f"j{k}_flex.stiffness*={np.exp(rng.uniform(np.log(0.7), np.log(1.4))):.4f}" for k in range(1, 7)]
     edits += [f"j{k}_flex.damping*={np.exp(rng.uniform(np.log(0.6), np.log(1.7))):.4f}" for k in range(1, 7)]
     edits += [f"{b}.mass*={rng.uniform(0.92, 1.08):.4f}" for b in ("lower_arm", "upper_arm", "forearm", "flange")]
-    true = out / "demo_calibrate_true_robot.xml"
-    true.write_text(make_variant(nominal, edits))
-    grid = seed_grid()
-    postures = [grid[7 * k + (3 * k + 1) % 7] for k in range(16)]
-    rows = [[1e3 * p.x, 1e3 * p.y, float(np.degrees(p.theta))] for p in postures]
-    cfg = load_config("seed_full").with_overrides(
-        name="demo_calibrate", method="linear", robot_name=str(true), robot_commands_from="irb6660",
-        grid={"kind": "list", "postures": rows})
-    data_path = out / "demo_calibrate_campaign.nc"
-    print(f"\nmodel updating: a 'real' robot whose 6 gearboxes, their damping and 4 link masses differ from "
-          f"the data sheet, {len(postures)} postures (linear-path campaign); calibrated on 12, 4 held out")
-    run_campaign(cfg, data_path, workers=workers, progress=False)
+    print("\nmodel updating: a 'real' robot whose 6 gearboxes, their damping and 4 link masses differ from "
+          "the data sheet, 16 postures (linear-path campaign); calibrated on 12, 4 held out")
+    data_path = _commanded_campaign(out, "demo_calibrate", edits, 1, workers)
     with warnings.catch_warnings():     # the bench's file carries ground truth; the fit sets it aside
         warnings.simplefilter("ignore")
         data = load_modal_data(data_path, workers=workers)

@@ -8,7 +8,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from rmbench.cli._common import add_report_option, command_group, print_json, report_path
+from rmbench.cli._common import add_report_option, command_group, print_json, read_test_design, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -82,12 +82,7 @@ def cmd_diagnose(args) -> int:
     if args.calibrate is not None:
         settings = DiagnosisSettings(calibrate=parse_groups(args.calibrate))
 
-    test = None
-    if args.test is not None:
-        path = Path(args.test)
-        if not path.is_file():
-            raise InputError(f"test design file not found: {path}")
-        test = path.read_text()
+    test = read_test_design(args)
     data = Path(args.data)
     if not data.exists():
         raise InputError(f"data not found: {data}")

@@ -24,7 +24,7 @@ from rmbench.robot.load_stiffness import (LOAD_STIFFNESS, check_load_stiffness, 
                                           posture_stiffness, stiffened_spec)
 from rmbench.robot.modes import ModeTable, mode_table
 from rmbench.robot.posture import Posture, rz, seed_grid, validation_postures
-from rmbench.robot.spec import custom_numeric, custom_text, graft_tool, load_spec, spec_to_xml
+from rmbench.robot.spec import custom_numeric, custom_text, graft_tool, load_spec, set_custom_text, spec_to_xml
 
 __all__ = ["Robot", "OperatingPoint", "Band", "COORDS"]
 
@@ -146,7 +146,7 @@ class Robot:
             tool_path = resolve_tool(tool)
             graft_tool(spec, load_spec(tool_path))
             tool_name = _tool_name(tool)
-            _set_custom_text(spec, "rmbench_tool", tool_name)
+            set_custom_text(spec, "rmbench_tool", tool_name)
         name = path.stem if str(robot).endswith(".xml") or "/" in str(robot) else str(robot)
         return cls(spec_to_xml(spec), name=name, tool=tool_name, spindle_rpm=spindle_rpm, spec=spec)
 
@@ -391,10 +391,3 @@ def tool_point(model: mujoco.MjModel, data: mujoco.MjData, site: int, s_up: floa
 def _tool_name(tool: str | Path) -> str:
     return Path(tool).stem if str(tool).endswith(".xml") else str(tool)
 
-
-def _set_custom_text(spec: mujoco.MjSpec, name: str, value: str) -> None:
-    for text in spec.texts:
-        if text.name == name:
-            text.data = value
-            return
-    spec.add_text(name=name, data=value)

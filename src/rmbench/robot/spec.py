@@ -15,7 +15,8 @@ import numpy as np
 
 from rmbench.errors import ModelError
 
-__all__ = ["load_spec", "graft_tool", "copy_body", "spec_to_xml", "custom_numeric", "custom_text", "TOOL_PREFIX"]
+__all__ = ["load_spec", "graft_tool", "copy_body", "spec_to_xml", "custom_numeric", "custom_text",
+           "set_custom_text", "TOOL_PREFIX"]
 
 TOOL_PREFIX = "tool_"
 
@@ -52,6 +53,15 @@ def custom_text(spec: mujoco.MjSpec, name: str) -> str | None:
         if text.name == name:
             return text.data
     return None
+
+
+def set_custom_text(spec: mujoco.MjSpec, name: str, value: str) -> None:
+    """Set a ``<custom><text>`` field, adding it when absent."""
+    for text in spec.texts:
+        if text.name == name:
+            text.data = value
+            return
+    spec.add_text(name=name, data=value)
 
 
 def graft_tool(spec: mujoco.MjSpec, tool: mujoco.MjSpec, site: str = "tool_mount") -> None:

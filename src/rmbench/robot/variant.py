@@ -30,7 +30,7 @@ import numpy as np
 
 from rmbench.errors import InputError, ModelError
 from rmbench.robot.load_stiffness import check_load_stiffness, set_load_stiffness
-from rmbench.robot.spec import copy_body
+from rmbench.robot.spec import copy_body, custom_text
 
 __all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant",
            "condensed", "with_tool_masses"]
@@ -198,7 +198,7 @@ def make_variant(robot, edits=(), *, masses=(), compliant_base=None, load_stiffn
     ModelError
         For a load-stiffness coefficient of an unknown or actuated joint, or a negative α.
     """
-    from rmbench.robot.spec import spec_to_xml
+    from rmbench.robot.spec import set_custom_text, spec_to_xml
 
     spec = robot.spec
     log = []
@@ -222,14 +222,8 @@ def make_variant(robot, edits=(), *, masses=(), compliant_base=None, load_stiffn
         raise InputError(f"the variant does not compile: {str(err).splitlines()[0]}") from None
     if load_stiffness:
         check_load_stiffness(model, load_stiffness)
-    previous = next((t.data for t in spec.texts if t.name == "rmbench_variant"), "")
-    note = "; ".join(([previous] if previous else []) + log)
-    for t in spec.texts:
-        if t.name == "rmbench_variant":
-            t.data = note
-            break
-    else:
-        spec.add_text(name="rmbench_variant", data=note)
+    previous = custom_text(spec, "rmbench_variant")
+    set_custom_text(spec, "rmbench_variant", "; ".join(([previous] if previous else []) + log))
     return spec_to_xml(spec)
 
 
