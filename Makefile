@@ -37,6 +37,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/gap_real.py | tee bench/results/gap_real.txt
 	$(BIN)/python bench/calibrate_real.py | tee bench/results/calibrate_real.txt
 	cd bench && ../$(BIN)/python calibrate.py --time-default | tee results/calibrate.txt
+	cd bench && ../$(BIN)/python calibrate_design.py | tee results/calibrate_design.txt
 	$(BIN)/python bench/gap_tracker.py | tee bench/results/gap_tracker.txt
 	$(BIN)/python bench/predict.py | tee bench/results/predict.txt
 	$(BIN)/python bench/rcsa.py | tee bench/results/rcsa.txt

@@ -208,3 +208,22 @@ def test_suggest_names_new_postures_that_shrink_the_uncertainty(irb, truth, desi
     assert len(s.postures) == 2 and all(p in candidates for p in s.postures)
     assert all(g > 0 for g in s.gain)
     assert all(s.sd_after[k] <= s.sd_before[k] + 1e-12 for k in s.sd_before)
+
+
+def test_an_identifiable_parameter_is_fixed_to_its_resolution(calibrated):
+    # "identifiable" promises the value to 5 % (5 mm for a centre of mass): its 95 % interval
+    # must lie within that of the estimate, whatever the posterior-to-prior ratio says
+    for p in calibrated.params:
+        if p.identifiability == "identifiable":
+            lo, hi = p.interval
+            assert hi / p.value - 1 <= 0.05 + 1e-9 and 1 - lo / p.value <= 0.05 + 1e-9, p.name
+
+
+def test_each_parameter_states_the_resolution_that_matters(irb):
+    _, params = parameter_set(irb, "all")
+    by = {p.name: p for p in params}
+    assert by["j2_flex.stiffness"].resolution == pytest.approx(np.log(1.05))
+    # u of a centre of mass is in cm: 5 mm is half a unit
+    assert by["upper_arm.com_y"].value(by["upper_arm.com_y"].resolution) - by["upper_arm.com_y"].nominal \
+        == pytest.approx(0.005)
+    assert by["base.tilt_compliance"].value(by["base.tilt_compliance"].resolution) == pytest.approx(2e-9)

@@ -17,11 +17,11 @@ gap diagnosis builds on it.
 from rmbench.calibrate.data import ModalData, load_modal_data, read_modal_table
 from rmbench.calibrate.design import SensorOffset, TestDesign
 from rmbench.calibrate.fit import (Calibration, CalibrationSettings, ParameterEstimate, calibrate, error_summary,
-                                   mode_errors)
+                                   linearisation, mode_errors)
 from rmbench.calibrate.measured import MeasuredModes
 from rmbench.calibrate.model import ModalModel
 from rmbench.calibrate.modes import ModelModes, modes_seen
 
 __all__ = ["calibrate", "Calibration", "CalibrationSettings", "ParameterEstimate", "mode_errors", "error_summary",
-           "ModalData", "load_modal_data", "read_modal_table", "TestDesign", "SensorOffset",
+           "linearisation", "ModalData", "load_modal_data", "read_modal_table", "TestDesign", "SensorOffset",
            "MeasuredModes", "ModalModel", "ModelModes", "modes_seen"]

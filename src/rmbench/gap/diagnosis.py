@@ -56,14 +56,21 @@ class DiagnosisSettings(SearchSettings):
     calibrate : tuple of str or None
         Parameter groups (:mod:`rmbench.robot.parameters`) calibrated on the training postures
         before the search (:mod:`rmbench.calibrate`); the search then runs on the calibrated
-        model, for the structural effects only (the library's kinds that the calibrated groups
-        do not cover).
+        model, for the structural effects only (the library's kinds other than the gearboxes',
+        their damping's and the servos': a foundation or tool holder far outside its ordinary
+        spread stays a candidate), each fitted jointly with the ordinary parameters
+        (:mod:`rmbench.gap.joint`).
+    min_shrink : float
+        Least held-out shrink of the rms normalised gap for an effect to be called the
+        explanation: one that brings the gap to the noise only because the gap was small
+        explains little.
     """
 
     pairs_of: int = 3
     max_train: int = 16
     max_held: int = 32
     calibrate: tuple | None = None
+    min_shrink: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -154,7 +161,9 @@ class Diagnosis:
     calibration : dict or None
         With ``settings.calibrate``: each parameter's nominal, value, 95 % interval and
         identifiability, and the held-out frequency and damping errors before and after
-        (:meth:`rmbench.calibrate.Calibration.to_json`, less the per-mode rows).
+        (:meth:`rmbench.calibrate.Calibration.to_json`).
+    calibrated_xml : str or None
+        With ``settings.calibrate``: the calibrated MJCF the structural search ran on.
     """
 
     verdict: str
@@ -174,6 +183,7 @@ class Diagnosis:
     seconds: dict
     notes: tuple = field(default=())
     calibration: dict | None = None
+    calibrated_xml: str | None = None
 
     def __post_init__(self):
         if self.verdict not in ("explained", "unexplained", "no significant gap"):
@@ -199,7 +209,8 @@ class Diagnosis:
         Returns
         -------
         dict
-            ``{"json", "effects", "modes", "modes_after", "variant", "figures"}`` paths.
+            ``{"json", "effects", "modes", "modes_after", "variant", "calibrated", "figures"}``
+            paths.
         """
         import csv
 
@@ -213,6 +224,9 @@ class Diagnosis:
             variant = d / "variant.xml"
             write_whole(variant, self.variant_xml)
             out["variant"] = str(variant)
+        if self.calibrated_xml is not None:
+            write_whole(d / "calibrated.xml", self.calibrated_xml)
+            out["calibrated"] = str(d / "calibrated.xml")
         with open(d / "effects.csv", "w", newline="") as fh:
             w = csv.writer(fh, lineterminator="\n")
             w.writerow(["rank", "name", "chosen", "description", "confidence", "shrink",
@@ -311,24 +325,25 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
     _check_match(bench, meas, bands)
     train, held = _split(ds, settings.heldout)
     train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
-    calibration = None
+    calibration = ordinary = None
     if settings.calibrate:
-        robot, calibration = _calibrated(robot, design, postures, meas, bands, train, held, settings,
-                                         workers, say, data)
+        robot, calibration, ordinary = _calibrated(robot, design, postures, meas, bands, train, held,
+                                                   settings, workers, say, data)
         bench = ModelBench(robot, design, bench.q_cmd)
         t["calibrate"] = time.perf_counter()
     dg = _diagnose(robot, design, bench, meas, frf, bands, _xyt(ds), ds, train, held, settings,
-                   workers, say, t)
+                   workers, say, t, ordinary=ordinary)
     if calibration is None:
         return dg
     from dataclasses import replace
 
-    return replace(dg, calibration=calibration)
+    return replace(dg, calibration=calibration, calibrated_xml=robot.xml)
 
 
-# library kinds an ordinary-parameter group already fits
-_COVERED = {"joints": "joint_stiffness", "damping": "joint_damping", "servo": "servo_stiffness",
-            "base": "base_compliance", "tool": "tool_contact_stiffness"}
+# library kinds an ordinary-parameter group already fits (a foundation and a tool holder can be
+# far outside their ordinary spread, a structural fault: their kinds stay in the search, fitted
+# jointly with the calibrated parameters)
+_COVERED = {"joints": "joint_stiffness", "damping": "joint_damping", "servo": "servo_stiffness"}
 
 
 def structural_kinds(groups) -> tuple:
@@ -341,29 +356,43 @@ def structural_kinds(groups) -> tuple:
 
 def _calibrated(robot, design, postures, meas, bands, train, held, settings, workers, say, data):
     """The nominal calibrated on the training postures, and the calibration's account."""
-    from rmbench.calibrate import CalibrationSettings, ModalData, calibrate
+    from rmbench.calibrate import CalibrationSettings, ModalData, calibrate, linearisation
+    from rmbench.gap.joint import Ordinary
     from rmbench.robot import Robot
 
     name = data.name if isinstance(data, Path) else (Path(data).name if isinstance(data, str) else "dataset")
     md = ModalData(tuple(postures), tuple(meas), tuple(bands), design, name)
-    cal = calibrate(robot, md.subset(list(train) + list(held)),
-                    held=list(range(len(train), len(train) + len(held))),
-                    settings=CalibrationSettings(groups=tuple(settings.calibrate), workers=workers),
+    order = list(train) + list(held)
+    sub = md.subset(order)
+    cal_settings = CalibrationSettings(groups=tuple(settings.calibrate), workers=workers)
+    cal = calibrate(robot, sub, held=list(range(len(train), len(order))), settings=cal_settings,
                     progress=say)
     fitted = Robot(cal.xml, name=robot.name, tool=robot.tool, spindle_rpm=robot.spindle_rpm)
     account = cal.to_json()
-    account.pop("heldout_modes", None)
     account["groups"] = list(settings.calibrate)
-    return fitted, account
+    blocks, z, names = linearisation(robot, sub, cal.u, range(len(order)), cal_settings)
+    ordinary = Ordinary({(order[i], b): J for (i, b), (_, J) in blocks.items()}, z, names)
+    say("calibrated parameters linearised for the joint search")
+    return fitted, account, ordinary
 
 
 def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, settings, workers,
-              say, t, notes=()) -> Diagnosis:
-    """The search, once the data are in: nominal gap, screening, refinement, pairs, verdict."""
+              say, t, notes=(), ordinary=None) -> Diagnosis:
+    """The search, once the data are in: nominal gap, screening, refinement, pairs, verdict.
+
+    With ``ordinary`` (a calibration's parameters, linearised) every candidate is fitted jointly
+    with them on the modal residuals (:mod:`rmbench.gap.joint`)."""
     n = bench.n_postures
-    obj_all = Objective(bench, meas, frf, bands, range(n))
-    obj_train = Objective(bench, meas, frf, bands, train)
-    obj_held = Objective(bench, meas, frf, bands, held)
+    if ordinary is None:
+        obj_all = Objective(bench, meas, frf, bands, range(n))
+        obj_train = Objective(bench, meas, frf, bands, train)
+        obj_held = Objective(bench, meas, frf, bands, held)
+    else:
+        from rmbench.gap.joint import JointObjective
+
+        obj_train = JointObjective(bench, meas, frf, bands, train, ordinary)
+        obj_held = JointObjective(bench, meas, frf, bands, held, ordinary, fitted_on=obj_train)
+        obj_all = JointObjective(bench, meas, frf, bands, range(n), ordinary, fitted_on=obj_train)
     nominal_change = Change()
     e_all = obj_all.vector(nominal_change)
     chi2_all, peak_all = float(e_all @ e_all), _peak(e_all)
@@ -402,8 +431,7 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
         say(f"refined {len(singles)} candidates")
         scored = [nom] + singles
         best = min(singles, key=lambda f: f.score)
-        explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise,
-                                      peak=best.peak_held)
+        explained = _explains(best, nom, settings)
         if not explained and settings.pairs_of > 0:
             jobs = []
             # the second effect is screened on every other training posture (the pairs are
@@ -426,8 +454,7 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
                 singles = _better_singles(singles, again)
                 scored = [nom] + singles + pairs
                 best = min(singles + pairs, key=lambda f: f.score)
-                explained = not significant(best.chi2_held, best.n_held, p=settings.p_noise,
-                                            peak=best.peak_held)
+                explained = _explains(best, nom, settings)
             t["pairs"] = time.perf_counter()
             say(f"fitted {len(pairs)} pairs")
     weights = _weights(scored, obj_held)
@@ -457,6 +484,16 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
 
 
 # -- helpers -----------------------------------------------------------------------------------
+def _explains(best: Fitted, nom: Fitted, settings) -> bool:
+    """Whether ``best`` explains the gap: its held-out residual is noise, and it closed at least
+    ``settings.min_shrink`` of the held-out rms gap (an effect that tidies up a small gap is no
+    explanation of it)."""
+    if significant(best.chi2_held, best.n_held, p=settings.p_noise, peak=best.peak_held):
+        return False
+    shrink = 1 - np.sqrt(best.chi2_held / nom.chi2_held) if nom.chi2_held > 0 else 0.0
+    return bool(shrink >= settings.min_shrink)
+
+
 def _bands(ds, design, robot) -> list[str]:
     """Bands present in the data, in the design and overlapping the model's bands."""
     data_bands = [b for b in ("low", "high") if np.any(ds.band.values == b)]

@@ -177,6 +177,14 @@ class Effect:
             edits = tuple(f"{t}.stiffness*={np.exp(v[0]):.12g}" for t in trans)
             edits += tuple(f"{t}.stiffness*={np.exp(v[1]):.12g}" for t in rot)
             return Change(edits=edits)
+        if k == "base_compliance" and self.targets:
+            c_lat = max(v[0], 0.0) * _BASE_LATERAL
+            if c_lat <= 0:
+                return Change()
+            f = 1 / max(c_lat, 1e-14) / self.nominal[0]
+            # the damper keeps its ratio of critical
+            return Change(edits=tuple(e for t in self.targets
+                                      for e in (f"{t}.stiffness*={f:.12g}", f"{t}.damping*={np.sqrt(f):.12g}")))
         if k == "base_compliance":
             c_lat, c_tilt = max(v[0], 0.0) * _BASE_LATERAL, max(v[1], 0.0) * _BASE_TILT
             if c_lat <= 0 and c_tilt <= 0:
@@ -208,6 +216,8 @@ class Effect:
             return f"tool contact stiffness × {np.exp(v[0]):.3g} (translation), × {np.exp(v[1]):.3g} (rotation)"
         if k == "spindle_stiffness":
             return f"spindle bearing stiffness × {np.exp(v[0]):.3g} (radial), × {np.exp(v[1]):.3g} (tilt)"
+        if k == "base_compliance" and self.targets:
+            return f"foundation {v[0]:.3g} µm/kN lateral"
         if k == "base_compliance":
             return f"compliant base: {v[0]:.3g} µm/kN lateral, {v[1]:.3g} µrad/(kN·m) tilt"
         if k == "added_mass":
@@ -263,6 +273,12 @@ def library(robot, design) -> list[Effect]:
         out.append(Effect("base_compliance", "base",
                           (Param("lateral", 0.0, 200.0, 2.0, "µm/kN"),
                            Param("tilt", 0.0, 200.0, 2.0, "µrad/(kN·m)"))))
+    elif all(j in joints for j in ("base_x", "base_y")):
+        # a robot already on a foundation (a calibrated one: its tilt is a calibrated parameter):
+        # the foundation's lateral compliance, by softening its slides
+        k0 = float(spec.joint("base_x").stiffness[0])
+        out.append(Effect("base_compliance", "base", (Param("lateral", 0.0, 200.0, 2.0, "µm/kN"),),
+                          targets=("base_x", "base_y"), nominal=(k0,)))
     for body in spec.bodies:
         if body.name and body.explicitinertial and body.mass >= 5.0 and not body.name.startswith("motor"):
             m0 = float(body.mass)

@@ -394,7 +394,8 @@ class Refiner:
             b = self.train.bench
             state = (b.robot.xml, b.robot.name, b.robot.tool, b.robot.spindle_rpm,
                      b.design.config.model_dump_json(), b.q_cmd, self.train.meas, self.train.frf,
-                     self.train.bands, self.train.postures, self.held.postures)
+                     self.train.bands, self.train.postures, self.held.postures,
+                     getattr(self.train, "ordinary", None))
             self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp.get_context("fork"),
                                              initializer=_init_worker, initargs=(state,))
         return self._pool
@@ -410,11 +411,17 @@ def _init_worker(state) -> None:
     from rmbench.impact.config import CampaignConfig
     from rmbench.robot import Robot
 
-    xml, name, tool, rpm, design_json, q_cmd, meas, frf, bands, train, held = state
+    xml, name, tool, rpm, design_json, q_cmd, meas, frf, bands, train, held, ordinary = state
     robot = Robot(xml, name=name, tool=tool, spindle_rpm=rpm)
     bench = ModelBench(robot, TestDesign(CampaignConfig.model_validate_json(design_json)), q_cmd)
-    _WORKER["train"] = Objective(bench, meas, frf, bands, train)
-    _WORKER["held"] = Objective(bench, meas, frf, bands, held)
+    if ordinary is None:
+        _WORKER["train"] = Objective(bench, meas, frf, bands, train)
+        _WORKER["held"] = Objective(bench, meas, frf, bands, held)
+    else:      # a search on top of a calibration (rmbench.gap.joint)
+        from rmbench.gap.joint import JointObjective
+
+        _WORKER["train"] = JointObjective(bench, meas, frf, bands, train, ordinary)
+        _WORKER["held"] = JointObjective(bench, meas, frf, bands, held, ordinary, fitted_on=_WORKER["train"])
 
 
 def _refine_job(job) -> Fitted:

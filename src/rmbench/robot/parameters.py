@@ -88,6 +88,17 @@ class Parameter:
     scales: tuple = ()
 
     @property
+    def resolution(self) -> float:
+        """The smallest difference that matters, in ``u``: 5 % of a log-scaled value, 5 mm of a
+        centre of mass, 2 µrad/(kN·m) of the base's compliance. A parameter the data fix to within
+        this (95 % interval) is called identifiable."""
+        if self.log:
+            return float(np.log(1.05))
+        if self.kind == "com":
+            return 0.005 / self.unit
+        return 2 * _BASE_UNIT / self.unit
+
+    @property
     def sigma(self) -> float:
         """Prior standard deviation in ``u``: a quarter of a range about the nominal, half of one
         the nominal bounds (a half-normal prior: the base is rigid unless the data say otherwise)."""
