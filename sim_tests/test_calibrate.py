@@ -227,3 +227,21 @@ def test_each_parameter_states_the_resolution_that_matters(irb):
     assert by["upper_arm.com_y"].value(by["upper_arm.com_y"].resolution) - by["upper_arm.com_y"].nominal \
         == pytest.approx(0.005)
     assert by["base.tilt_compliance"].value(by["base.tilt_compliance"].resolution) == pytest.approx(2e-9)
+
+
+def test_a_calibrated_foundation_is_calibrated_again_from_its_own_tilt(irb):
+    from rmbench.robot.spec import spec_to_xml
+
+    mounted, params = parameter_set(irb, ("base",))
+    base = list(params)[0]
+    u = np.array([base.to_u(50e-9)])          # 50 µrad/(kN·m)
+    spec = mounted.spec
+    params.apply_spec(spec, u)
+    calibrated = Robot(spec_to_xml(spec), name=irb.name, tool=irb.tool)
+    again, params2 = parameter_set(calibrated, ("base",))
+    # a calibrated model calibrated again on new data: its foundation is reused, not doubled,
+    # and the prior is centred on the tilt it already has (the lower bound is a rigid base)
+    assert sum(b.name == "base_mount" for b in again.spec.bodies) == 1
+    base2 = list(params2)[0]
+    assert base2.value(0.0) == pytest.approx(50e-9, rel=1e-9)
+    assert base2.value(params2.lower()[0]) == pytest.approx(0.0, abs=1e-15)

@@ -284,14 +284,16 @@ def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]
     -------
     robot : Robot
         ``robot`` itself, or, with the ``base`` group, a copy mounted on a foundation that is
-        rigid at the nominal (zero tilt compliance) and whose tilt the set can soften.
+        rigid at the nominal (zero tilt compliance) and whose tilt the set can soften. A robot
+        already on a foundation (a calibrated one, ``calibrated.xml``) keeps it: the tilt it has
+        is the parameter's nominal, so a calibrated model can be calibrated again on new data.
     params : ParameterSet
 
     Raises
     ------
     InputError
         An unknown group, or a group the robot has nothing of (no ``*_flex`` joints, no tool
-        contact).
+        contact), or a foundation without equal tilt joints ``base_rx``/``base_ry``.
     """
     from rmbench.robot.model import Robot
     from rmbench.robot.spec import spec_to_xml
@@ -299,14 +301,26 @@ def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]
 
     groups = parse_groups(",".join(groups)) if not isinstance(groups, str) else parse_groups(groups)
     base_mass = 0.0
+    base_c0 = 0.0
     if "base" in groups:
         if any(b.name == "base_mount" for b in robot.spec.bodies):
-            raise InputError("the robot already stands on a compliant base; calibrate its base joints "
-                             "as joints, or start from the robot without one")
-        spec = robot.spec
-        add_compliant_base(spec, _RIGID, _RIGID)
-        robot = Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool,
-                      spindle_rpm=robot.spindle_rpm, spec=spec)
+            # a robot already on a foundation (a calibrated one): its tilt is the parameter,
+            # from the compliance it has
+            m0 = robot.model
+            names = [m0.joint(j).name for j in range(m0.njnt)]
+            if not all(t in names for t in ("base_rx", "base_ry")):
+                raise InputError("the robot already stands on a base without tilt joints (base_rx, "
+                                 "base_ry); calibrate it without the base group")
+            k_rx, k_ry = (float(m0.jnt_stiffness[m0.joint(t).id]) for t in ("base_rx", "base_ry"))
+            if not np.isclose(k_rx, k_ry, rtol=1e-6):
+                raise InputError("the robot's base tilts unequally about x and y; calibrate it without "
+                                 "the base group")
+            base_c0 = 0.0 if k_rx >= _RIGID / 2 else 1 / k_rx
+        else:
+            spec = robot.spec
+            add_compliant_base(spec, _RIGID, _RIGID)
+            robot = Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool,
+                          spindle_rpm=robot.spindle_rpm, spec=spec)
         base_mass = float(robot.model.body_subtreemass[robot.model.body("base_mount").id])
     m = robot.model
     spec = robot.spec
@@ -346,8 +360,9 @@ def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]
                     out.append(Parameter(f"{b}.com_{axis}", g, "com", (b,), i, float(ipos[i]), False, 0.01,
                                          -25.0, 25.0, "mm"))
         elif g == "base":
-            out.append(Parameter("base.tilt_compliance", g, "base", ("base_rx", "base_ry"), 0, 0.0, False,
-                                 _BASE_UNIT, 0.0, 300.0, "µrad/(kN·m)"))
+            c0 = base_c0 / _BASE_UNIT
+            out.append(Parameter("base.tilt_compliance", g, "base", ("base_rx", "base_ry"), 0, base_c0, False,
+                                 _BASE_UNIT, -c0, 300.0 - c0, "µrad/(kN·m)"))
         elif g == "tool":
             contact = [f"tool_contact_{a}" for a in ("x", "y", "rx", "ry")]
             if not all(c in [m.joint(j).name for j in range(m.njnt)] for c in contact):
