@@ -25,8 +25,10 @@ code; half stand on a foundation that tilts):
 5. the calibration's own seconds, and separately the default 24-parameter calibration timed on
    one robot with the machine otherwise idle (``--time-default``).
 
-A fresh seed is drawn per run unless ``--seed`` is given, and printed. Cases go to a JSON-lines
-file keyed by seed, settings and a digest of the code (its syntax tree without docstrings: a
+A fresh seed is drawn per run unless ``--seed`` is given, and printed. Each robot's measured FRFs
+are kept in ``bench/.cache/`` (keyed by seed, robot and method: the campaign does not depend on
+the calibration's code), so a rerun on changed code measures nothing again; ``--only`` runs the
+robots named. Cases go to a JSON-lines file keyed by seed, settings and a digest of the code (its syntax tree without docstrings: a
 comment does not start a new run); a rerun with the same key resumes, another key starts a new
 file. A robot that cannot hold a posture is rejected: counted, printed and kept in the file, never
 silently redrawn.
@@ -38,7 +40,7 @@ real-robot keys come from ``bench/calibrate_real.py`` when its result file exist
 the verdict "explained" and the hidden effect ranked first).
 
 usage: python bench/calibrate.py [--robots 40] [--seed S] [--workers 2] [--method time] [--plain]
-                                 [--groups G] [--gap-groups G] [--time-default]
+                                 [--groups G] [--gap-groups G] [--time-default] [--only I,J,...]
 """
 
 from __future__ import annotations
@@ -68,6 +70,7 @@ from rmbench.robot.parameters import ParameterSet, parse_groups  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
+CACHE = HERE / ".cache"
 N_UNSEEN = 200
 
 
@@ -146,6 +149,26 @@ def measure(truth_xml: str, postures, method: str, seed: int, workers: int, tmp:
         return load_modal_data(back, workers=workers)
 
 
+def measured(xml: str, postures, args, seed: int, i: int, *, placement=None, rpm: float = 0.0):
+    """The FRF dataset of robot ``i`` read back from UFF58, from the cache or measured (then
+    cached: written whole, so an interrupted run leaves no half file)."""
+    import xarray as xr
+
+    path = CACHE / f"calibrate_s{seed}_{i}_{args.method}.nc"
+    if path.exists():
+        return xr.open_dataset(path).load()
+    tmp = Path(tempfile.mkdtemp(prefix="rmbench_cal_"))
+    try:
+        ds = measure(xml, postures, args.method, seed * 1000 + i, args.workers, tmp, placement=placement,
+                     rpm=rpm, fit=False)
+        CACHE.mkdir(exist_ok=True)
+        ds.to_netcdf(tmp / "ds.nc")
+        shutil.move(tmp / "ds.nc", path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return ds
+
+
 def unseen_postures(rng, n=N_UNSEEN) -> list[Posture]:
     """Quasi-random (scrambled Sobol) postures in the seed grid's box."""
     from scipy.stats import qmc
@@ -208,11 +231,9 @@ def run_case(i: int, seed: int, args) -> dict:
     grid = seed_grid()
     postures = [grid[k] for k in sorted(rng.choice(len(grid), 16, replace=False))]
     t0 = time.perf_counter()
-    tmp = Path(tempfile.mkdtemp(prefix="rmbench_cal_"))
-    try:
-        data = measure(xml, postures, args.method, seed * 1000 + i, args.workers, tmp)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        data = load_modal_data(measured(xml, postures, args, seed, i), workers=args.workers)
     t1 = time.perf_counter()
     held = [1, 5, 9, 13]
     settings = CalibrationSettings(groups=parse_groups(args.groups), workers=args.workers)
@@ -265,12 +286,7 @@ def run_gap_case(i: int, seed: int, args) -> dict:
         hidden = {"kind": h.kind, "location": h.location, "value": h.value, "name": h.name,
                   "in_library": h.kind in IN_LIBRARY}
     t0 = time.perf_counter()
-    tmp = Path(tempfile.mkdtemp(prefix="rmbench_cal_"))
-    try:
-        ds = measure(xml, postures, args.method, seed * 1000 + i, args.workers, tmp, placement=placement,
-                     rpm=rpm, fit=False)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    ds = measured(xml, postures, args, seed, i, placement=placement, rpm=rpm)
     t1 = time.perf_counter()
     settings = DiagnosisSettings(calibrate=parse_groups(args.gap_groups), heldout=0.25)
     with warnings.catch_warnings():
@@ -296,6 +312,7 @@ def run_gap_case(i: int, seed: int, args) -> dict:
                                              "shrink": top.shrink, "params": top.params,
                                              "chosen": top.chosen},
             "ranked": [[e.name, e.confidence, e.shrink] for e in dg.effects[:5]],
+            "confirmation": dg.confirmation, "notes_gap": list(dg.notes),
             "heldout": acct["heldout_modes"], "params": score_params(SimpleNamespace(params=est), truth),
             "unseen": unseen, "chi2_per_residual": [acct["chi2_per_residual"]["before"],
                                                     acct["chi2_per_residual"]["after"]],
@@ -388,6 +405,7 @@ def main(argv=None) -> None:
     ap.add_argument("--gap-groups", default="joints,damping,servo,masses,com,base,tool",
                     help="groups gap diagnose --calibrate calibrates")
     ap.add_argument("--time-default", action="store_true", help="time the default 24-parameter calibration")
+    ap.add_argument("--only", default=None, metavar="I,J,...", help="run only these robots (indices)")
     ap.add_argument("--lines", default=None, help="JSON-lines file (default: bench/results/calibrate_<key>.jsonl)")
     args = ap.parse_args(argv)
     seed = args.seed if args.seed is not None else int(np.random.SeedSequence().entropy % 100000)
@@ -402,8 +420,9 @@ def main(argv=None) -> None:
             if s.strip():
                 c = json.loads(s)
                 (rejected if "rejected" in c else done)[c["index"]] = c
+    only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
     for i in range(args.robots):
-        if i in done or i in rejected:
+        if i in done or i in rejected or (only is not None and i not in only):
             continue
         try:
             c = run_case(i, seed, args) if args.plain else run_gap_case(i, seed, args)

@@ -2,6 +2,7 @@
 robot from its exact modes, its account of what the data do not determine, its files and errors."""
 
 import copy
+from dataclasses import replace
 import json
 
 import numpy as np
@@ -245,3 +246,92 @@ def test_a_calibrated_foundation_is_calibrated_again_from_its_own_tilt(irb):
     base2 = list(params2)[0]
     assert base2.value(0.0) == pytest.approx(50e-9, rel=1e-9)
     assert base2.value(params2.lower()[0]) == pytest.approx(0.0, abs=1e-15)
+
+
+# -- structural parameters, freed, and the FRF residuals ---------------------------------------------
+def test_structural_parameters_are_added_by_name_after_the_groups(irb):
+    mounted, params = parameter_set(irb, ("joints",), extra=("base.lateral_compliance", "spindle.radial",
+                                                             "wrist.mass"))
+    names = params.names
+    assert names[-3:] == ("base.lateral_compliance", "spindle.radial", "wrist.mass")
+    # the lateral compliance needs a foundation: mounted rigid, as the base group does
+    assert any(b.name == "base_mount" for b in mounted.spec.bodies)
+    lateral = list(params)[-3]
+    assert lateral.value(0.0) == 0.0 and lateral.label == "µm/kN"
+
+
+def test_an_unknown_structural_parameter_is_a_one_line_error(irb):
+    with pytest.raises(InputError, match="unknown structural parameter"):
+        parameter_set(irb, ("joints",), extra=("gearbox.backlash",))
+
+
+def test_a_freed_parameter_reaches_far_beyond_its_prior_range(irb):
+    _, params = parameter_set(irb, ("tool",))
+    freed = params.freed(("tool_contact.rotation",))
+    by = dict(zip(freed.names, freed))
+    # a holder five times softer lies outside the ordinary spread (0.4-2.5) but inside the freed range
+    assert params.lower()[1] > np.log(0.2) > by["tool_contact.rotation"].lower
+    assert by["tool_contact.translation"].lower == params.lower()[0]
+
+
+def _with_frf(robot, design, data: ModalData) -> ModalData:
+    """``data`` with the exact FRFs of ``robot`` on 400 lines a band, as an accurate test gives them
+    (0.1 % noise a line)."""
+    from rmbench.calibrate.residual import frf_target
+
+    q = np.array([robot.ik(p).q for p in data.postures])
+    mm = ModalModel(robot, ParameterSet([]), design, q, data.bands)
+    frf = []
+    for p in range(len(data)):
+        per = {}
+        for b in data.bands:
+            band = design.band(b)
+            freq = np.linspace(band.f_min, band.f_max, 400)
+            _, H = mm.response(np.zeros(0), p, b, freq)
+            per[b] = frf_target(freq, H, np.full(H.shape, 1e-3))
+        frf.append(per)
+    return ModalData(data.postures, data.modes, data.bands, data.design, data.source, tuple(frf))
+
+
+@pytest.fixture(scope="module")
+def soft_holder(irb):
+    """A robot whose tool holder is four times softer than its data sheet, j3 25 % softer."""
+    import re
+
+    xml = irb.xml
+    for j in ("tool_contact_x", "tool_contact_y", "tool_contact_rx", "tool_contact_ry"):
+        k = irb.model.jnt_stiffness[irb.model.joint(j).id]
+        xml, n = re.subn(rf'(<joint name="{j}"[^>]*?stiffness=")([^" ]+)', lambda m: m.group(1) + f"{k / 4:.9g}", xml)
+        assert n == 1, "each contact joint's stiffness is written once in the MJCF"
+    k3 = irb.model.jnt_stiffness[irb.model.joint("j3_flex").id]
+    xml = xml.replace(f'<joint name="j3_flex" stiffness="{k3:.0f}"', f'<joint name="j3_flex" stiffness="{0.75 * k3:.9g}"')
+    return Robot(xml, name="truth", tool="dummy")
+
+
+def test_the_frf_residuals_join_the_modal_ones_when_asked(irb, soft_holder, design):
+    data = _with_frf(soft_holder, design, _exact_data(soft_holder, design, POSTURES[:3]))
+    s = CalibrationSettings(groups=("joints",), workers=1, max_iter=1)
+    plain, with_frf = calibrate(irb, data, settings=s), calibrate(irb, data, settings=replace(s, frf=True))
+    # 16 entries in 4 quarter bands, per posture and band
+    assert with_frf.n_residuals - plain.n_residuals == 3 * 2 * 64
+
+
+def test_a_freed_holder_is_recovered_beside_the_gearboxes_from_modes_and_frfs(irb, soft_holder, design):
+    data = _with_frf(soft_holder, design, _exact_data(soft_holder, design, POSTURES))
+    s = CalibrationSettings(groups=("joints", "tool"), workers=1, frf=True,
+                            free=("tool_contact.translation", "tool_contact.rotation"))
+    cal = calibrate(irb, data, settings=s, start={"tool_contact.translation": np.log(0.5),
+                                                  "tool_contact.rotation": np.log(0.5)})
+    by = {p.name: p for p in cal.params}
+    nominal = {p.name: p.nominal for p in cal.params}
+    # noise-free data of a model of the fitted form: the sizes come back to the 5 % resolution
+    assert by["tool_contact.translation"].value / nominal["tool_contact.translation"] == pytest.approx(0.25, rel=0.05)
+    assert by["j3_flex.stiffness"].value / nominal["j3_flex.stiffness"] == pytest.approx(0.75, rel=0.05)
+
+
+def test_model_calibrate_refuses_frf_residuals_for_a_modal_table(cli):
+    from importlib import resources
+
+    table = resources.files("rmbench.gap").joinpath("data", "seed000_irb6660.csv")
+    code, _, err = cli("model", "calibrate", "--data", str(table), "--tool", "dummy", "--frf")
+    assert code != 0 and "--frf needs FRF data" in err and len(err.strip().splitlines()) == 1

@@ -183,3 +183,11 @@ def test_calibration_enters_the_json_beside_the_effects(calibrated_diagnosis):
     assert out["calibration"]["groups"] == ["joints"]
     assert {"params", "heldout_errors", "chi2_per_residual"} <= set(out["calibration"])
     assert out["verdict"] == "explained" and out["effects"]
+
+
+def test_a_negative_number_of_confirmations_is_a_one_line_error(tmp_path, capsys):
+    from rmbench.cli import main
+
+    code = main(["gap", "diagnose", "--data", str(tmp_path / "x.nc"), "--calibrate", "--confirm", "-1"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--confirm must be 0 or more" in err and len(err.strip().splitlines()) == 1

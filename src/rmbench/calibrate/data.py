@@ -50,6 +50,10 @@ class ModalData:
     design : TestDesign
     source : str
         Where the data came from (a file name), for the calibrated model's header.
+    frf : tuple of dict or None
+        Per posture, ``{band: FrfTarget}`` (:func:`~rmbench.calibrate.residual.frf_target`): the
+        measured FRFs reduced to what the FRF residual compares; None for data without FRFs (a
+        modal fit or table).
     """
 
     postures: tuple
@@ -57,6 +61,7 @@ class ModalData:
     bands: tuple
     design: TestDesign
     source: str = ""
+    frf: tuple | None = None
 
     def __len__(self) -> int:
         return len(self.postures)
@@ -68,7 +73,8 @@ class ModalData:
     def subset(self, idx) -> "ModalData":
         idx = [int(i) for i in idx]
         return ModalData(tuple(self.postures[i] for i in idx), tuple(self.modes[i] for i in idx),
-                         self.bands, self.design, self.source)
+                         self.bands, self.design, self.source,
+                         None if self.frf is None else tuple(self.frf[i] for i in idx))
 
 
 def load_modal_data(data, *, test: str | None = None, workers: int | None = None,
@@ -106,14 +112,15 @@ def load_modal_data(data, *, test: str | None = None, workers: int | None = None
         postures = [Posture(float(x), float(y), float(t))
                     for x, y, t in zip(ds.x.values, ds.y.values, ds.theta.values)]
         return ModalData(tuple(postures), tuple(modes_of_fit(ds, use)), use, design, _name(data))
-    from rmbench.calibrate.measured import fit_measured
+    from rmbench.calibrate.measured import fit_measured, frf_targets
 
     ds = measured_data(ds)
     design = TestDesign.of_dataset(ds, test)
     found = tuple(b for b in ("low", "high") if np.any(ds.band.values == b))
     use = _pick(found, bands)
-    modes, _ = fit_measured(ds, use, workers=workers)
-    return ModalData(tuple(postures_of(ds)), tuple(modes), use, design, _name(data))
+    modes, fit = fit_measured(ds, use, workers=workers)
+    frf = frf_targets(ds, fit, use, design.averages(), design.direction_scatter())
+    return ModalData(tuple(postures_of(ds)), tuple(modes), use, design, _name(data), tuple(frf))
 
 
 def _name(data) -> str:

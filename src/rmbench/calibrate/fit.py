@@ -39,7 +39,7 @@ import numpy as np
 from scipy.optimize import least_squares, linear_sum_assignment
 
 from rmbench.calibrate.model import ModalModel
-from rmbench.calibrate.residual import UNPAIRED, Pairing, mode_residuals, pair
+from rmbench.calibrate.residual import FRF_SEGMENTS, UNPAIRED, Pairing, frf_residuals, mode_residuals, pair
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.robot.parameters import DEFAULT_GROUPS, parameter_set
 
@@ -69,6 +69,18 @@ class CalibrationSettings:
         Forward-difference step, as a share of each parameter's prior standard deviation.
     workers : int or None
         Worker processes for the sensitivities (None: the process's share of the cores).
+    frf : bool
+        Add the FRF residuals (mean log-magnitude gap per entry and quarter band,
+        :func:`~rmbench.calibrate.residual.frf_residuals`) to the modal ones, where the data
+        carry FRFs (:attr:`ModalData.frf`): they see what lies between and beyond the modes (a
+        tool contact's residual flexibility, a sensor's gain).
+    extra : tuple of str
+        Parameters in no group (:data:`rmbench.robot.parameters.STRUCTURAL`, ``BODY.mass``) fitted
+        beside the groups'.
+    free : tuple of str
+        Parameters fitted without their prior and with wide bounds
+        (:meth:`~rmbench.robot.parameters.ParameterSet.freed`): a structural effect's size, which
+        no ordinary spread describes.
     """
 
     groups: tuple = DEFAULT_GROUPS
@@ -76,6 +88,9 @@ class CalibrationSettings:
     max_iter: int = 16
     step: float = 0.02
     workers: int | None = None
+    frf: bool = False
+    extra: tuple = ()
+    free: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -229,16 +244,22 @@ class _Problem:
         self.steps = settings.step * self.sigma
         self.keys = [(p, b) for p in self.postures for b in data.bands
                      if b in data.modes[p] and len(data.modes[p][b])]
-        self.sizes = [4 * len(data.modes[p][b]) + 1 for p, b in self.keys]
+        use_frf = settings.frf and not coarse and data.frf is not None
+        self.targets = [data.frf[p].get(b) if use_frf else None for p, b in self.keys]
+        self.sizes = [4 * len(data.modes[p][b]) + 1 + (FRF_SEGMENTS * 16 if t is not None else 0)
+                      for (p, b), t in zip(self.keys, self.targets)]
         self.n = int(sum(self.sizes))
         self.workers = settings.workers
         self._pool = None
 
     def residuals(self, u) -> np.ndarray:
         out = []
-        for (p, b), size in zip(self.keys, self.sizes):
+        for (p, b), size, t in zip(self.keys, self.sizes, self.targets):
             try:
-                e, _ = self.residual(self.data.modes[p][b], self.mm.modes(u, p, b))
+                modes, H = self.mm.response(u, p, b, None if t is None else t.freq)
+                e, _ = self.residual(self.data.modes[p][b], modes)
+                if t is not None:
+                    e = np.concatenate([e, frf_residuals(t, H)])
             except RmbenchError:      # a posture these values cannot hold: every mode missing
                 e = np.full(size, UNPAIRED)
             out.append(e)
@@ -246,7 +267,7 @@ class _Problem:
 
     def jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Residuals at ``u`` and their sensitivity, shape (n,), (n, n_params), per unit of ``u``."""
-        jobs = [(u, p, b) for p, b in self.keys]
+        jobs = [(u, p, b, t) for (p, b), t in zip(self.keys, self.targets)]
         parts = self._map(jobs)
         r = np.concatenate([x[0] for x in parts])
         j = np.vstack([x[1] for x in parts])
@@ -290,16 +311,19 @@ def _worker_job(job):
     return _sensitivity_job(_WORKER["problem"], *job)
 
 
-def _sensitivity_job(problem: _Problem, u, p, b):
+def _sensitivity_job(problem: _Problem, u, p, b, target=None):
     meas = problem.data.modes[p][b]
     size = 4 * len(meas) + 1
+    n_frf = FRF_SEGMENTS * 16 if target is not None else 0
     try:
-        base, stepped = problem.mm.sensitivity(u, p, b, problem.steps)
+        (base, H0), stepped = problem.mm.sensitivity(u, p, b, problem.steps,
+                                                      None if target is None else target.freq)
     except RmbenchError:
-        return np.full(size, UNPAIRED), np.zeros((size, len(u)))
+        return np.full(size + n_frf, UNPAIRED), np.zeros((size + n_frf, len(u)))
     e0, pr = problem.residual(meas, base)
-    jac = np.zeros((size, len(u)))
-    for i, modes in enumerate(stepped):
+    jac = np.zeros((size + n_frf, len(u)))
+    f0 = frf_residuals(target, H0) if target is not None else None
+    for i, (modes, H1) in enumerate(stepped):
         track = _track(base, modes)
         keep = track[pr.model] >= 0
         fixed = Pairing(pr.meas[keep], track[pr.model[keep]], pr.unpaired_meas, pr.unpaired_model)
@@ -307,8 +331,10 @@ def _sensitivity_job(problem: _Problem, u, p, b):
         lost = pr.meas[~keep]
         d = (e1 - e0) / problem.steps[i]
         d[:-1].reshape(-1, 4)[lost] = 0.0     # a mode the step lost: no derivative
-        jac[:, i] = d
-    return e0, jac
+        jac[:size, i] = d
+        if target is not None:
+            jac[size:, i] = (frf_residuals(target, H1) - f0) / problem.steps[i]
+    return (e0 if f0 is None else np.concatenate([e0, f0])), jac
 
 
 _COARSE_F = 0.02          # coarse stage: frequency uncertainty (relative)
@@ -366,7 +392,7 @@ def _track(base, stepped) -> np.ndarray:
 
 
 def calibrate(robot, data, *, held=(), settings: CalibrationSettings = CalibrationSettings(),
-              progress=None) -> Calibration:
+              start: dict | None = None, progress=None) -> Calibration:
     """Calibrate a nominal robot's ordinary parameters to measured modes.
 
     Parameters
@@ -378,6 +404,9 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
     held : sequence of int
         Posture indices held out of the fit and scored after it.
     settings : CalibrationSettings
+    start : dict, optional
+        ``{parameter name: u}`` to start from (a previous calibration; absent names at the
+        nominal) instead of the gross starts and the coarse stage.
     progress : callable, optional
         ``progress(message)`` after each step.
 
@@ -401,13 +430,16 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
             q.append(robot.ik(post).q)
         except UnreachablePosture as err:
             raise InputError(f"the data's postures are not this robot's: {err}") from None
-    rob, params = parameter_set(robot, settings.groups)
+    rob, params = parameter_set(robot, settings.groups, settings.extra)
+    if settings.free:
+        params = params.freed(settings.free)
     mm = ModalModel(rob, params, data.design, np.array(q), data.bands)
     u0 = np.zeros(len(params))
     _check_pairing(mm, u0, data, train)
     problem = _Problem(mm, data, train, settings)
     sigma = problem.sigma
-    w = np.sqrt(settings.prior_weight)
+    # the prior's weight per parameter: none on a freed one
+    w = np.sqrt(settings.prior_weight) * np.array([0.0 if n in settings.free else 1.0 for n in params.names])
     lo, hi = params.lower() / sigma, params.upper() / sigma
     cache = {}
 
@@ -425,7 +457,7 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
 
     def jac(z):
         _, j = jac_at(z)
-        return np.vstack([j, w * np.eye(len(z))])
+        return np.vstack([j, np.diag(w)])
 
     try:
         r0, j0 = jac_at(np.zeros(len(params)))
@@ -433,21 +465,15 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
         _check_enough(j0, params, problem.n, data, train)
         say(f"nominal: χ²/residual {chi2_before / problem.n:.3g} over {problem.n} residuals, "
             f"{len(params)} parameters")
-        coarse = _Problem(mm, data, train, settings, coarse=True)
-
-        def fun_c(z):
-            return np.concatenate([coarse.residuals(z * sigma), w * z])
-
-        z0 = _start(params, fun_c, lo, hi, say)
-        if _far(problem, z0 * sigma):
-            def jac_c(z):
-                _, j = coarse.jacobian(z * sigma)
-                return np.vstack([j * sigma[None, :], w * np.eye(len(z))])
-
-            z0 = least_squares(fun_c, z0, jac=jac_c, bounds=(lo, hi), method="trf",
-                               max_nfev=min(10, settings.max_iter), xtol=1e-3, ftol=1e-4).x
-            say("coarse stage (frequencies in a wide window): done")
-        coarse.close()
+        if start is not None:
+            unknown = set(start) - set(params.names)
+            if unknown:
+                raise InputError(f"no parameters {', '.join(sorted(unknown))} to start from")
+            z0 = np.array([start.get(n, 0.0) for n in params.names]) / sigma
+            # a start on a bound cannot leave it (trust-region steps scale with the distance)
+            z0 = np.clip(z0, lo + 0.05, hi - 0.05)
+        else:
+            z0 = _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say)
         sol = least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
                             max_nfev=settings.max_iter, xtol=1e-4, ftol=1e-6, gtol=1e-8)
         z = sol.x
@@ -456,7 +482,8 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
         problem.close()
     chi2_after = float(r1 @ r1)
     say(f"calibrated: χ²/residual {chi2_after / problem.n:.3g} after {sol.nfev} evaluations")
-    estimates, cov_u, combos, notes = _account(params, z, j1, sigma, chi2_after, problem.n, lo, hi)
+    estimates, cov_u, combos, notes = _account(params, z, j1, sigma, chi2_after, problem.n, lo, hi,
+                                               prior=(w > 0).astype(float))
     if sol.status == 0:
         notes.append(f"the fit stopped at its limit of {settings.max_iter} evaluations")
     u = z * sigma
@@ -471,11 +498,35 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
                        seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes))
 
 
+def _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say) -> np.ndarray:
+    """The best gross start, then, when the model is still far from the data there, the coarse
+    stage (frequencies only, in a wide window), in prior σ."""
+    sigma = problem.sigma
+    coarse = _Problem(mm, data, train, settings, coarse=True)
+    try:
+        def fun_c(z):
+            return np.concatenate([coarse.residuals(z * sigma), w * z])
+
+        z0 = _start(params, fun_c, lo, hi, say)
+        if _far(problem, z0 * sigma):
+            def jac_c(z):
+                _, j = coarse.jacobian(z * sigma)
+                return np.vstack([j * sigma[None, :], np.diag(w)])
+
+            z0 = least_squares(fun_c, z0, jac=jac_c, bounds=(lo, hi), method="trf",
+                               max_nfev=min(10, settings.max_iter), xtol=1e-3, ftol=1e-4).x
+            say("coarse stage (frequencies in a wide window): done")
+    finally:
+        coarse.close()
+    return z0
+
+
 def linearisation(robot, data, u, postures, settings: CalibrationSettings = CalibrationSettings()) -> tuple:
     """The residuals and their sensitivity to the calibrated parameters, per posture and band.
 
     What a search on top of a calibration needs to let the ordinary parameters follow it to first
-    order (:mod:`rmbench.gap.joint`).
+    order (:mod:`rmbench.gap.joint`). The parameters are those of ``settings.groups``, on the modal
+    residuals: ``settings.extra``, ``free`` and ``frf`` do not apply here.
 
     Parameters
     ----------
@@ -595,7 +646,7 @@ def _check_enough(j, params, n_res, data, train) -> None:
                      "measure more postures or calibrate fewer groups (--params)")
 
 
-def _account(params, z, j, sigma, chi2, n, lo, hi):
+def _account(params, z, j, sigma, chi2, n, lo, hi, prior=None):
     """Estimates with intervals and identifiability, the posterior covariance in u, and the
     combinations the data determine.
 
@@ -607,7 +658,9 @@ def _account(params, z, j, sigma, chi2, n, lo, hi):
     """
     k = len(z)
     info = j.T @ j
-    cov_z = np.linalg.inv(info + np.eye(k))
+    # a freed parameter has no prior (prior 0): a tiny ridge keeps an undetermined one finite
+    prior = np.ones(k) if prior is None else np.maximum(np.asarray(prior, float), 1e-6)
+    cov_z = np.linalg.inv(info + np.diag(prior))
     sd_info = np.sqrt(np.diag(cov_z))
     notes = []
     scale = max(1.0, chi2 / max(n - k, 1))

@@ -104,22 +104,28 @@ class ModalModel:
 
     def modes(self, u, p: int, band: str) -> ModelModes:
         """Modes at posture ``p`` in ``band`` with the values at ``u`` (settled, linearised: exact)."""
+        return self.response(u, p, band)[0]
+
+    def response(self, u, p: int, band: str, freq=None) -> tuple:
+        """Modes at posture ``p`` in ``band`` with the values at ``u``, and the exact receptance as
+        tested at ``freq`` (Hz; m/N, shape (n_freq, 4, 4); None without ``freq``)."""
         op = self.operating_point(u, p, band)
         out, inp, b = self._rows(op, band)
-        return modes_seen(op.linear.modes(), out, inp, b)
+        return _seen(op.linear.modes(), out, inp, b, freq)
 
-    def sensitivity(self, u, p: int, band: str, steps) -> tuple[ModelModes, list[ModelModes]]:
-        """Modes at ``u`` and with each parameter stepped by ``steps[i]`` (in ``u``).
+    def sensitivity(self, u, p: int, band: str, steps, freq=None) -> tuple:
+        """Modes at ``u`` and with each parameter stepped by ``steps[i]`` (in ``u``), and with
+        ``freq`` the receptances too.
 
         Returns
         -------
-        base : ModelModes
-        stepped : list of ModelModes, one per parameter
+        base : (ModelModes, ndarray or None)
+        stepped : list of (ModelModes, ndarray or None), one per parameter
         """
         u = np.asarray(u, float)
         op = self.operating_point(u, p, band)
         out, inp, b = self._rows(op, band)
-        base = modes_seen(op.linear.modes(), out, inp, b)
+        base = _seen(op.linear.modes(), out, inp, b, freq)
         model = op.robot.model
         names = list(op.linear.dof_names)
         stepped = []
@@ -129,12 +135,16 @@ class ModalModel:
             if prm.kind in FAST_KINDS:
                 M, C, K = op.linear.M, op.linear.C.copy(), op.linear.K.copy()
                 _perturb(model, names, prm, u[i], v[i], C, K, self.params)
-                stepped.append(modes_seen(complex_modes(M, C, K), out, inp, b))
+                stepped.append(_seen(complex_modes(M, C, K), out, inp, b, freq))
             else:
                 op_i = self.operating_point(v, p, band)
                 o_i, i_i, _ = self._rows(op_i, band)
-                stepped.append(modes_seen(op_i.linear.modes(), o_i, i_i, b))
+                stepped.append(_seen(op_i.linear.modes(), o_i, i_i, b, freq))
         return base, stepped
+
+
+def _seen(cm, out, inp, b, freq):
+    return modes_seen(cm, out, inp, b), (None if freq is None else cm.frf(np.asarray(freq, float), out, inp))
 
 
 def _perturb(model, names, prm, u_old, u_new, C, K, params) -> None:

@@ -29,6 +29,8 @@ def register_model_commands(msub) -> None:
                      help="hold K postures out of the fit (spread over the data) and report their errors")
     cal.add_argument("--out", default=None, metavar="CAL.xml",
                      help="calibrated MJCF to write; CAL_params.csv and CAL_modes.csv are written beside it")
+    cal.add_argument("--frf", action="store_true",
+                     help="fit the FRFs too (mean log magnitude per entry and quarter band), where the data are FRFs")
     cal.add_argument("--json", action="store_true", help="print the calibration as JSON")
     add_report_option(cal, "the calibrated parameters and the modes before and after")
     cal.set_defaults(func=cmd_calibrate)
@@ -84,9 +86,13 @@ def cmd_calibrate(args) -> int:
     if out is not None and (out.suffix.lower() != ".xml" or not out.resolve().parent.is_dir()):
         raise InputError(f"--out must be an .xml file in an existing folder, got {args.out}")
     robot, data = _load(args)
+    if args.frf and data.frf is None:
+        raise InputError("--frf needs FRF data (a campaign dataset or a UFF58 directory); a modal fit or table "
+                         "carries none")
     held = _spread(data, args.heldout)
     say = None if args.json else (lambda msg: print(msg, flush=True))
-    cal = calibrate(robot, data, held=held, settings=CalibrationSettings(groups=groups, workers=args.workers),
+    cal = calibrate(robot, data, held=held, settings=CalibrationSettings(groups=groups, workers=args.workers,
+                                                                     frf=args.frf),
                     progress=say)
     files = {}
     if out is not None:
@@ -211,7 +217,8 @@ def cmd_suggest(args) -> int:
     candidates = [p for p in postures_of(cfg, robot) if p not in data.postures]
     say = None if args.json else (lambda msg: print(msg, flush=True))
     s = suggest_postures(robot, data, candidates, args.n,
-                         settings=CalibrationSettings(groups=groups, workers=args.workers), progress=say)
+                         settings=CalibrationSettings(groups=groups, workers=args.workers,
+                                                                     frf=args.frf), progress=say)
     if args.json:
         print_json(s.to_json())
         return 0

@@ -29,6 +29,9 @@ def register(sub) -> None:
     d.add_argument("--calibrate", nargs="?", const="default", default=None, metavar="GROUPS",
                    help="calibrate the ordinary parameters first (groups as for 'model calibrate', default "
                         "joints,damping,servo,masses), then search the structural effects on the calibrated model")
+    d.add_argument("--confirm", type=int, default=2, metavar="N",
+                   help="with --calibrate: recalibrate with each of the N best candidates in place (and once "
+                        "without) before calling the gap unexplained (default 2; 0: no recalibration)")
     d.add_argument("--out", default=None, help="directory for figures, tables and the updated variant MJCF")
     d.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     d.add_argument("--json", action="store_true", help="print the diagnosis as JSON")
@@ -80,7 +83,9 @@ def cmd_diagnose(args) -> int:
 
     settings = DiagnosisSettings()
     if args.calibrate is not None:
-        settings = DiagnosisSettings(calibrate=parse_groups(args.calibrate))
+        if args.confirm < 0:
+            raise InputError(f"--confirm must be 0 or more, got {args.confirm}")
+        settings = DiagnosisSettings(calibrate=parse_groups(args.calibrate), confirm=args.confirm)
 
     test = read_test_design(args)
     data = Path(args.data)

@@ -19,6 +19,12 @@ damping), ``servo`` (position gain kp of each arm actuator), ``masses`` (mass of
 5 kg or more, inertia scaled with it), ``com`` (the three components of those links' centres of
 mass, in the link's frame), ``base`` (tilt compliance of a foundation the robot is mounted on),
 ``tool`` (translational and rotational stiffness of the tool-holder contact).
+
+Structural parameters (:data:`STRUCTURAL`, ``extra=`` of :func:`parameter_set`) are in no group:
+the foundation's lateral compliance, the spindle bearings' radial and tilt stiffness, and any
+body's mass. A gap diagnosis adds the ones a candidate effect edits and fits them with no prior
+(:meth:`ParameterSet.freed`), beside the ordinary ones: the same description and the same
+solver for every parameter.
 """
 
 from __future__ import annotations
@@ -30,8 +36,8 @@ import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["GROUPS", "DEFAULT_GROUPS", "Parameter", "ParameterSet", "parameter_set", "parse_groups",
-           "BASE_DAMPING_RATIO"]
+__all__ = ["GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet", "parameter_set",
+           "parse_groups", "BASE_DAMPING_RATIO"]
 
 GROUPS = ("joints", "damping", "servo", "masses", "com", "base", "tool")
 DEFAULT_GROUPS = ("joints", "damping", "servo", "masses")
@@ -39,6 +45,11 @@ BASE_DAMPING_RATIO = 0.05     # of the foundation's tilt, against the arm's mass
 _RIGID = 1e14                 # N/m or N·m/rad: a mount this stiff is rigid in every band
 _BASE_UNIT = 1e-9             # 1 µrad/(kN·m) in rad/(N·m)
 _MIN_LINK_KG = 5.0
+# parameters in no group, added by name (``extra=``); also ``BODY.mass`` of any body
+STRUCTURAL = ("base.lateral_compliance", "spindle.radial", "spindle.tilt", "tool_contact.translation",
+              "tool_contact.rotation")
+_WIDE_LOG = (np.log(0.1), np.log(10.0))     # a freed factor: a tenth to ten times the nominal
+_WIDE_MASS = (np.log(0.5), np.log(3.0))     # a freed mass: half to three times
 
 
 @dataclass(frozen=True)
@@ -159,6 +170,27 @@ class ParameterSet:
     def groups(self) -> tuple[str, ...]:
         return tuple(dict.fromkeys(p.group for p in self.params))
 
+    def freed(self, names) -> "ParameterSet":
+        """The same set with the parameters ``names`` given wide bounds (a factor 0.1-10, a mass
+        0.5-3 times, a foundation 0-300 units): what a fit without their prior may need."""
+        from dataclasses import replace
+
+        names = set(names)
+        unknown = names - set(self.names)
+        if unknown:
+            raise ValueError(f"no parameters {sorted(unknown)} in the set")
+        out = []
+        for p in self.params:
+            if p.name in names:
+                if p.kind == "base":
+                    lo, hi = min(p.lower, -p.nominal / p.unit), max(p.upper, 300.0 - p.nominal / p.unit)
+                else:
+                    lo, hi = _WIDE_MASS if p.kind == "mass" else _WIDE_LOG
+                    lo, hi = min(p.lower, lo), max(p.upper, hi)
+                p = replace(p, lower=float(lo), upper=float(hi))
+            out.append(p)
+        return ParameterSet(out, base_mass=self.base_mass)
+
     def lower(self) -> np.ndarray:
         return np.array([p.lower for p in self.params])
 
@@ -270,7 +302,7 @@ def parse_groups(text: str | None) -> tuple[str, ...]:
     return tuple(dict.fromkeys(out))
 
 
-def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]:
+def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", ParameterSet]:
     """The robot to calibrate and its parameters in the chosen groups.
 
     Parameters
@@ -279,6 +311,10 @@ def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]
         The nominal robot (with its tool).
     groups : sequence of str
         Of :data:`GROUPS`.
+    extra : sequence of str
+        Further parameters by name, appended after the groups' (one a group already holds is not
+        repeated): :data:`STRUCTURAL` or ``BODY.mass``. ``base.lateral_compliance`` mounts the
+        robot on a foundation as the ``base`` group does.
 
     Returns
     -------
@@ -300,9 +336,10 @@ def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]
     from rmbench.robot.variant import add_compliant_base
 
     groups = parse_groups(",".join(groups)) if not isinstance(groups, str) else parse_groups(groups)
+    extra = tuple(dict.fromkeys(extra))
     base_mass = 0.0
     base_c0 = 0.0
-    if "base" in groups:
+    if "base" in groups or "base.lateral_compliance" in extra:
         if any(b.name == "base_mount" for b in robot.spec.bodies):
             # a robot already on a foundation (a calibrated one): its tilt is the parameter,
             # from the compliance it has
@@ -316,6 +353,9 @@ def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]
                 raise InputError("the robot's base tilts unequally about x and y; calibrate it without "
                                  "the base group")
             base_c0 = 0.0 if k_rx >= _RIGID / 2 else 1 / k_rx
+            if "base.lateral_compliance" in extra and not all(t in names for t in ("base_x", "base_y")):
+                raise InputError("the robot's base has no lateral slides (base_x, base_y) for "
+                                 "base.lateral_compliance")
         else:
             spec = robot.spec
             add_compliant_base(spec, _RIGID, _RIGID)
@@ -373,9 +413,46 @@ def parameter_set(robot, groups=DEFAULT_GROUPS) -> tuple["object", ParameterSet]
                 out.append(Parameter(f"tool_contact.{name}", g, "stiffness", tuple(joints), 0, ks[0], True, 1.0,
                                      ln(0.4), ln(2.5), "N/m" if name == "translation" else "N·m/rad",
                                      scales=tuple(k / ks[0] for k in ks)))
+    have = {p.name for p in out}
+    for name in extra:
+        if name not in have:
+            out.append(_structural(robot, name))
     if not out:
         raise InputError(f"the robot has no parameters in the groups {', '.join(groups)}")
     for g in groups:
         if not any(p.group == g for p in out):
             raise InputError(f"the robot has no parameters in the group {g!r}")
     return robot, ParameterSet(out, base_mass=base_mass)
+
+
+def _structural(robot, name: str) -> Parameter:
+    """A parameter in no group (:data:`STRUCTURAL`, ``BODY.mass``), its prior range the freed one."""
+    m = robot.model
+    joints = [m.joint(j).name for j in range(m.njnt)]
+
+    def pair(prefix, axes, field, label):
+        targets = tuple(f"{prefix}_{a}" for a in axes)
+        if not all(t in joints for t in targets):
+            raise InputError(f"the robot has no joints {', '.join(targets)} for {name}")
+        ks = [float(m.jnt_stiffness[m.joint(t).id]) for t in targets]
+        return Parameter(name, "structural", "stiffness", targets, 0, ks[0], True, 1.0, *_WIDE_LOG, label,
+                         scales=tuple(k / ks[0] for k in ks))
+
+    if name == "base.lateral_compliance":
+        k = float(m.jnt_stiffness[m.joint("base_x").id])
+        c0 = 0.0 if k >= _RIGID / 2 else 1 / k
+        return Parameter(name, "structural", "base", ("base_x", "base_y"), 0, c0, False, _BASE_UNIT,
+                         -c0 / _BASE_UNIT, 300.0 - c0 / _BASE_UNIT, "µm/kN")
+    if name in ("spindle.radial", "spindle.tilt"):
+        return pair("spindle", ("x", "y") if name.endswith("radial") else ("rx", "ry"), "stiffness",
+                    "N/m" if name.endswith("radial") else "N·m/rad")
+    if name in ("tool_contact.translation", "tool_contact.rotation"):
+        return pair("tool_contact", ("x", "y") if name.endswith("translation") else ("rx", "ry"), "stiffness",
+                    "N/m" if name.endswith("translation") else "N·m/rad")
+    if name.endswith(".mass"):
+        body = name[:-len(".mass")]
+        if mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, body) < 0:
+            raise InputError(f"the robot has no body {body!r} for {name}")
+        return Parameter(name, "structural", "mass", (body,), 0, float(m.body(body).mass[0]), True, 1.0,
+                         *_WIDE_MASS, "kg")
+    raise InputError(f"unknown structural parameter {name!r}; one of {', '.join(STRUCTURAL)} or BODY.mass")

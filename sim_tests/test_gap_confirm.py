@@ -1,0 +1,83 @@
+"""Specification of a structural candidate's confirmation by recalibration: how a candidate's size
+maps onto model parameters and back, which kinds map at all, and the shrink against the null."""
+
+import numpy as np
+import pytest
+
+from rmbench.calibrate import TestDesign
+from rmbench.gap.confirm import _terms, confirmable
+from rmbench.gap.diagnosis import _shrink_between
+from rmbench.gap.effects import library
+from rmbench.impact import load_config
+from rmbench.robot.parameters import parameter_set
+
+
+@pytest.fixture(scope="module")
+def calibrated_library(irb):
+    robot, _ = parameter_set(irb, ("joints", "tool", "base"))
+    design = TestDesign.from_config(load_config("seed_full"))
+    return {e.name: e for e in library(robot, design)}
+
+
+def test_a_holder_candidate_starts_from_the_calibrated_contact_times_its_factor(irb, calibrated_library):
+    effect = calibrated_library["tool_contact_stiffness@tool_contact"]
+    cal_u = {"tool_contact.translation": 0.1, "tool_contact.rotation": -0.2}
+    terms = _terms(effect, np.array([np.log(0.25), np.log(0.5)]), cal_u, ("joints", "tool"), irb)
+    # the tool group already holds the contact: nothing added, both freed
+    assert terms.extra == () and set(terms.free) == set(cal_u)
+    assert terms.start["tool_contact.translation"] == pytest.approx(0.1 + np.log(0.25))
+    # and back: the recalibrated contact, relative to the first calibration, in the effect's units
+    back = terms.values({"tool_contact.translation": 0.1 + np.log(0.3), "tool_contact.rotation": -0.2})
+    np.testing.assert_allclose(back, [np.log(0.3), 0.0], atol=1e-12)
+
+
+def test_a_sliding_foundation_candidate_is_the_lateral_compliance_added(irb, calibrated_library):
+    effect = calibrated_library["base_compliance@base"]
+    terms = _terms(effect, np.array([60.0]), {}, ("joints", "base"), irb)
+    assert terms.extra == ("base.lateral_compliance",) and terms.start == {"base.lateral_compliance": 60.0}
+
+
+def test_a_heavier_body_candidate_adds_to_the_calibrated_mass(irb, calibrated_library):
+    effect = calibrated_library["added_mass@wrist"]
+    m0 = float(irb.model.body("wrist").mass[0])
+    terms = _terms(effect, np.array([0.3 * m0]), {"wrist.mass": np.log(1.1)}, ("masses",), irb)
+    assert terms.extra == () and terms.free == ("wrist.mass",)
+    assert m0 * np.exp(terms.start["wrist.mass"]) == pytest.approx(1.4 * m0)
+    assert terms.values({"wrist.mass": np.log(1.4)})[0] == pytest.approx(0.3 * m0)
+
+
+def test_sensor_and_spin_candidates_map_onto_no_model_parameter(calibrated_library):
+    kinds = {e.kind for e in calibrated_library.values() if not confirmable(e)}
+    assert {"sensor_misalignment", "sensor_misplacement", "joint_stiffness"} <= kinds
+    assert not ({"tool_contact_stiffness", "base_compliance", "added_mass"} & kinds)
+
+
+def test_the_shrink_against_the_null_is_of_the_rms_gap():
+    c0, c1 = np.array([400.0, 400.0, 400.0, 400.0]), np.array([100.0, 100.0, 100.0, 100.0])
+    shrink, (lo, hi) = _shrink_between(c0, c1, [100] * 4, n_boot=50)
+    # a quarter of the χ² is half the rms gap, at every posture: no spread in the bootstrap
+    assert shrink == pytest.approx(0.5) and lo == pytest.approx(0.5) and hi == pytest.approx(0.5)
+
+
+def _confirmed_with(u: dict, freed):
+    from types import SimpleNamespace
+
+    from rmbench.gap.confirm import Confirmed
+
+    cal = SimpleNamespace(params=[SimpleNamespace(name=n) for n in u], u=np.array(list(u.values())))
+    return Confirmed(effect=None, values=None, calibration=cal, robot=None, chi2_held=1.0, n_held=1,
+                     peak_held=0.0, chi2_held_posture=np.ones(1), objective=None, significant=False,
+                     seconds=0.0, freed=tuple(freed))
+
+
+def test_a_holder_confirmed_inside_its_ordinary_spread_is_no_structural_effect(irb):
+    from rmbench.gap.diagnosis import _within_spread
+
+    names = ("tool_contact.translation", "tool_contact.rotation")
+    # × 0.8: inside the tool group's prior range (0.4-2.5): the first calibration's prior held it back
+    assert _within_spread(_confirmed_with({n: np.log(0.8) for n in names}, names), irb, ("joints", "tool"))
+    # ÷ 4: outside it: a structural fault
+    assert not _within_spread(_confirmed_with({n: np.log(0.25) for n in names}, names), irb, ("joints", "tool"))
+    # a parameter no ordinary group holds (the foundation's slide) is structural at any size
+    assert not _within_spread(_confirmed_with({"base.lateral_compliance": 5.0}, ["base.lateral_compliance"]),
+                              irb, ("joints", "base"))
