@@ -762,18 +762,8 @@ def _metrics(held: Objective, ds, change) -> dict:
 
 def _shrink(held: Objective, before: Change, after: Change, n_boot: int, seed: int = 0):
     """Held-out shrink of the rms normalised gap and its 95 % bootstrap interval over postures."""
-    c0, c1 = held.per_posture(before), held.per_posture(after)
-    n_res = np.array([held.n_posture(p) for p in held.postures])
-
-    def shrink(idx):
-        g0 = np.sqrt(c0[idx].sum() / n_res[idx].sum())
-        g1 = np.sqrt(c1[idx].sum() / n_res[idx].sum())
-        return 1 - g1 / g0 if g0 > 0 else 0.0
-
-    full = shrink(np.arange(len(c0)))
-    rng = np.random.default_rng(seed)
-    boots = [shrink(rng.integers(0, len(c0), len(c0))) for _ in range(n_boot)]
-    return float(full), (float(np.percentile(boots, 2.5)), float(np.percentile(boots, 97.5)))
+    return _shrink_between(held.per_posture(before), held.per_posture(after),
+                           [held.n_posture(p) for p in held.postures], n_boot, seed)
 
 
 def _ranked(ds, held, scored, weights, chosen, settings) -> list[EffectResult]:
