@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import ast
+import hashlib
 import json
 import subprocess
 import sys
@@ -43,3 +45,49 @@ def blind_cases(args, *extra: str) -> list[dict]:
                     *extra, "--out", str(lines), "--json"], check=True, stdout=subprocess.DEVNULL)
     cases = [json.loads(s) for s in lines.read_text().splitlines() if s.strip()]
     return [c for c in cases if c["index"] < args.cases]
+
+
+def fresh_seed() -> int:
+    """A seed drawn from the operating system's entropy (a bench prints it, so a run can be
+    repeated with ``--seed``)."""
+    return int(np.random.SeedSequence().entropy % 100000)
+
+
+def _code(path: Path) -> bytes:
+    """A source file's syntax tree without docstrings: what it does, not how it is described."""
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
+                and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
+            node.body = body[1:] or [ast.Pass()]
+    return ast.dump(tree).encode()
+
+
+def code_digest(files) -> str:
+    """Ten hex digits of the files' code (their syntax trees without docstrings, in path order):
+    a results file keyed by it is resumed only by the code that wrote it."""
+    h = hashlib.sha256()
+    for p in sorted(Path(f) for f in files):
+        h.update(_code(p))
+    return h.hexdigest()[:10]
+
+
+def package_files(*exclude: str) -> list:
+    """Every module of rmbench but those under the subpackages ``exclude`` (``cli``, ...)."""
+    import rmbench
+
+    src = Path(rmbench.__file__).parent
+    return [p for p in src.rglob("*.py") if p.relative_to(src).parts[0] not in exclude]
+
+
+def keyed_run(args, stem: str, bench_file: str) -> None:
+    """Fill ``args.seed`` (a fresh one unless given) and ``args.lines`` (unless given:
+    ``bench/results/STEM_s<seed>_<digest>.jsonl``, resumed only by the same seed and the same code,
+    so a rerun on changed code starts afresh), and print both."""
+    if args.seed is None:
+        args.seed = fresh_seed()
+    if args.lines is None:
+        digest = code_digest(package_files("cli") + [Path(bench_file)])
+        args.lines = str(Path(bench_file).resolve().parent / "results" / f"{stem}_s{args.seed}_{digest}.jsonl")
+    print(f"seed {args.seed}; cases in {args.lines}", flush=True)

@@ -28,7 +28,7 @@ code; half stand on a foundation that tilts):
 A fresh seed is drawn per run unless ``--seed`` is given, and printed. Each robot's measured FRFs
 are kept in ``bench/.cache/`` (keyed by seed, robot and method: the campaign does not depend on
 the calibration's code), so a rerun on changed code measures nothing again; ``--only`` runs the
-robots named. Cases go to a JSON-lines file keyed by seed, settings and a digest of the code (its syntax tree without docstrings: a
+robots named. Cases go to a JSON-lines file keyed by seed, settings and a digest of the code it runs (its syntax tree without docstrings: a
 comment does not start a new run); a rerun with the same key resumes, another key starts a new
 file. A robot that cannot hold a posture is rejected: counted, printed and kept in the file, never
 silently redrawn.
@@ -46,7 +46,6 @@ usage: python bench/calibrate.py [--robots 40] [--seed S] [--workers 2] [--metho
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import os
 import shutil
@@ -61,6 +60,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from _calibrate_truth import IN_LIBRARY, draw_truth  # noqa: E402
+from _stats import code_digest, fresh_seed  # noqa: E402
 
 from rmbench.calibrate import (CalibrationSettings, ModalModel, TestDesign, calibrate, error_summary,  # noqa: E402
                                load_modal_data)
@@ -74,29 +74,18 @@ CACHE = HERE / ".cache"
 N_UNSEEN = 200
 
 
-def _code(path: Path) -> bytes:
-    """A source file's syntax tree without docstrings: what it does, not how it is described."""
-    import ast
-
-    tree = ast.parse(path.read_text())
-    for node in ast.walk(tree):
-        body = getattr(node, "body", None)
-        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
-                and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
-            node.body = body[1:] or [ast.Pass()]
-    return ast.dump(tree).encode()
+_NOT_RUN = ("blind", "tracker", "tracker_blind", "sources", "real", "plot")
 
 
 def _digest() -> str:
     import rmbench
 
-    h = hashlib.sha256()
     src = Path(rmbench.__file__).parent
-    files = (list(src.joinpath("calibrate").glob("*.py")) + list(src.joinpath("gap").glob("*.py"))
+    # the FRF diagnosis's modules, not the tracker's, the blind generators' or the plots'
+    gap = [p for p in src.joinpath("gap").glob("*.py") if p.stem not in _NOT_RUN]
+    files = (list(src.joinpath("calibrate").glob("*.py")) + gap
              + [src / "robot" / "parameters.py", HERE / "_calibrate_truth.py", Path(__file__)])
-    for p in sorted(files):
-        h.update(_code(p))
-    return h.hexdigest()[:10]
+    return code_digest(files)
 
 
 def _toml(robot: str, postures, method: str, seed: int, commands_from: str | None, *, placement=None,
@@ -408,7 +397,7 @@ def main(argv=None) -> None:
     ap.add_argument("--only", default=None, metavar="I,J,...", help="run only these robots (indices)")
     ap.add_argument("--lines", default=None, help="JSON-lines file (default: bench/results/calibrate_<key>.jsonl)")
     args = ap.parse_args(argv)
-    seed = args.seed if args.seed is not None else int(np.random.SeedSequence().entropy % 100000)
+    seed = args.seed if args.seed is not None else fresh_seed()
     groups = args.groups if args.plain else "gap-" + args.gap_groups
     key = f"s{seed}_{args.method}_{groups.replace(',', '-')}_{_digest()}"
     print(f"seed {seed}; key {key}", flush=True)

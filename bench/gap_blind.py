@@ -16,8 +16,13 @@
 Last line: ``{"cases", "top1", "top3", "median_shrink", "false_attribution", "pair_recall",
 "diagnose_s"}`` (top-1 and top-3 strict; ``diagnose_s`` the 112-posture diagnosis).
 
-usage: python bench/gap_blind.py [--cases 40] [--seed 13] [--time-share 0.3] [--workers 2]
-                                 [--lines bench/results/gap_blind.jsonl] [--no-speed]
+A fresh seed is drawn per run unless ``--seed`` is given, and printed; the cases go to
+``bench/results/gap_blind_s<seed>_<digest>.jsonl``, keyed by the seed and a digest of the code,
+so a rerun resumes only the same code's run and never re-prints another's case list. Draws the
+generator rejected (invisible, or postures the changed robot cannot hold) are counted and printed.
+
+usage: python bench/gap_blind.py [--cases 40] [--seed S] [--time-share 0.3] [--workers 2]
+                                 [--lines FILE] [--no-speed]
 """
 
 from __future__ import annotations
@@ -36,7 +41,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _stats import RMBENCH, blind_cases  # noqa: E402
+from _stats import RMBENCH, blind_cases, keyed_run  # noqa: E402
 from _stats import rate as _rate  # noqa: E402
 
 from rmbench.gap.blind import case_from_dict, summarise  # noqa: E402
@@ -90,7 +95,8 @@ def report(cases) -> dict:
               f"{100 * c.shrink:5.1f}  {secs:.0f}")
     print()
     print(f"cases {len(cases)} ({s['time_domain']} time-domain): {len(one)} single in library, "
-          f"{len(two)} pairs, {len(out)} out of library")
+          f"{len(two)} pairs, {len(out)} out of library; {s['rejected']} draws rejected (invisible, or "
+          "postures not held) and drawn again")
     print(f"top-1 (kind and location, strict)          {_rate(c.top1 for c in one)}")
     print(f"top-1 up to indistinguishable effects      {_rate(c.top1_class for c in one)}")
     print(f"top-3 (strict)                             {_rate(c.top3 for c in one)}")
@@ -99,6 +105,10 @@ def report(cases) -> dict:
     print(f"held-out shrink, in library: median {100 * np.median(shr):.1f} %, "
           f"25th percentile {100 * np.percentile(shr, 25):.1f} %" if shr else "no in-library cases")
     print(f"false attributions (out of library)        {_rate(c.verdict != 'unexplained' for c in out)}")
+    for kind, n in s["out_kinds"].items():
+        sel = [c for c in out if c.hidden[0].kind == kind]
+        if sel:
+            print(f"  {kind:22s} unexplained             {_rate(c.verdict == 'unexplained' for c in sel)}")
     print(f"both effects of a pair in the top 3        {_rate(bool(c.pair_in_top3) for c in two)}")
     print(f"explained verdicts, in library             {_rate(c.verdict == 'explained' for c in one + two)}")
     for m in ("linear", "time"):
@@ -132,12 +142,14 @@ def report(cases) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cases", type=int, default=40)
-    ap.add_argument("--seed", type=int, default=13)
+    ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
     ap.add_argument("--time-share", type=float, default=0.3)
     ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--lines", default=str(HERE / "results" / "gap_blind.jsonl"))
+    ap.add_argument("--lines", default=None,
+                    help="JSON-lines file (default: bench/results/gap_blind_s<seed>_<code digest>.jsonl)")
     ap.add_argument("--no-speed", action="store_true", help="skip the 112-posture timing")
     args = ap.parse_args()
+    keyed_run(args, "gap_blind", __file__)
     cases = run_cases(args)
     s = report(cases)
     diagnose_s = float("nan")
@@ -151,7 +163,8 @@ def main() -> int:
                       "top3": round(float(np.mean([c.top3 for c in one])), 4),
                       "median_shrink": round(s["median_shrink"], 4),
                       "false_attribution": round(s["false_attribution"], 4),
-                      "pair_recall": round(s["pair_recall"], 4), "diagnose_s": round(diagnose_s, 1)}))
+                      "pair_recall": round(s["pair_recall"], 4), "diagnose_s": round(diagnose_s, 1),
+                      "seed": args.seed, "rejected": s["rejected"]}))
     return 0
 
 

@@ -274,6 +274,24 @@ def test_a_freed_parameter_reaches_far_beyond_its_prior_range(irb):
     assert by["tool_contact.translation"].lower == params.lower()[0]
 
 
+def test_a_freed_foundation_starts_at_the_gross_size_the_data_prefer(irb):
+    """A fit started at a rigid foundation (its bound) stalls there: a freed parameter starts at the
+    best of its nominal and its gross sizes (a fifth and half of a foundation's range)."""
+    from rmbench.calibrate.fit import _free_start
+
+    _, params = parameter_set(irb, ("joints",), extra=("base.lateral_compliance",))
+    params = params.freed(("base.lateral_compliance",))
+    sigma, i = params.sigma(), len(params) - 1
+    lo, hi = params.lower() / sigma, params.upper() / sigma
+
+    def fun(z):     # residuals least at a 60 µm/kN foundation (a fifth of 0-300)
+        return np.array([z[i] * sigma[i] - 60.0])
+
+    z = _free_start(params, ("base.lateral_compliance",), fun, np.zeros(len(params)), lo, hi, lambda m: None)
+    assert z[i] * sigma[i] == pytest.approx(60.0)
+    assert not np.any(z[:i])                      # the ordinary parameters keep their start
+
+
 def _with_frf(robot, design, data: ModalData) -> ModalData:
     """``data`` with the exact FRFs of ``robot`` on 400 lines a band, as an accurate test gives them
     (0.1 % noise a line)."""

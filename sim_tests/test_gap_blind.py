@@ -52,6 +52,36 @@ def test_out_of_library_effects_add_what_no_candidate_can(robot, hidden):
         assert changed.model.ntendon == robot.model.ntendon + 1  # a spring across two joints
 
 
+def test_an_offset_mass_moves_the_bodys_centre_of_mass_off_its_origin(robot):
+    """The library's added mass scales a body's mass where its centre is; 12 kg at 0.3 m moves the
+    subtree's centre, which no candidate of the library can."""
+    hidden = Hidden("offset_mass", "forearm", {"mass": 12.0, "offset_m": [0.0, 0.3, 0.0]})
+    changed = Robot(inject(robot, (hidden,))[0], name="hidden", tool="dummy")
+    b0, b1 = robot.model.body("forearm").id, changed.model.body("forearm").id
+    m0, m1 = robot.model.body_subtreemass[b0], changed.model.body_subtreemass[b1]
+    assert m1 == pytest.approx(m0 + 12.0)
+    assert changed.model.nv == robot.model.nv          # rigidly attached: no new freedom
+
+
+def test_a_bending_link_has_a_hinge_about_an_axis_none_of_its_joints_has(robot):
+    hidden = Hidden("link_bending", "forearm", {"compliance_ratio": 0.5})
+    changed = Robot(inject(robot, (hidden,))[0], name="hidden", tool="dummy")
+    bend = changed.model.joint("forearm_bending")
+    assert changed.model.nv == robot.model.nv + 1
+    # twice the root joint's stiffness (compliance ratio 0.5), at mid-span
+    assert bend.stiffness[0] == pytest.approx(2 * robot.model.joint("j4_flex").stiffness[0])
+    axis = changed.model.jnt_axis[bend.id]
+    assert abs(axis @ changed.model.jnt_axis[changed.model.joint("j4_flex").id]) < 1e-12
+
+
+def test_out_of_library_draws_cover_every_outside_kind():
+    from rmbench.gap.blind import _OUT_KINDS
+
+    rng = np.random.default_rng(1)
+    kinds = {draw_case(rng, "out")[0].kind for _ in range(200)}
+    assert kinds == set(_OUT_KINDS)
+
+
 def test_hidden_effects_stay_inside_the_librarys_ranges():
     assert _within_library(Hidden("servo_stiffness", "a4", {"factor": 0.05}))
     assert not _within_library(Hidden("servo_stiffness", "a4", {"factor": 0.005}))
@@ -77,6 +107,18 @@ def test_summary_counts_each_kind_of_case():
                    case((o,), "explained", (("joint_stiffness@j2_flex", 0.5),))])
     assert s["top1"] == 1.0 and s["pair_recall"] == 1.0 and s["false_attribution"] == 1.0
     assert s["single"] == 1 and s["pairs"] == 1 and s["out_of_library"] == 1
+
+
+def test_the_summary_counts_rejected_draws():
+    from dataclasses import replace
+
+    from rmbench.gap.blind import CaseResult
+
+    a = Hidden("joint_stiffness", "j2_flex", {"factor": 1.3})
+    c = CaseResult(index=0, method="linear", hidden=(a,), verdict="explained", ranked=(), equivalent=(),
+                   shrink=0.9, top1=True, top3=True, top1_class=True, top3_class=True, pair_in_top3=None,
+                   seconds={}, visible_db=2.0, scale=1.0, rejected=2)
+    assert summarise([c, replace(c, index=1, rejected=1)])["rejected"] == 3
 
 
 def test_seed000_tables_are_read_with_the_mirror_postures():

@@ -19,31 +19,30 @@ def calibrated_library(irb):
     return {e.name: e for e in library(robot, design)}
 
 
-def test_a_holder_candidate_starts_from_the_calibrated_contact_times_its_factor(irb, calibrated_library):
+def test_a_holder_candidate_frees_the_calibrated_contact_and_reads_back_against_the_nominal(irb, calibrated_library):
     effect = calibrated_library["tool_contact_stiffness@tool_contact"]
     cal_u = {"tool_contact.translation": 0.1, "tool_contact.rotation": -0.2}
-    terms = _terms(effect, np.array([np.log(0.25), np.log(0.5)]), cal_u, ("joints", "tool"), irb)
+    terms = _terms(effect, cal_u, ("joints", "tool"), irb)
     # the tool group already holds the contact: nothing added, both freed
     assert terms.extra == () and set(terms.free) == set(cal_u)
-    assert terms.start["tool_contact.translation"] == pytest.approx(0.1 + np.log(0.25))
-    # and back: the recalibrated contact, relative to the first calibration, in the effect's units
-    back = terms.values({"tool_contact.translation": 0.1 + np.log(0.3), "tool_contact.rotation": -0.2})
-    np.testing.assert_allclose(back, [np.log(0.3), 0.0], atol=1e-12)
+    # and back: the recalibrated contact in the effect's units (ln factors), against the nominal
+    back = terms.values({"tool_contact.translation": np.log(0.3), "tool_contact.rotation": -0.2})
+    np.testing.assert_allclose(back, [np.log(0.3), -0.2], atol=1e-12)
 
 
 def test_a_sliding_foundation_candidate_is_the_lateral_compliance_added(irb, calibrated_library):
     effect = calibrated_library["base_compliance@base"]
-    terms = _terms(effect, np.array([60.0]), {}, ("joints", "base"), irb)
-    assert terms.extra == ("base.lateral_compliance",) and terms.start == {"base.lateral_compliance": 60.0}
+    terms = _terms(effect, {}, ("joints", "base"), irb)
+    assert terms.extra == ("base.lateral_compliance",) and terms.free == ("base.lateral_compliance",)
+    assert terms.values({"base.lateral_compliance": 60.0})[0] == pytest.approx(60.0)
 
 
-def test_a_heavier_body_candidate_adds_to_the_calibrated_mass(irb, calibrated_library):
+def test_a_heavier_body_candidate_reads_back_as_mass_added_to_the_nominal(irb, calibrated_library):
     effect = calibrated_library["added_mass@wrist"]
     m0 = float(irb.model.body("wrist").mass[0])
-    terms = _terms(effect, np.array([0.3 * m0]), {"wrist.mass": np.log(1.1)}, ("masses",), irb)
+    terms = _terms(effect, {"wrist.mass": np.log(1.1)}, ("masses",), irb)
     assert terms.extra == () and terms.free == ("wrist.mass",)
-    assert m0 * np.exp(terms.start["wrist.mass"]) == pytest.approx(1.4 * m0)
-    assert terms.values({"wrist.mass": np.log(1.4)})[0] == pytest.approx(0.3 * m0)
+    assert terms.values({"wrist.mass": np.log(1.4)})[0] == pytest.approx(0.4 * m0)
 
 
 def test_sensor_and_spin_candidates_map_onto_no_model_parameter(calibrated_library):
@@ -81,3 +80,20 @@ def test_a_holder_confirmed_inside_its_ordinary_spread_is_no_structural_effect(i
     # a parameter no ordinary group holds (the foundation's slide) is structural at any size
     assert not _within_spread(_confirmed_with({"base.lateral_compliance": 5.0}, ["base.lateral_compliance"]),
                               irb, ("joints", "base"))
+
+
+def test_each_confirmable_kind_is_confirmed_once_and_an_unrefined_foundation_too(calibrated_library):
+    """After a calibration has mimicked a sliding foundation, the first-order search can rank it
+    below everything (or not refine it at all): the recalibration sees one candidate of each
+    kind, the best-scored first."""
+    from rmbench.gap.diagnosis import _confirm_picks
+
+    def row(name, score):
+        return {"params": {name: {}}, "score": score}
+
+    models = [{"params": {}, "score": 0.0}, row("added_mass@wrist", 1.0), row("added_mass@flange", 2.0),
+              row("sensor_misalignment@low:1aX", 0.5), row("tool_contact_stiffness@tool_contact", 3.0)]
+    picks = [e.name for e in _confirm_picks(models, calibrated_library, 4)]
+    assert picks[:2] == ["added_mass@wrist", "tool_contact_stiffness@tool_contact"]
+    assert set(picks[2:]) == {"spindle_stiffness@spindle", "base_compliance@base"}
+    assert len(_confirm_picks(models, calibrated_library, 2)) == 2

@@ -29,9 +29,10 @@ def register(sub) -> None:
     d.add_argument("--calibrate", nargs="?", const="default", default=None, metavar="GROUPS",
                    help="calibrate the ordinary parameters first (groups as for 'model calibrate', default "
                         "joints,damping,servo,masses), then search the structural effects on the calibrated model")
-    d.add_argument("--confirm", type=int, default=2, metavar="N",
-                   help="with --calibrate: recalibrate with each of the N best candidates in place (and once "
-                        "without) before calling the gap unexplained (default 2; 0: no recalibration)")
+    d.add_argument("--confirm", type=int, default=4, metavar="N",
+                   help="with --calibrate: recalibrate with the best candidate of each of N kinds (tool holder, "
+                        "spindle, foundation, a body's mass) in place, and once without, before calling the gap "
+                        "unexplained (default 4; 0: no recalibration)")
     d.add_argument("--out", default=None, help="directory for figures, tables and the updated variant MJCF")
     d.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     d.add_argument("--json", action="store_true", help="print the diagnosis as JSON")
@@ -187,7 +188,8 @@ def _blind_tracker(args) -> int:
         print_json(s)
         return 0
     print(f"{s['cases']} cases: {s['in_library']} in the library, {s['out_of_library']} outside")
-    print(f"  recall of sources carrying >= 10 % of the error {s['recall']:.1%}; sources reported that "
+    print(f"  recall of every hidden source {s['recall']:.1%} (of those carrying >= 10 % of the error "
+          f"{s['recall_major']:.1%}); sources reported that "
           f"were not there {s['false_sources']:.1%}; median held-out shrink of the true error "
           f"{s['median_shrink']:.1%} (measured rms {s['median_shrink_measured']:.1%}); out-of-library "
           f"cases unexplained {s['unexplained_ok']:.1%}")
@@ -233,4 +235,5 @@ def cmd_blind(args) -> int:
           f"{s['top3']:.1%} ({s['top3_class']:.1%}); median held-out shrink {s['median_shrink']:.1%}")
     print(f"  false attributions (out of library) {s['false_attribution']:.1%}; both effects of a pair in "
           f"the top 3 {s['pair_recall']:.1%}")
+    print(f"  draws rejected (invisible, or postures the robot cannot hold) and drawn again: {s['rejected']}")
     return 0

@@ -1,14 +1,17 @@
 """Withheld-effect check: hidden effects injected into the model, diagnosed blind, scored.
 
 Each case draws one hidden effect (three cases in five), two at once (one in five), or one outside
-the diagnosis's library (one in five: an extra resonator — a hose package on a spring at a link —
-or a tendon coupling two joints). The effect is injected into a copy of the nominal MJCF by its own
+the diagnosis's library (one in five: an extra resonator — a hose package on a spring at a link —,
+a tendon coupling two joints, a mass 0.25-0.4 m off a body's origin, or a link that bends about
+an axis no joint has, at mid-span). The effect is injected into a copy of the nominal MJCF by its own
 code path (the variant primitives of :mod:`rmbench.robot.variant` and ``MjSpec`` edits written here,
 never the diagnosis's library), with a magnitude drawn large enough to change the exact FRF by at
 least ``VISIBLE_DB`` somewhere. A campaign measures the changed robot commanded by the nominal
 robot's inverse kinematics; the data go out to UFF58 and back (so nothing but FRFs, postures and the
 test design survives), with the test design as the experimenter believes it (no sensor placement
-errors, the nominal robot named); the diagnosis gets only that and the nominal model.
+errors, the nominal robot named); the diagnosis gets only that and the nominal model. A draw
+that stays invisible, or that the robot cannot hold its postures with, is drawn again and counted
+(``CaseResult.rejected``): a run's rejections are printed, never silent.
 
 Scores: top-1 and top-3 identification of kind and location (strict, and up to the effects the
 data cannot tell apart, which the diagnosis reports), the held-out shrink, false attributions on
@@ -22,7 +25,7 @@ import shutil
 import tempfile
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import mujoco
@@ -42,7 +45,11 @@ _IN_LIBRARY_KINDS = ("joint_stiffness", "joint_damping", "load_dependent_stiffne
                      "servo_stiffness", "tool_contact_stiffness", "spindle_stiffness",
                      "base_compliance", "added_mass", "sensor_misplacement", "sensor_misalignment",
                      "non_reciprocity")
-_OUT_KINDS = ("hose_resonator", "tendon_coupling")
+_OUT_KINDS = ("hose_resonator", "tendon_coupling", "offset_mass", "link_bending")
+# a link bending at mid-span about an axis none of its joints has, against the stiffness of
+# the flexible joint at its root: (its flex joint, the point, the axis, in the link's frame)
+_BENDING = {"lower_arm": ("j2_flex", (0.0, 0.0, 0.35), (1.0, 0.0, 0.0)),
+            "forearm": ("j4_flex", (0.45, 0.0, 0.0), (0.0, 0.0, 1.0))}
 _FLEX = ("j1_flex", "j2_flex", "j3_flex", "j4_flex", "j5_flex", "j6_flex")
 _BODIES = ("lower_arm", "upper_arm", "forearm", "wrist", "flange", "spindle_rotor")
 _SENSORS = ("1X", "1Y", "1aX", "1aY")
@@ -55,7 +62,8 @@ class Hidden:
     Attributes
     ----------
     kind : str
-        A library kind, or ``hose_resonator`` / ``tendon_coupling`` (outside the library).
+        A library kind, or ``hose_resonator``, ``tendon_coupling``, ``offset_mass``,
+        ``link_bending`` (outside the library).
     location : str
         In the diagnosis's naming (MJCF name, ``BAND:COORD``, ``tool_contact``, ...).
     value : dict
@@ -140,8 +148,18 @@ def _draw_out(rng) -> Hidden:
         link = ("upper_arm", "forearm")[int(rng.integers(2))]
         return Hidden(kind, link, {"mass": float(rng.uniform(5, 15)), "f_hz": float(rng.uniform(9, 30)),
                                    "zeta": 0.05})
-    pair = [("j2_flex", "j3_flex"), ("j4_flex", "j5_flex"), ("j5_flex", "j6_flex")][int(rng.integers(3))]
-    return Hidden(kind, "+".join(pair), {"fraction": float(rng.uniform(0.3, 0.8))})
+    if kind == "tendon_coupling":
+        pair = [("j2_flex", "j3_flex"), ("j4_flex", "j5_flex"), ("j5_flex", "j6_flex")][int(rng.integers(3))]
+        return Hidden(kind, "+".join(pair), {"fraction": float(rng.uniform(0.3, 0.8))})
+    if kind == "offset_mass":
+        # off the body's origin: the library's added mass keeps the body's centre and inertia
+        body = ("forearm", "wrist", "flange")[int(rng.integers(3))]
+        offset = rng.uniform(-1, 1, 3)
+        offset *= float(rng.uniform(0.25, 0.4)) / np.linalg.norm(offset)
+        return Hidden(kind, body, {"mass": float(rng.uniform(8, 20)), "offset_m": offset.tolist()})
+    link = ("lower_arm", "forearm")[int(rng.integers(2))]
+    # the bending compliance over the root joint's: 1/3 to 1 (a bending stiffness 1-3 times it)
+    return Hidden(kind, link, {"compliance_ratio": float(rng.uniform(1 / 3, 1.0))})
 
 
 def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
@@ -202,6 +220,10 @@ def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
             _add_resonator(spec, h.location, v["mass"], v["f_hz"] * (scale ** 0.25), v["zeta"])
         elif h.kind == "tendon_coupling":
             _add_coupling(spec, h.location.split("+"), scale * v["fraction"])
+        elif h.kind == "offset_mass":
+            add_point_mass(spec, h.location, scale * v["mass"], v["offset_m"])
+        elif h.kind == "link_bending":
+            _add_bending(spec, h.location, scale * v["compliance_ratio"])
         else:  # pragma: no cover - draw_case draws known kinds only
             raise ValueError(h.kind)
     carrier = Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool)
@@ -244,6 +266,8 @@ def _scaled(h: Hidden, scale: float) -> Hidden:
             v[key] = float(np.exp(scale * np.log(x)))
         elif key == "f_hz":
             v[key] = x * scale ** 0.25
+        elif key == "offset_m":
+            continue
         elif key not in ("zeta", "mass") or h.kind != "hose_resonator":
             v[key] = scale * x
     return Hidden(h.kind, h.location, v)
@@ -258,6 +282,16 @@ def _add_resonator(spec, link: str, mass: float, f_hz: float, zeta: float) -> No
                    stiffness=[k, 0, 0], damping=[2 * zeta * np.sqrt(k * mass), 0, 0])
     hose.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.04, 0, 0], mass=mass,
                   contype=0, conaffinity=0)
+
+
+def _add_bending(spec, link: str, compliance_ratio: float) -> None:
+    """A link that bends at mid-span: a hinge about an axis none of its joints has, with the
+    stiffness (and stiffness-proportional damping) of its root joint over ``compliance_ratio``."""
+    root, pos, axis = _BENDING[link]
+    joint = spec.joint(root)
+    k, c = float(joint.stiffness[0]) / compliance_ratio, float(joint.damping[0]) / compliance_ratio
+    spec.body(link).add_joint(name=f"{link}_bending", type=mujoco.mjtJoint.mjJNT_HINGE, pos=list(pos),
+                              axis=list(axis), stiffness=[k, 0, 0], damping=[c, 0, 0])
 
 
 def _add_coupling(spec, joints, fraction: float) -> None:
@@ -288,6 +322,7 @@ class CaseResult:
     seconds: dict
     visible_db: float
     scale: float
+    rejected: int = 0       # draws rejected before this one (invisible, or postures not held)
 
     def to_dict(self) -> dict:
         return {"index": self.index, "method": self.method,
@@ -296,7 +331,8 @@ class CaseResult:
                 "equivalent": [list(g) for g in self.equivalent], "shrink": self.shrink,
                 "top1": self.top1, "top3": self.top3, "top1_class": self.top1_class,
                 "top3_class": self.top3_class, "pair_in_top3": self.pair_in_top3,
-                "seconds": self.seconds, "visible_db": self.visible_db, "scale": self.scale}
+                "seconds": self.seconds, "visible_db": self.visible_db, "scale": self.scale,
+                "rejected": self.rejected}
 
 
 @dataclass(frozen=True)
@@ -383,8 +419,8 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
     probe = q_cmd[::4]
     # every hidden effect must change the FRF visibly on its own: a faint draw is magnified,
     # one that stays invisible (load-dependent stiffness of an axis gravity does not load) is
-    # drawn again
-    for _ in range(20):
+    # drawn again, and counted
+    for rejected in range(20):
         hidden = draw_case(rng, kind)
         scales = []
         for h in hidden:
@@ -404,6 +440,8 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
             scales.append(scale)
         if all(sc is not None and _within_library(_scaled(h, sc)) for h, sc in zip(hidden, scales)):
             break
+    else:
+        raise RmbenchError(f"blind case {index}: no visible, holdable draw in 20")
     hidden = tuple(_scaled(h, sc) for h, sc in zip(hidden, scales))
     scale = float(max(scales))
     xml, placement, rpm = inject(robot, hidden)
@@ -447,13 +485,13 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
                                   top1_class=False, top3_class=False,
                                   pair_in_top3=False if len(hidden) == 2 else None,
                                   seconds={"campaign": round(t1 - t0, 2)}, visible_db=float(vis),
-                                  scale=float(max(scales)))
+                                  scale=float(max(scales)), rejected=rejected)
         t2 = time.perf_counter()
     finally:
         if workdir is None:
             shutil.rmtree(own, ignore_errors=True)
-    return _score(index, method, hidden, dg, {"campaign": round(t1 - t0, 2), "diagnose": round(t2 - t1, 2)},
-                  vis, scale)
+    return replace(_score(index, method, hidden, dg, {"campaign": round(t1 - t0, 2), "diagnose": round(t2 - t1, 2)},
+                          vis, scale), rejected=rejected)
 
 
 def _score(index, method, hidden, dg, seconds, vis, scale) -> CaseResult:
@@ -511,6 +549,8 @@ def summarise(cases) -> dict:
             "false_attribution": frac([c.verdict != "unexplained" for c in out]),
             "pair_recall": frac([bool(c.pair_in_top3) for c in two]),
             "explained_in_library": frac([c.verdict == "explained" for c in inlib]),
+            "rejected": int(sum(c.rejected for c in cases)),
+            "out_kinds": {k: sum(c.hidden[0].kind == k for c in out) for k in _OUT_KINDS},
             "calibration": cal}
 
 
@@ -540,7 +580,7 @@ def case_from_dict(d: dict) -> CaseResult:
                       equivalent=tuple(tuple(g) for g in d["equivalent"]), shrink=d["shrink"],
                       top1=d["top1"], top3=d["top3"], top1_class=d["top1_class"],
                       top3_class=d["top3_class"], pair_in_top3=d["pair_in_top3"],
-                      seconds=d["seconds"], scale=d["scale"],
+                      seconds=d["seconds"], scale=d["scale"], rejected=int(d.get("rejected", 0)),
                       visible_db=float("nan") if d["visible_db"] is None else d["visible_db"])
 
 

@@ -6,13 +6,16 @@ that slides) pulls the calibration far from the truth before the search starts, 
 move back from there falls short: the candidate closes most of the gap but not all of it, and the
 verdict stays "unexplained".
 
-So the best few candidates that map onto model parameters are confirmed nonlinearly. The
-calibration is run again from where it ended, with the candidate's parameters added
+So the best candidate of each kind that maps onto model parameters is confirmed nonlinearly.
+The calibration is run again from the nominal, with the candidate's parameters added
 (:data:`rmbench.robot.parameters.STRUCTURAL`) and freed: fitted without a prior, beside every
-ordinary parameter, which keeps its prior. The FRF residuals are on, since a holder's rotational
-stiffness shows in the FRFs between the modes more than in the modes. A *null* recalibration with
-the same settings and no candidate is the baseline, so that the candidate is credited only with
-what it adds to a calibration that was given the same data and the same chance to converge.
+ordinary parameter, which keeps its prior; a freed parameter starts at the best of its gross
+sizes. The FRF residuals are on, since a holder's rotational stiffness shows in the FRFs between
+the modes more than in the modes. A *null* recalibration with the same settings and no
+candidate, continued from the first calibration, is the baseline, so that the candidate is
+credited only with what it adds to a calibration that was given the same data. A candidate that
+closes most of the null's gap but is not yet at the noise is continued once, and the null with
+it.
 
 A candidate explains the gap when its recalibrated model's held-out residual is noise (the
 selection engine's test) and it closes at least ``min_shrink`` of the null's held-out rms gap.
@@ -46,8 +49,7 @@ class Confirmed:
     ----------
     effect : Effect or None
     values : ndarray or None
-        The candidate's fitted size in its own units, relative to the first calibration (as the
-        search reports it).
+        The candidate's fitted size in its own units, relative to the nominal.
     calibration : Calibration
     robot : Robot
         The recalibrated model.
@@ -61,8 +63,11 @@ class Confirmed:
     significant : bool
         The held-out residual is above the noise.
     seconds : float
+        Of every round.
     freed : tuple of str
         The parameters fitted without a prior (the candidate's).
+    rounds : int
+        Recalibrations run, each continuing the last (see :func:`confirm`'s ``min_shrink``).
     """
 
     effect: Effect | None
@@ -77,6 +82,7 @@ class Confirmed:
     significant: bool
     seconds: float
     freed: tuple = ()
+    rounds: int = 1
 
     @property
     def name(self) -> str:
@@ -89,7 +95,7 @@ class Confirmed:
     def to_dict(self, null: "Confirmed | None" = None) -> dict:
         out = {"name": self.name, "chi2_held": self.chi2_held, "n_held": self.n_held,
                "peak_held": self.peak_held, "significant": self.significant,
-               "iterations": self.calibration.iterations, "seconds": self.seconds}
+               "iterations": self.calibration.iterations, "rounds": self.rounds, "seconds": self.seconds}
         if self.effect is not None:
             out["params"] = self.effect.params_dict(self.values)
             out["description"] = self.effect.describe(self.values)
@@ -105,7 +111,6 @@ class _Terms:
     extra: tuple           # parameters to add to the calibration
     free: tuple            # parameters to fit without a prior
     groups: tuple          # the calibration's groups (the base group added for a tilt)
-    start: dict            # {name: u} for the candidate's own parameters
     values: object         # callable: {name: u} of the recalibration -> the effect's values
 
 
@@ -114,37 +119,34 @@ def confirmable(effect: Effect) -> bool:
     return effect.kind in CONFIRMABLE
 
 
-def _terms(effect: Effect, values, cal_u: dict, groups: tuple, nominal) -> _Terms:
-    v = np.asarray(values, float)
+def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal) -> _Terms:
+    """The candidate's parameters (added where the first calibration, of ``cal_u``, lacks them),
+    and its size read back from a recalibration in the effect's units, relative to the nominal."""
     k = effect.kind
     if k in ("tool_contact_stiffness", "spindle_stiffness"):
         stem = "tool_contact" if k == "tool_contact_stiffness" else "spindle"
         names = (f"{stem}.translation", f"{stem}.rotation") if stem == "tool_contact" else \
             (f"{stem}.radial", f"{stem}.tilt")
-        start = {n: cal_u.get(n, 0.0) + x for n, x in zip(names, v)}
-        return _Terms(tuple(n for n in names if n not in cal_u), names, groups, start,
-                      lambda u: np.array([u[n] - cal_u.get(n, 0.0) for n in names]))
+        return _Terms(tuple(n for n in names if n not in cal_u), names, groups,
+                      lambda u: np.array([u[n] for n in names]))
     if k == "added_mass":
         name = f"{effect.location}.mass"
         m0 = float(nominal.model.body(effect.location).mass[0])
-        m_cal = m0 * np.exp(cal_u.get(name, 0.0))
-        start = {name: float(np.log(max(m_cal + v[0], 0.5 * m0) / m0))}
-        return _Terms(() if name in cal_u else (name,), (name,), groups, start,
-                      lambda u: np.array([m0 * np.exp(u[name]) - m_cal]))
+        return _Terms(() if name in cal_u else (name,), (name,), groups,
+                      lambda u: np.array([m0 * np.exp(u[name]) - m0]))
     if k == "base_compliance":
         lat = "base.lateral_compliance"
         if effect.n_params == 1:          # lateral only, on a calibrated foundation
-            return _Terms((lat,), (lat,), groups, {lat: float(v[0])}, lambda u: np.array([u[lat]]))
+            return _Terms((lat,), (lat,), groups, lambda u: np.array([u[lat]]))
         tilt = "base.tilt_compliance"
         groups = groups if "base" in groups else groups + ("base",)
-        start = {lat: float(v[0]), tilt: cal_u.get(tilt, 0.0) + float(v[1])}
-        return _Terms((lat,), (lat, tilt), groups, start,
-                      lambda u: np.array([u[lat], u[tilt] - cal_u.get(tilt, 0.0)]))
+        return _Terms((lat,), (lat, tilt), groups, lambda u: np.array([u[lat], u[tilt]]))
     raise ValueError(f"{effect.name} maps onto no model parameter")
 
 
 def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, bands, held, settings,
-            max_iter: int = 8, p_noise: float = 1e-3, progress=None) -> tuple:
+            max_iter: int = 8, p_noise: float = 1e-3, min_shrink: float = 0.5, accept=None,
+            progress=None) -> tuple:
     """The null recalibration and one per candidate, each scored on the held-out postures.
 
     Parameters
@@ -156,9 +158,9 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     held_data : sequence of int
         Held-out posture indices into ``data``.
     first : Calibration
-        The first calibration (its values are every recalibration's start).
-    candidates : sequence of (Effect, ndarray)
-        Confirmable effects with the joint search's values (their units, relative to ``first``).
+        The first calibration (the null recalibration's start).
+    candidates : sequence of Effect
+        Confirmable effects (of the calibrated model's library).
     q_cmd : ndarray, shape (n_postures, n_arm)
         Joint commands of every measured posture (the search's bench).
     meas, frf : list of dict
@@ -169,12 +171,23 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     settings : CalibrationSettings
         The first calibration's.
     max_iter : int
-        Evaluations of each recalibration.
+        Evaluations of the null recalibration and of each continuation; a candidate's runs
+        ``settings.max_iter`` from the nominal.
+    min_shrink : float
+        A candidate that closes this much of the null's held-out gap but is not yet at the
+        noise is continued for another ``max_iter`` evaluations, and the null with it (the same
+        chance to converge): a large structural effect the first calibration had mimicked
+        leaves the ordinary parameters far from where they belong, and they come back slowly.
+
+    accept : callable, optional
+        ``accept(candidate, null)``: whether a confirmed candidate explains the gap. The
+        candidates run in their order and stop at the first accepted one (each recalibration
+        takes minutes); none run when the null recalibration reaches the noise.
 
     Returns
     -------
     null : Confirmed
-    confirmed : list of Confirmed, one per candidate
+    confirmed : list of Confirmed, one per candidate run
     """
     from rmbench.calibrate import calibrate
     from rmbench.robot import Robot
@@ -183,16 +196,23 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     names = [p.name for p in first.params]
     cal_u = dict(zip(names, np.asarray(first.u, float)))
 
-    def run(effect, values):
+    def run(effect, prev: Confirmed | None = None):
         t0 = time.perf_counter()
-        start, groups = dict(cal_u), tuple(settings.groups)
-        terms = None
-        if effect is not None:
-            terms = _terms(effect, values, cal_u, groups, nominal)
-            start.update(terms.start)
-            groups = terms.groups
-        s = replace(settings, groups=groups, frf=True, max_iter=max_iter,
-                    extra=() if terms is None else terms.extra, free=() if terms is None else terms.free)
+        terms = None if effect is None else _terms(effect, cal_u, tuple(settings.groups), nominal)
+        if prev is not None:            # a continuation
+            start, iters = dict(zip([p.name for p in prev.calibration.params],
+                                    np.asarray(prev.calibration.u, float))), max_iter
+        elif terms is None:             # the null: from the first calibration
+            start, iters = dict(cal_u), max_iter
+        else:
+            # a candidate: from the nominal, as the first calibration started. The first
+            # calibration moved the ordinary parameters to mimic the effect, and a fit from there
+            # stalls before it has moved them back (a sliding foundation found 40 % short); the
+            # freed parameters start at the best of their gross sizes (rmbench.calibrate.fit)
+            start, iters = None, settings.max_iter
+        s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
+                    max_iter=iters, extra=() if terms is None else terms.extra,
+                    free=() if terms is None else terms.free)
         cal = calibrate(nominal, data, held=held_data, settings=s, start=start)
         robot = Robot(cal.xml, name=nominal.name, tool=nominal.tool, spindle_rpm=nominal.spindle_rpm)
         bench = ModelBench(robot, data.design, q_cmd)
@@ -207,10 +227,23 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
         c = Confirmed(effect=effect, values=out_values, calibration=cal, robot=robot, chi2_held=chi2,
                       n_held=obj.n, peak_held=_peak(e), chi2_held_posture=np.asarray(per), objective=obj,
                       significant=significant(chi2, obj.n, p=p_noise, peak=_peak(e)),
-                      seconds=round(time.perf_counter() - t0, 1), freed=() if terms is None else terms.free)
+                      seconds=round(time.perf_counter() - t0 + (0 if prev is None else prev.seconds), 1),
+                      freed=() if terms is None else terms.free, rounds=1 if prev is None else prev.rounds + 1)
         say(f"recalibrated with {c.name}: held-out χ²/residual {chi2 / max(obj.n, 1):.3g}"
             + (" (noise)" if not c.significant else ""))
         return c
 
-    null = run(None, None)
-    return null, [run(e, v) for e, v in candidates]
+    null = run(None)
+    done = []
+    if not null.significant:        # the ordinary parameters alone reach the noise
+        return null, done
+    for effect in candidates:
+        done.append(run(effect))
+        if accept is not None and accept(done[-1], null):
+            return null, done       # the best-ranked candidate that explains the gap
+    promising = [c for c in done if c.significant and c.shrink_against(null) >= min_shrink]
+    if promising:
+        best = min(promising, key=lambda c: c.chi2_held)
+        null = run(None, prev=null)
+        done = [run(c.effect, prev=c) if c is best else c for c in done]
+    return null, done
