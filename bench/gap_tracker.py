@@ -134,14 +134,115 @@ def report(cases) -> dict:
     return s
 
 
+def run_spread_case(i: int, seed: int) -> dict:
+    """One spread robot (``bench/_tracker_truth.py``), diagnosed with and without ``--calibrate``."""
+    from _tracker_truth import SpreadRobot, campaign, draw_structural, spread_xml
+
+    from rmbench.gap.tracker import TrackerData, TrackerSettings, default_covariance, diagnose_tracker
+    from rmbench.robot import Robot
+
+    rng = np.random.default_rng([seed, i, 43])
+    nominal = Robot.load("mh180")
+    xml, drawn = spread_xml(nominal.xml, rng)
+    source = None
+    if i % 2 == 1:          # half carry a structural source, one in four of those outside the library
+        source = draw_structural(rng, in_library=(i // 2) % 4 != 3, n_joint=len(nominal.arm_joints))
+    truth = SpreadRobot(xml, source, rng, tool=nominal.tool)
+    q, order, previous = campaign(rng)
+    t = np.arange(len(q)) * 15.0
+    y = truth.positions(q, previous, rng)
+    cov = default_covariance(nominal, q, y)
+    data = TrackerData(q, y, order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), t, tuple(nominal.arm_joints),
+                       covariance=cov)
+    p_true = truth.positions(q, previous)
+    out = {"index": i, "seed": seed, "drawn": drawn, "source": source,
+           "name": None if source is None else f"{source['kind']}@{source['location']}",
+           "in_library": source is None or source["kind"] not in ("backlash", "directional_stiffness")}
+    for label, cal in (("calibrated", True), ("plain", False)):
+        t0 = time.perf_counter()
+        dg = diagnose_tracker(nominal, data, settings=TrackerSettings(calibrate=cal))
+        seconds = time.perf_counter() - t0
+        held = np.isin(order, dg.held)
+        hours = t / 3600
+
+        def true_rms(fitted):
+            e = p_true[held] - fitted.position(q[held], hours[held])
+            return float(np.sqrt(np.mean(np.sum(e ** 2, axis=1))))
+
+        chosen = [s.name for s in dg.chosen]
+        before, after = true_rms(dg.nominal_fitted), true_rms(dg.fitted)
+        out[label] = {"verdict": dg.verdict, "chosen": chosen,
+                      "confidence": {s.name: s.confidence for s in dg.chosen},
+                      "true_rms_before": before, "true_rms_after": after,
+                      "shrink_true": 1 - after / before if before > 0 else 0.0, "seconds": seconds}
+        if cal and dg.calibration is not None:
+            out[label]["identifiable"] = sum(p["identifiability"] == "identifiable" for p in dg.calibration["params"])
+    return out
+
+
+def summarise_spread(cases) -> dict:
+    """Issue 43's figures: recall of the structural source with --calibrate, spurious sources
+    where there are none, the held-out true error's shrink, out-of-library cases unexplained."""
+    inl = [c for c in cases if c["source"] is not None and c["in_library"]]
+    none = [c for c in cases if c["source"] is None]
+    out = [c for c in cases if not c["in_library"]]
+    frac = (lambda xs: float(np.mean(xs)) if xs else None)
+    res = {"spread_cases": len(cases)}
+    for label in ("calibrated", "plain"):
+        res[label] = {
+            "recall": frac([c["name"] in c[label]["chosen"] for c in inl]),
+            "false_sources": frac([bool(c[label]["chosen"]) for c in none]),
+            "extra_sources_with_one": frac([any(n != c["name"] for n in c[label]["chosen"]) for c in inl]),
+            "median_shrink": float(np.median([c[label]["shrink_true"] for c in cases])) if cases else None,
+            "unexplained_ok": frac([c[label]["verdict"] == "unexplained" for c in out]),
+            "verdicts": dict(Counter(c[label]["verdict"] for c in cases))}
+    return res
+
+
+def run_spread(args) -> dict:
+    """The spread cases into their own keyed JSON-lines file, resumed; their summary."""
+    lines = Path(args.lines).with_name(Path(args.lines).name.replace("gap_tracker_", "gap_tracker_spread_"))
+    done = {}
+    if lines.exists():
+        for s_ in lines.read_text().splitlines():
+            if s_.strip():
+                c = json.loads(s_)
+                done[c["index"]] = c
+    for i in range(args.spread):
+        if i in done:
+            continue
+        c = run_spread_case(i, args.seed)
+        with open(lines, "a") as fh:
+            fh.write(json.dumps(c) + "\n")
+        done[i] = c
+        cal, plain = c["calibrated"], c["plain"]
+        print(f"spread {i}: hidden {c['name'] or 'none'}; --calibrate {cal['verdict']}, chosen "
+              f"{', '.join(cal['chosen']) or '-'}, true shrink {100 * cal['shrink_true']:.0f} %; without: "
+              f"{plain['verdict']}, chosen {', '.join(plain['chosen']) or '-'}", flush=True)
+    cases = [done[i] for i in sorted(done) if i < args.spread]
+    s = summarise_spread(cases)
+    print(json.dumps(s, indent=1))
+    return s
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--cases", type=int, default=40)
+    ap.add_argument("--spread", type=int, default=40,
+                    help="robots whose every joint, link and mass differs (issue 43), diagnosed with --calibrate")
+    ap.add_argument("--spread-only", action="store_true", help="run only the spread cases")
     ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
     ap.add_argument("--lines", default=None,
                     help="JSON-lines file (default: bench/results/gap_tracker_s<seed>_<code digest>.jsonl)")
     args = ap.parse_args()
     keyed_run(args, "gap_tracker", __file__)
+    spread = run_spread(args) if args.spread else {}
+    if args.spread_only:
+        c = spread["calibrated"]
+        print(json.dumps({"spread_cases": spread["spread_cases"], "spread_recall": c["recall"],
+                          "spread_false_sources": c["false_sources"], "spread_median_shrink": c["median_shrink"],
+                          "spread_unexplained_ok": c["unexplained_ok"], "seed": args.seed}))
+        return 0
     cases = run_cases(args)
     s = report(cases)
     seconds, line = speed()

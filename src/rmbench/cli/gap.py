@@ -27,8 +27,9 @@ def register(sub) -> None:
                    help="with --readings and no sigma columns: the robot's rated ISO 9283 RP, mm (default 0.2)")
     d.add_argument("--test", default=None, help="campaign TOML of the test design (default: the data's own)")
     d.add_argument("--calibrate", nargs="?", const="default", default=None, metavar="GROUPS",
-                   help="calibrate the ordinary parameters first (groups as for 'model calibrate', default "
-                        "joints,damping,servo,masses), then search the structural effects on the calibrated model")
+                   help="calibrate the ordinary parameters first (FRFs: groups as for 'model calibrate', default "
+                        "joints,damping,servo,masses; readings: every joint's zero offset, placement and gravity "
+                        "compliance), then search the structural effects on the calibrated model")
     d.add_argument("--confirm", type=int, default=4, metavar="N",
                    help="with --calibrate: recalibrate with the best candidate of each of N kinds (tool holder, "
                         "spindle, foundation, a body's mass) in place, and once without, before calling the gap "
@@ -134,7 +135,7 @@ def cmd_diagnose(args) -> int:
 
 
 def _diagnose_readings(args) -> int:
-    from rmbench.gap.tracker import diagnose_tracker, tracker_data
+    from rmbench.gap.tracker import TrackerSettings, diagnose_tracker, tracker_data
     from rmbench.io.tracker_csv import read_tracker_csv
     from rmbench.robot import Robot
 
@@ -147,7 +148,11 @@ def _diagnose_readings(args) -> int:
                          f"has {len(robot.arm_joints)} arm joints")
     say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
     data = tracker_data(readings, robot=robot, repeatability=1e-3 * args.repeatability)
-    dg = diagnose_tracker(robot, data, progress=say)
+    if args.calibrate not in (None, "default"):
+        raise InputError("--calibrate takes no groups with --readings: it calibrates every joint's zero "
+                         "offset, placement and gravity compliance")
+    settings = TrackerSettings(calibrate=args.calibrate is not None)
+    dg = diagnose_tracker(robot, data, settings=settings, progress=say)
     paths = dg.save(args.out) if args.out else {}
     if args.report:
         _report(args, dg, paths)
@@ -159,6 +164,13 @@ def _diagnose_readings(args) -> int:
           f"{1e3 * a['rms']:.3f} mm, max {1e3 * b['max']:.3f} -> {1e3 * a['max']:.3f} mm, "
           f"shrink {100 * dg.shrink:.1f} %)")
     print(f"where: {dg.where.describe()}")
+    if dg.calibration is not None:
+        c = dg.calibration
+        n_id = sum(p["identifiability"] == "identifiable" for p in c["params"])
+        print(f"calibrated {c['n_params']} ordinary parameters ({n_id} identifiable): held-out rms "
+              f"{1e3 * c['heldout_before']['rms']:.3f} -> {1e3 * c['heldout_after']['rms']:.3f} mm")
+        if dg.verdict == "no significant gap":
+            print("   the calibrated ordinary parameters account for the readings: no structural source is needed")
     for i, s in enumerate(dg.sources[:8]):
         mark = "*" if s.chosen else " "
         share = f", {100 * s.share:.0f} % of the error" if s.chosen else ""
