@@ -97,3 +97,18 @@ def test_each_confirmable_kind_is_confirmed_once_and_an_unrefined_foundation_too
     assert picks[:2] == ["added_mass@wrist", "tool_contact_stiffness@tool_contact"]
     assert set(picks[2:]) == {"spindle_stiffness@spindle", "base_compliance@base"}
     assert len(_confirm_picks(models, calibrated_library, 2)) == 2
+
+
+def test_a_holder_explanation_is_read_on_top_of_the_calibrated_holder(irb):
+    """The joint search's holder factor multiplies the calibrated one: ×0.85 on a holder the
+    calibration left at ×1.1 is ×0.94 of the nominal, inside the tool group's spread."""
+    from types import SimpleNamespace
+
+    from rmbench.gap.diagnosis import _ordinary_total
+
+    e = SimpleNamespace(kind="tool_contact_stiffness", params={"ln_translation": 0.0, "ln_rotation": np.log(0.85)})
+    total = _ordinary_total(e, {"tool_contact.rotation": np.log(1.1)}, irb)
+    assert total["tool_contact.rotation"] == pytest.approx(np.log(0.935))
+    assert total["tool_contact.translation"] == 0.0
+    sensor = SimpleNamespace(kind="sensor_misalignment", params={"angle": 1.0})
+    assert _ordinary_total(sensor, {}, irb) is None

@@ -349,6 +349,8 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
     from dataclasses import replace
 
     dg = replace(dg, calibration=calibration, calibrated_xml=robot.xml)
+    if dg.verdict == "explained":
+        dg = _spread_checked(dg, nominal_robot, first)
     if settings.confirm > 0 and dg.verdict == "unexplained":
         dg = _confirmed(dg, nominal_robot, robot, bench.q_cmd, first, meas, frf, bands, train, held, ds,
                         settings, say, t)
@@ -502,6 +504,44 @@ def _confirm_picks(models, lib: dict, n: int) -> list:
             best[effect.kind] = (np.inf, effect)
             picks.append(effect)
     return picks[:n]
+
+
+def _spread_checked(dg: Diagnosis, nominal, first) -> Diagnosis:
+    """The joint search's explanation, unless every effect it chose is an ordinary parameter of
+    the calibration (the tool holder, a link's mass) that ends inside its ordinary spread: then
+    the calibration's prior merely held that parameter back, and the gap is no structural one."""
+    from dataclasses import replace
+
+    from rmbench.robot.parameters import parameter_set
+
+    cal, _, cal_settings = first
+    _, ordinary = parameter_set(nominal, cal_settings.groups)
+    bounds = {p.name: (p.lower, p.upper) for p in ordinary}
+    cal_u = dict(zip([p.name for p in cal.params], np.asarray(cal.u, float)))
+    chosen = [e for e in dg.effects if e.chosen]
+    totals = [_ordinary_total(e, cal_u, nominal) for e in chosen]
+    if not chosen or any(t is None or not t or any(n not in bounds for n in t) for t in totals):
+        return dg
+    if not all(bounds[n][0] <= u <= bounds[n][1] for t in totals for n, u in t.items()):
+        return dg
+    names = ", ".join(e.name for e in chosen)
+    note = (f"{names} closes the gap but stays within its ordinary spread (the calibration's prior held it "
+            "back): an ordinary parameter, not a structural effect")
+    return replace(dg, verdict="no significant gap", notes=dg.notes + (note,))
+
+
+def _ordinary_total(effect: EffectResult, cal_u: dict, nominal) -> dict | None:
+    """``{parameter: u}`` of an effect of the calibrated model's library on top of the first
+    calibration, for the kinds an ordinary group also holds; None for the others."""
+    if effect.kind == "tool_contact_stiffness":
+        return {"tool_contact.translation": cal_u.get("tool_contact.translation", 0.0) + effect.params["ln_translation"],
+                "tool_contact.rotation": cal_u.get("tool_contact.rotation", 0.0) + effect.params["ln_rotation"]}
+    if effect.kind == "added_mass":
+        name = f"{effect.location}.mass"
+        m0 = float(nominal.model.body(effect.location).mass[0])
+        m = m0 * np.exp(cal_u.get(name, 0.0)) + effect.params["mass"]
+        return {name: float(np.log(max(m, 1e-9) / m0))}
+    return None
 
 
 def _within_spread(c, nominal, groups) -> bool:
