@@ -38,7 +38,7 @@ def _readings(robot, hidden, *, n=120, repeats=2, seed=0, timed=True):
 
 
 def test_library_offers_every_kind_once_per_place(chain, mh180):
-    lib = source_library(chain, 1.0 / nominal_stiffness(mh180), harmonics=2, drive="time")
+    lib = source_library(chain, 1.0 / nominal_stiffness(mh180), harmonics=2, drive="time", masses=True)
     assert {s.kind for s in lib} == set(SOURCE_KINDS)
     names = [s.name for s in lib]
     assert len(names) == len(set(names))

@@ -29,7 +29,7 @@ def register(sub) -> None:
     d.add_argument("--calibrate", nargs="?", const="default", default=None, metavar="GROUPS",
                    help="calibrate the ordinary parameters first (FRFs: groups as for 'model calibrate', default "
                         "joints,damping,servo,masses; readings: every joint's zero offset, placement and gravity "
-                        "compliance), then search the structural effects on the calibrated model")
+                        "compliance and every link's mass), then search the structural effects on the calibrated model")
     d.add_argument("--confirm", type=int, default=4, metavar="N",
                    help="with --calibrate: recalibrate with the best candidate of each of N kinds (tool holder, "
                         "spindle, foundation, a body's mass) in place, and once without, before calling the gap "
@@ -150,7 +150,7 @@ def _diagnose_readings(args) -> int:
     data = tracker_data(readings, robot=robot, repeatability=1e-3 * args.repeatability)
     if args.calibrate not in (None, "default"):
         raise InputError("--calibrate takes no groups with --readings: it calibrates every joint's zero "
-                         "offset, placement and gravity compliance")
+                         "offset, placement, gravity compliance and link mass")
     settings = TrackerSettings(calibrate=args.calibrate is not None)
     dg = diagnose_tracker(robot, data, settings=settings, progress=say)
     paths = dg.save(args.out) if args.out else {}

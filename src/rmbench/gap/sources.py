@@ -14,6 +14,9 @@ Kinds (:func:`source_library`):
   twist (rad, about the axis normal to the joint axis and the link);
 * ``gravity_compliance@jN`` — fraction added to the joint's nominal compliance (joints with a
   ``_flex`` spring only);
+* ``link_mass@jN`` — fraction added to the mass of the body joint N carries (an ordinary parameter
+  a calibration fits, :func:`source_library` ``masses``; it moves the gravity torque's share
+  between the joints, which no compliance fraction does);
 * ``payload@tool`` — unmodelled mass at the TCP, kg (deflects the compliant joints);
 * ``gear_periodic_error@jN:hH`` — harmonic H of the joint's output revolution, ``a sin(H q) +
   b cos(H q)``, rad;
@@ -36,7 +39,7 @@ from rmbench.tracker.chain import SerialChain
 
 __all__ = ["Source", "PoseModel", "source_library", "SOURCE_KINDS"]
 
-SOURCE_KINDS = ("joint_offset", "link_geometry", "gravity_compliance", "payload",
+SOURCE_KINDS = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass", "payload",
                 "gear_periodic_error", "frame_error", "thermal_drift")
 
 
@@ -88,6 +91,8 @@ class Source:
                     f"twist {np.degrees(v[1]):+.4f}°")
         if self.kind == "gravity_compliance":
             return f"{self.location} gravity compliance {100 * v[0]:+.1f} %"
+        if self.kind == "link_mass":
+            return f"mass carried by {self.location} {100 * v[0]:+.1f} %"
         if self.kind == "payload":
             return f"payload {v[0]:+.2f} kg at the TCP"
         if self.kind == "gear_periodic_error":
@@ -102,7 +107,7 @@ class Source:
 
 
 def source_library(chain: SerialChain, compliance, *, harmonics: int = 2,
-                   drive: str | None = None) -> list[Source]:
+                   drive: str | None = None, masses: bool = False) -> list[Source]:
     """Every candidate source of a chain.
 
     Parameters
@@ -113,6 +118,8 @@ def source_library(chain: SerialChain, compliance, *, harmonics: int = 2,
         Gear-error harmonics per joint.
     drive : {"time", "temperature"} or None
         What the readings carry that thermal drift can follow (None: no thermal source).
+    masses : bool
+        Each compliant chain's body masses too (``link_mass``; bodies beyond the first joint).
     """
     c = np.asarray(compliance, float)
     out = []
@@ -123,6 +130,10 @@ def source_library(chain: SerialChain, compliance, *, harmonics: int = 2,
     for j, name in enumerate(chain.names):
         if c[j] > 0:
             out.append(Source("gravity_compliance", name, ("fraction",), (0.1,), joint=j))
+    if masses and np.any(c > 0):
+        for j, name in enumerate(chain.names):
+            if j > 0 and chain.masses[j] > 0:
+                out.append(Source("link_mass", name, ("fraction",), (0.05,), joint=j))
     out.append(Source("payload", "tool", ("mass",), (10.0,)))
     for j, name in enumerate(chain.names):
         for h in range(1, harmonics + 1):
@@ -207,6 +218,12 @@ class PoseModel:
         angles = q.copy()
         comp = self.compliance.copy()
         expansion = 0.0
+        scale = np.ones(chain.n_joint)
+        for s, v in zip(sources, values):
+            if s.kind == "link_mass":
+                scale[s.joint] += np.atleast_1d(v)[0]
+        if np.any(scale != 1.0):
+            chain = chain.with_mass_scale(scale)
         for s, v in zip(sources, values):
             v = np.atleast_1d(v)
             if s.kind == "joint_offset":

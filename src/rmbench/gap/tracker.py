@@ -39,7 +39,7 @@ from rmbench.io.strict_json import strict_dumps
 from rmbench.tracker.chain import _skew
 
 _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
-ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance")   # what a robot calibration fits
+ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")   # what a robot calibration fits
 _IDENTIFIABLE, _WEAK = 0.3, 0.7     # posterior over prior σ: the data carry most of it / narrow it
 
 __all__ = ["TrackerData", "TrackerSettings", "SourceResult", "PoseErrorMap", "TrackerDiagnosis",
@@ -116,13 +116,15 @@ class TrackerSettings(SearchSettings):
         Gear-error harmonics per joint in the library.
     calibrate : bool
         Calibrate the ordinary parameters first (:data:`ORDINARY`: every joint's zero offset,
-        each placement's length and twist, each compliant joint's gravity compliance), each
+        each placement's length and twist, each compliant joint's gravity compliance, each
+        link's mass), each
         with a Gaussian prior of the sizes below, on the training configurations; then search
         the structural sources on top, each fitted with the ordinary parameters (their priors
         kept). A structural source the calibrated parameters explain is never chosen.
-    offset_sd, length_sd, twist_sd, compliance_sd : float
+    offset_sd, length_sd, twist_sd, compliance_sd, mass_sd : float
         Prior standard deviations of the ordinary parameters: zero offset (rad), placement
-        length (m) and twist (rad), the fraction added to a joint's compliance. A stated
+        length (m) and twist (rad), the fractions added to a joint's compliance and to the mass
+        of the body it carries (link masses ±10 %). A stated
         tolerance is a 2σ bound, as the tracker's accuracy is (link lengths ±0.5 mm, twists
         ±0.05°, stiffness within ×0.7-1.3 of the data sheet).
     """
@@ -134,6 +136,7 @@ class TrackerSettings(SearchSettings):
     length_sd: float = 0.25e-3
     twist_sd: float = float(np.radians(0.025))
     compliance_sd: float = 0.25
+    mass_sd: float = 0.05
 
 
 @dataclass(frozen=True)
@@ -583,7 +586,8 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         raise InputError(f"{len(np.unique(data.location))} configurations: the diagnosis needs at "
                          f"least 6 (3 to fit the base registration's 6 parameters and a source on, "
                          f"3 held out)")
-    library = source_library(chain, compliance, harmonics=settings.harmonics, drive=data.drive_kind)
+    library = source_library(chain, compliance, harmonics=settings.harmonics, drive=data.drive_kind,
+                             masses=settings.calibrate)
     if settings.kinds is not None:
         library = [s for s in library if s.kind in settings.kinds]
     eng = _Engine(model, data, train, held)
@@ -827,6 +831,8 @@ def _prior_sd(source: Source, settings: TrackerSettings) -> np.ndarray:
         return np.array([settings.offset_sd])
     if source.kind == "link_geometry":
         return np.array([settings.length_sd, settings.twist_sd])
+    if source.kind == "link_mass":
+        return np.array([settings.mass_sd])
     return np.array([settings.compliance_sd])
 
 
