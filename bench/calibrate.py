@@ -303,6 +303,10 @@ def run_gap_case(i: int, seed: int, args) -> dict:
             "ranked": [[e.name, e.confidence, e.shrink] for e in dg.effects[:5]],
             "confirmation": dg.confirmation, "notes_gap": list(dg.notes),
             "heldout": acct["heldout_modes"], "params": score_params(SimpleNamespace(params=est), truth),
+            # the hidden effect's own parameters, not scored (their truth is the effect's): what the
+            # calibration made of them
+            "touched": [{k: p[k] for k in ("name", "nominal", "value", "interval", "on_bound")}
+                        for p in acct["params"] if p["name"] in skip],
             "unseen": unseen, "chi2_per_residual": [acct["chi2_per_residual"]["before"],
                                                     acct["chi2_per_residual"]["after"]],
             "iterations": acct["iterations"], "notes": list(acct["notes"]),

@@ -6,7 +6,7 @@ import pytest
 
 from rmbench.calibrate import TestDesign
 from rmbench.gap.confirm import _terms, confirmable
-from rmbench.gap.diagnosis import _shrink_between
+from rmbench.gap.selection import bootstrap_shrink
 from rmbench.gap.effects import library
 from rmbench.impact import load_config
 from rmbench.robot.parameters import parameter_set
@@ -53,7 +53,7 @@ def test_sensor_and_spin_candidates_map_onto_no_model_parameter(calibrated_libra
 
 def test_the_shrink_against_the_null_is_of_the_rms_gap():
     c0, c1 = np.array([400.0, 400.0, 400.0, 400.0]), np.array([100.0, 100.0, 100.0, 100.0])
-    shrink, (lo, hi) = _shrink_between(c0, c1, [100] * 4, n_boot=50)
+    shrink, (lo, hi) = bootstrap_shrink(c0, c1, n_boot=50)
     # a quarter of the χ² is half the rms gap, at every posture: no spread in the bootstrap
     assert shrink == pytest.approx(0.5) and lo == pytest.approx(0.5) and hi == pytest.approx(0.5)
 
@@ -112,3 +112,42 @@ def test_a_holder_explanation_is_read_on_top_of_the_calibrated_holder(irb):
     assert total["tool_contact.translation"] == 0.0
     sensor = SimpleNamespace(kind="sensor_misalignment", params={"angle": 1.0})
     assert _ordinary_total(sensor, {}, irb) is None
+
+
+def test_an_ordinary_parameter_left_on_a_bound_of_its_spread_stands_for_the_structural_effect_behind_it(
+        calibrated_library):
+    """A 50 % heavier forearm is reached by an ordinary calibration with the forearm's mass on its
+    ×1.25 bound and the neighbours' centres of mass moved to make up the rest: the bound, not the
+    residual, is the sign. A foundation resting at rigid (its nominal, a bound) is no sign."""
+    from types import SimpleNamespace
+
+    from rmbench.gap.diagnosis import _pinned
+
+    def est(name, on_bound, value=2.0, nominal=1.0):
+        return SimpleNamespace(name=name, on_bound=on_bound, value=value, nominal=nominal)
+
+    cal = SimpleNamespace(params=[est("upper_arm.mass", False), est("forearm.mass", True),
+                                  est("base.tilt_compliance", True, value=0.0, nominal=0.0),
+                                  est("upper_arm.com_x", True), est("tool_contact.rotation", True)])
+    assert [e.name for e in _pinned(cal, calibrated_library)] == [
+        "added_mass@forearm", "tool_contact_stiffness@tool_contact"]
+
+
+def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_range(irb):
+    """The masses' prior range is ×0.8-1.25: ×1.5 ± 5 % lies beyond it; ×1.3 ± 10 % reaches back into it."""
+    from types import SimpleNamespace
+
+    from rmbench.gap.confirm import Confirmed
+    from rmbench.gap.diagnosis import _beyond_spread
+
+    def freed(factor, sd):
+        cal = SimpleNamespace(params=[SimpleNamespace(name="forearm.mass")], u=np.array([np.log(factor)]),
+                              cov_u=np.array([[sd ** 2]]))
+        return Confirmed(effect=None, values=None, calibration=cal, robot=None, chi2_held=1.0, n_held=1,
+                         peak_held=0.0, chi2_held_posture=np.ones(1), objective=None, significant=False,
+                         seconds=0.0, freed=("forearm.mass",))
+
+    assert _beyond_spread(freed(1.5, 0.05), irb, ("masses",))
+    assert not _beyond_spread(freed(1.3, 0.10), irb, ("masses",))
+    # a mass no calibrated group holds is not judged against a spread here
+    assert not _beyond_spread(freed(1.5, 0.05), irb, ("joints",))

@@ -36,18 +36,17 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares, linear_sum_assignment
+from scipy.optimize import linear_sum_assignment
 
 from rmbench.calibrate.model import ModalModel
 from rmbench.calibrate.residual import FRF_SEGMENTS, UNPAIRED, Pairing, frf_residuals, mode_residuals, pair
+from rmbench.calibrate.solver import IDENTIFIABLE, WEAK, identifiability, posterior, solve
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.robot.parameters import DEFAULT_GROUPS, parameter_set
 
 __all__ = ["CalibrationSettings", "ParameterEstimate", "Calibration", "calibrate", "linearisation",
            "mode_errors", "error_summary", "IDENTIFIABLE", "WEAK"]
 
-IDENTIFIABLE = 0.3     # posterior over prior standard deviation below this: identifiable
-WEAK = 0.7             # below this: weakly identifiable
 _DETERMINED = 3.0      # a singular value of J above this (in prior σ): a determined direction
 _LOADING = 0.3         # a parameter's share of a direction to be named in it
 
@@ -144,6 +143,10 @@ class Calibration:
     chi2_before, chi2_after : float
         Training χ² (data part) of the nominal and the calibrated model; ``n_residuals`` entries.
     n_residuals : int
+    chi2_prior : float
+        The prior's part of the objective at the calibrated parameters, Σ (u/σ)² over the
+        parameters with a prior: how far the calibration had to move them from the nominal, in
+        prior standard deviations.
     train, held : tuple of int
         Posture indices fitted and held out.
     modes_train, modes_held : dict
@@ -170,6 +173,7 @@ class Calibration:
     iterations: int
     seconds: float
     notes: tuple = field(default=())
+    chi2_prior: float = 0.0
 
     def heldout_summary(self) -> dict:
         """Mean and p95 of the held-out |f| and |ζ| errors before and after, unpaired counts."""
@@ -179,6 +183,7 @@ class Calibration:
         return {"params": [p.to_dict() for p in self.params], "combinations": list(self.combinations),
                 "chi2_per_residual": {"before": self.chi2_before / max(self.n_residuals, 1),
                                       "after": self.chi2_after / max(self.n_residuals, 1)},
+                "chi2_prior": self.chi2_prior,
                 "n_residuals": self.n_residuals, "train": list(self.train), "held": list(self.held),
                 "train_errors": {k: error_summary(v) for k, v in self.modes_train.items()},
                 "heldout_errors": self.heldout_summary(),
@@ -440,6 +445,7 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
     sigma = problem.sigma
     # the prior's weight per parameter: none on a freed one
     w = np.sqrt(settings.prior_weight) * np.array([0.0 if n in settings.free else 1.0 for n in params.names])
+    prior_sd = np.where(w > 0, 1.0 / np.where(w > 0, w, 1.0), np.inf)
     lo, hi = params.lower() / sigma, params.upper() / sigma
     cache = {}
 
@@ -452,12 +458,8 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
         return cache[key]
 
     def fun(z):
-        r = problem.residuals(z * sigma)
-        return np.concatenate([r, w * z])
-
-    def jac(z):
-        _, j = jac_at(z)
-        return np.vstack([j, np.diag(w)])
+        # the data and the prior: the coarse stage and the gross starts score with both
+        return np.concatenate([problem.residuals(z * sigma), w * z])
 
     try:
         r0, j0 = jac_at(np.zeros(len(params)))
@@ -474,8 +476,8 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
             z0 = np.clip(z0, lo + 0.05, hi - 0.05)
         else:
             z0 = _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say)
-        sol = least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale=1.0,
-                            max_nfev=settings.max_iter, xtol=1e-4, ftol=1e-6, gtol=1e-8)
+        sol = solve(lambda z: problem.residuals(z * sigma), lambda z: jac_at(z)[1], z0, prior_sd=prior_sd,
+                    lower=lo, upper=hi, max_nfev=settings.max_iter)
         z = sol.x
         r1, j1 = jac_at(z)
     finally:
@@ -484,7 +486,7 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
     say(f"calibrated: χ²/residual {chi2_after / problem.n:.3g} after {sol.nfev} evaluations")
     estimates, cov_u, combos, notes = _account(params, z, j1, sigma, chi2_after, problem.n, lo, hi,
                                                prior=(w > 0).astype(float))
-    if sol.status == 0:
+    if sol.at_limit:
         notes.append(f"the fit stopped at its limit of {settings.max_iter} evaluations")
     u = z * sigma
     rows_train = {"before": mode_errors(mm, u0, data, train), "after": mode_errors(mm, u, data, train)}
@@ -494,8 +496,9 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
     return Calibration(params=tuple(estimates), u=u, cov_u=cov_u, combinations=tuple(combos),
                        chi2_before=chi2_before, chi2_after=chi2_after, n_residuals=problem.n,
                        train=tuple(train), held=tuple(held), modes_train=rows_train,
-                       modes_held=rows_held, xml=xml, iterations=int(sol.nfev),
-                       seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes))
+                       modes_held=rows_held, xml=xml, iterations=sol.nfev,
+                       seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes),
+                       chi2_prior=sol.chi2_prior)
 
 
 def _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say) -> np.ndarray:
@@ -513,10 +516,11 @@ def _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say) ->
         if _far(problem, z0 * sigma):
             def jac_c(z):
                 _, j = coarse.jacobian(z * sigma)
-                return np.vstack([j * sigma[None, :], np.diag(w)])
+                return j * sigma[None, :]
 
-            z0 = least_squares(fun_c, z0, jac=jac_c, bounds=(lo, hi), method="trf",
-                               max_nfev=min(10, settings.max_iter), xtol=1e-3, ftol=1e-4).x
+            z0 = solve(lambda z: coarse.residuals(z * sigma), jac_c, z0,
+                       prior_sd=np.where(w > 0, 1.0 / np.where(w > 0, w, 1.0), np.inf), lower=lo, upper=hi,
+                       max_nfev=min(10, settings.max_iter), xtol=1e-3, ftol=1e-4).x
             say("coarse stage (frequencies in a wide window): done")
     finally:
         coarse.close()
@@ -688,31 +692,22 @@ def _account(params, z, j, sigma, chi2, n, lo, hi, prior=None):
     (scaled down to the held-out χ², the intervals covered the truth in 27-47 % of cases).
     """
     k = len(z)
-    info = j.T @ j
     # a freed parameter has no prior (prior 0): a tiny ridge keeps an undetermined one finite
     prior = np.ones(k) if prior is None else np.maximum(np.asarray(prior, float), 1e-6)
-    cov_z = np.linalg.inv(info + np.diag(prior))
-    sd_info = np.sqrt(np.diag(cov_z))
+    post = posterior(j, prior, chi2, n)
+    sd_info = post.ratio
     notes = []
-    scale = max(1.0, chi2 / max(n - k, 1))
-    if scale > 1:
-        notes.append(f"intervals widened by √(χ²/dof) = {np.sqrt(scale):.2f}: the model does not reach "
+    if post.scale > 1:
+        notes.append(f"intervals widened by √(χ²/dof) = {np.sqrt(post.scale):.2f}: the model does not reach "
                      "the data's noise (an unmodelled effect, or floors below the test's accuracy)")
-    cov_z = cov_z * scale
-    sd = np.sqrt(np.diag(cov_z))
-    cov_u = cov_z * np.outer(sigma, sigma)
+    sd = post.sd
+    cov_u = post.cov * np.outer(sigma, sigma)
     out = []
     for i, prm in enumerate(params):
         s = float(sd_info[i])
         u_i, du = z[i] * sigma[i], 1.96 * float(sd[i]) * sigma[i]
-        # identifiable: the data carry most of what is known of it (posterior ≪ prior) and fix it
-        # to the resolution that matters (5 %, 5 mm); weak: they narrow the prior noticeably
-        if s < IDENTIFIABLE and du <= prm.resolution:
-            ident = "identifiable"
-        elif s < WEAK:
-            ident = "weak"
-        else:
-            ident = "not identifiable"
+        # identifiable also needs the interval within the resolution that matters (5 %, 5 mm)
+        ident = identifiability(s, resolved=du <= prm.resolution)
         value = prm.display(prm.value(u_i))
         ends = sorted((prm.display(prm.value(u_i - du)), prm.display(prm.value(u_i + du))))
         bound = bool(min(z[i] - lo[i], hi[i] - z[i]) < 1e-3)

@@ -88,6 +88,12 @@ class Confirmed:
     def name(self) -> str:
         return "null" if self.effect is None else self.effect.name
 
+    @property
+    def train_objective(self) -> float:
+        """The recalibration's training objective: data χ² plus the prior's part over the
+        ordinary parameters (a freed parameter has no prior)."""
+        return float(self.calibration.chi2_after + self.calibration.chi2_prior)
+
     def shrink_against(self, null: "Confirmed") -> float:
         """``1 − gap / gap_null`` of the held-out rms normalised gap."""
         return float(1 - np.sqrt(self.chi2_held / null.chi2_held)) if null.chi2_held > 0 else 0.0
@@ -95,7 +101,8 @@ class Confirmed:
     def to_dict(self, null: "Confirmed | None" = None) -> dict:
         out = {"name": self.name, "chi2_held": self.chi2_held, "n_held": self.n_held,
                "peak_held": self.peak_held, "significant": self.significant,
-               "iterations": self.calibration.iterations, "rounds": self.rounds, "seconds": self.seconds}
+               "iterations": self.calibration.iterations, "rounds": self.rounds, "seconds": self.seconds,
+               "chi2_train": float(self.calibration.chi2_after), "chi2_prior": float(self.calibration.chi2_prior)}
         if self.effect is not None:
             out["params"] = self.effect.params_dict(self.values)
             out["description"] = self.effect.describe(self.values)
@@ -146,7 +153,7 @@ def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal) -> _Terms:
 
 def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, bands, held, settings,
             max_iter: int = 8, p_noise: float = 1e-3, min_shrink: float = 0.5, accept=None,
-            progress=None) -> tuple:
+            need_gap: bool = True, progress=None) -> tuple:
     """The null recalibration and one per candidate, each scored on the held-out postures.
 
     Parameters
@@ -182,7 +189,12 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     accept : callable, optional
         ``accept(candidate, null)``: whether a confirmed candidate explains the gap. The
         candidates run in their order and stop at the first accepted one (each recalibration
-        takes minutes); none run when the null recalibration reaches the noise.
+        takes minutes); none run when the null recalibration reaches the noise, unless
+        ``need_gap`` is False.
+    need_gap : bool
+        False: run the candidates even where the null reaches the noise (an ordinary parameter
+        that ended on its bound: the calibration reached the data only by pushing it to the edge
+        of its spread, and the candidate asks whether it lies beyond).
 
     Returns
     -------
@@ -235,7 +247,7 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
 
     null = run(None)
     done = []
-    if not null.significant:        # the ordinary parameters alone reach the noise
+    if need_gap and not null.significant:        # the ordinary parameters alone reach the noise
         return null, done
     for effect in candidates:
         done.append(run(effect))

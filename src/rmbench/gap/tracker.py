@@ -33,14 +33,13 @@ from scipy.spatial.transform import Rotation
 
 from rmbench.errors import InputError
 from rmbench.gap.jsonable import jsonable, write_whole
-from rmbench.gap.selection import SearchSettings, bic, confidences, selection_weights, significant
+from rmbench.gap.selection import SearchSettings, bic, bootstrap_shrink, confidences, selection_weights, significant
 from rmbench.gap.sources import PoseModel, Source, source_library
 from rmbench.io.strict_json import strict_dumps
 from rmbench.tracker.chain import _skew
 
 _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
 ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")   # what a robot calibration fits
-_IDENTIFIABLE, _WEAK = 0.3, 0.7     # posterior over prior σ: the data carry most of it / narrow it
 
 __all__ = ["TrackerData", "TrackerSettings", "SourceResult", "PoseErrorMap", "TrackerDiagnosis",
            "FittedPose", "diagnose_tracker", "pose_error_map", "tracker_data", "default_sigma",
@@ -484,33 +483,45 @@ class _Engine:
         cols[:, :, 3:] = -_skew(p)
         return np.einsum("nij,njk->nik", self.white[idx], cols).reshape(3 * n, 6)
 
+    def prior_sd(self, sources) -> np.ndarray:
+        """The prior's standard deviation per parameter of ``sources`` (inf where none)."""
+        return np.concatenate([self.prior.get(s.name, np.full(s.n_params, np.inf)) for s in sources]
+                              or [np.zeros(0)])
+
     def fit(self, sources, start=None, *, iterations: int = 6) -> _Fit:
+        """The sources and the base registration fitted together on the training readings, with
+        the prior of the calibrated parameters: the calibration stage's regularised least squares
+        (:func:`rmbench.calibrate.solver.solve`), in x = (source values, registration translation
+        and small rotation about the start's)."""
+        from rmbench.calibrate.solver import solve
+
         sources = tuple(sources)
         values = [np.zeros(s.n_params) for s in sources] if start is None else \
             [np.array(v, float) for v in start]
-        rot, trans = self.register(sources, values)
+        rot0, trans0 = self.register(sources, values)
         idx = self.train
-        for _ in range(iterations):
-            r = self.residual(sources, values, rot, trans, idx).ravel()
-            jac = np.hstack([self.columns(sources, values, rot, idx),
-                             self.registration_columns(sources, values, rot, idx)])
-            r_p, j_p = self.prior_rows(sources, values)
-            if len(r_p):
-                r = np.concatenate([r, r_p])
-                jac = np.vstack([jac, np.hstack([j_p, np.zeros((len(r_p), 6))])])
-            scale = np.linalg.norm(jac, axis=0)
-            scale[scale == 0] = 1.0
-            step = np.linalg.lstsq(jac / scale, r, rcond=1e-10)[0] / scale
-            off = 0
-            for i, s in enumerate(sources):
-                values[i] = values[i] + step[off: off + s.n_params]
-                off += s.n_params
-            rot = Rotation.from_rotvec(step[off + 3: off + 6]).as_matrix() @ rot
-            trans = trans + step[off: off + 3]
-            if np.max(np.abs(step[:off] / np.concatenate([s.scale for s in sources] or [[1.0]])[:off]),
-                      initial=0.0) < 1e-6 and np.max(np.abs(step[off:]), initial=0.0) < 1e-9:
-                break
-        return self.score(sources, values, rot, trans)
+        sizes = np.cumsum([0] + [s.n_params for s in sources])
+        k = int(sizes[-1])
+
+        def unpack(x):
+            vals = [x[a:b] for a, b in zip(sizes[:-1], sizes[1:])]
+            return vals, Rotation.from_rotvec(x[k + 3:]).as_matrix() @ rot0, trans0 + x[k:k + 3]
+
+        def residuals(x):
+            vals, rot, trans = unpack(x)
+            return self.residual(sources, vals, rot, trans, idx).ravel()
+
+        def jacobian(x):
+            # the residual is reading − model: its sensitivity is minus the model's
+            vals, rot, _ = unpack(x)
+            return -np.hstack([self.columns(sources, vals, rot, idx),
+                               self.registration_columns(sources, vals, rot, idx)])
+
+        x0 = np.concatenate(values + [np.zeros(6)])
+        sol = solve(residuals, jacobian, x0, prior_sd=np.concatenate([self.prior_sd(sources), np.full(6, np.inf)]),
+                    max_nfev=2 * iterations, x_scale="jac", xtol=1e-8, ftol=1e-9, gtol=1e-10)
+        vals, rot, trans = unpack(sol.x)
+        return self.score(sources, vals, rot, trans)
 
     def register(self, sources, values) -> tuple[np.ndarray, np.ndarray]:
         """Weighted rigid best fit of the model's positions to the training readings."""
@@ -841,25 +852,25 @@ def _calibration(eng: _Engine, fit: _Fit, nominal: _Fit, n_boot: int) -> dict:
     covariance with the prior, widened by √(χ²/dof) where the model does not reach the noise)
     and identifiability (posterior over prior σ: below 0.3 the data carry most of what is known,
     below 0.7 they narrow the prior), and the held-out error before and after."""
+    from rmbench.calibrate.solver import identifiability, posterior
+
     idx = eng.train
-    jac = eng.columns(fit.sources, fit.values, fit.rotation, idx)
-    reg = eng.registration_columns(fit.sources, fit.values, fit.rotation, idx)
-    _, j_p = eng.prior_rows(fit.sources, fit.values)
-    info = np.block([[jac.T @ jac + j_p.T @ j_p, jac.T @ reg], [reg.T @ jac, reg.T @ reg]])
-    cov = np.linalg.pinv(info)[:jac.shape[1], :jac.shape[1]]
-    k = jac.shape[1]
-    cov *= max(1.0, fit.chi2_train / max(fit.n_train - k - 6, 1))
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    jac = np.hstack([eng.columns(fit.sources, fit.values, fit.rotation, idx),
+                     eng.registration_columns(fit.sources, fit.values, fit.rotation, idx)])
+    sd_prior = eng.prior_sd(fit.sources)
+    k = len(sd_prior)
+    # the registration has no prior: the data always fix it
+    prior = np.concatenate([1.0 / sd_prior ** 2, np.zeros(6)])
+    post = posterior(jac, prior, fit.chi2_train, fit.n_train, reference=np.concatenate([sd_prior, np.ones(6)]))
+    sd = post.sd[:k]
     rows, off = [], 0
     for s, v in zip(fit.sources, fit.values):
-        prior = eng.prior[s.name]
         for i, pname in enumerate(s.params):
-            ratio = float(sd[off + i] / prior[i])
-            ident = "identifiable" if ratio < _IDENTIFIABLE else ("weak" if ratio < _WEAK else "not identifiable")
+            ratio = float(post.ratio[off + i])
             x = float(np.atleast_1d(v)[i])
-            rows.append({"name": f"{s.name}.{pname}", "value": x, "prior_sd": float(prior[i]),
+            rows.append({"name": f"{s.name}.{pname}", "value": x, "prior_sd": float(sd_prior[off + i]),
                          "interval": [x - 1.96 * float(sd[off + i]), x + 1.96 * float(sd[off + i])],
-                         "posterior_over_prior": ratio, "identifiability": ident})
+                         "posterior_over_prior": ratio, "identifiability": identifiability(ratio)})
         off += s.n_params
     return {"params": rows, "n_params": k, "heldout_before": _heldout(eng, nominal, n_boot),
             "heldout_after": _heldout(eng, fit, n_boot),
@@ -898,15 +909,7 @@ def _shrink(eng: _Engine, before: _Fit, after: _Fit, n_boot: int, seed: int = 0)
         n2 = np.sum(e ** 2, axis=1)
         return np.array([n2[loc == u].sum() for u in units])
 
-    s0, s1 = per_unit(before), per_unit(after)
-
-    def shrink(i):
-        return 1 - np.sqrt(s1[i].sum() / s0[i].sum()) if s0[i].sum() > 0 else 0.0
-
-    full = shrink(np.arange(len(units)))
-    rng = np.random.default_rng(seed)
-    boots = [shrink(rng.integers(0, len(units), len(units))) for _ in range(n_boot)]
-    return float(full), (float(np.percentile(boots, 2.5)), float(np.percentile(boots, 97.5)))
+    return bootstrap_shrink(per_unit(before), per_unit(after), n_boot, seed)
 
 
 def _ranked(eng: _Engine, nominal: _Fit, chosen: _Fit | None, scored, conf, base: tuple = ()) -> list[SourceResult]:

@@ -1,0 +1,51 @@
+"""Specification of the regularised least squares every calibration shares (FRF and tracker data):
+a maximum a posteriori fit with a Gaussian prior per parameter, bounds, and its posterior account."""
+
+import numpy as np
+import pytest
+
+from rmbench.calibrate.solver import identifiability, posterior, solve
+
+
+def _linear(a, y):
+    return (lambda x: a @ x - y), (lambda x: a)
+
+
+def test_a_linear_problem_lands_on_the_closed_form_posterior_mean():
+    rng = np.random.default_rng(0)
+    a, y = rng.normal(size=(30, 3)), rng.normal(size=30)
+    sd = np.array([0.5, 1.0, np.inf])
+    sol = solve(*_linear(a, y), np.zeros(3), prior_sd=sd, max_nfev=50)
+    precision = np.array([4.0, 1.0, 0.0])
+    expected = np.linalg.solve(a.T @ a + np.diag(precision), a.T @ y)
+    # a linear problem is one Gauss-Newton step: the solver's tolerance (1e-4 of x) is the only gap
+    np.testing.assert_allclose(sol.x, expected, rtol=1e-4, atol=1e-6)
+    assert sol.chi2_prior == pytest.approx(np.sum(precision * sol.x ** 2), rel=1e-9)
+
+
+def test_a_bound_holds_the_parameter_the_data_push_past_it():
+    a, y = np.eye(2), np.array([3.0, 0.5])
+    sol = solve(*_linear(a, y), np.zeros(2), prior_sd=[np.inf, np.inf], lower=[-1, -1], upper=[1, 1],
+                max_nfev=50)
+    assert sol.x[0] == pytest.approx(1.0, abs=1e-6) and sol.x[1] == pytest.approx(0.5, abs=1e-4)
+
+
+def test_a_parameter_the_data_do_not_see_keeps_its_prior_and_is_not_identifiable():
+    # residuals see the first parameter strongly, the second not at all
+    jac = np.column_stack([10.0 * np.ones(20), np.zeros(20)])
+    post = posterior(jac, [1.0, 1.0], chi2=20.0, n=20)
+    assert post.ratio[1] == pytest.approx(1.0)
+    assert identifiability(post.ratio[0]) == "identifiable"
+    assert identifiability(post.ratio[1]) == "not identifiable"
+    # fixed by the data, but not to the resolution that matters: weak at best
+    assert identifiability(post.ratio[0], resolved=False) == "weak"
+
+
+def test_a_model_short_of_the_noise_widens_its_intervals_by_the_reduced_chi2():
+    jac = np.column_stack([np.ones(10), np.arange(10.0)])
+    fits = posterior(jac, [1e-6, 1e-6], chi2=8.0, n=10)
+    misfit = posterior(jac, [1e-6, 1e-6], chi2=32.0, n=10)
+    assert fits.scale == 1.0 and misfit.scale == pytest.approx(4.0)
+    np.testing.assert_allclose(misfit.sd, 2.0 * fits.sd)
+    # identifiability is what the data say, not how well the model fits them
+    np.testing.assert_allclose(misfit.ratio, fits.ratio)

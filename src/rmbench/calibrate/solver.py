@@ -1,0 +1,159 @@
+"""The regularised least-squares problem every calibration solves, whatever its data.
+
+A calibration is a maximum a posteriori fit: data residuals ``r(x)``, each already divided by its
+standard error, and a Gaussian prior about zero on each parameter with standard deviation
+``σ_i`` (infinite: no prior, e.g. a freed structural size or a tracker's registration)::
+
+    minimise  |r(x)|² + Σ (x_i / σ_i)²   subject to  lower ≤ x ≤ upper
+
+The prior is Tikhonov regularisation toward the nominal, its weight set by the stated tolerances
+rather than tuned per case. It is solved by a bounded trust-region Gauss-Newton (scipy's
+``least_squares``, ``trf``) with the prior as extra rows. The FRF calibration
+(:func:`rmbench.calibrate.calibrate`, modal and FRF residuals, x in prior standard deviations)
+and the tracker calibration (:mod:`rmbench.gap.tracker`, pose residuals, x in SI) both use it, and
+both read their account from :func:`posterior` and :func:`identifiability`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+__all__ = ["IDENTIFIABLE", "WEAK", "Solution", "Posterior", "solve", "posterior", "identifiability"]
+
+IDENTIFIABLE = 0.3     # posterior over reference standard deviation below this: identifiable
+WEAK = 0.7             # below this: weakly identifiable
+
+
+@dataclass(frozen=True)
+class Solution:
+    """A solved calibration problem.
+
+    Attributes
+    ----------
+    x : ndarray, shape (k,)
+    chi2 : float
+        The data part of the objective at ``x``, ``|r(x)|²``.
+    chi2_prior : float
+        The prior's part, ``Σ (x_i/σ_i)²`` over the parameters with a prior.
+    nfev : int
+        Residual evaluations.
+    at_limit : bool
+        The solver stopped at ``max_nfev`` rather than converging.
+    """
+
+    x: np.ndarray
+    chi2: float
+    chi2_prior: float
+    nfev: int
+    at_limit: bool
+
+
+@dataclass(frozen=True)
+class Posterior:
+    """The Gauss-Newton posterior at a solution.
+
+    Attributes
+    ----------
+    cov : ndarray, shape (k, k)
+        Covariance of x, scaled by the reduced χ² where that exceeds 1 (a model that does not
+        reach the data's noise: an unmodelled effect widens the intervals).
+    ratio : ndarray, shape (k,)
+        Posterior standard deviation from the data and the prior alone (unscaled) over each
+        parameter's reference standard deviation: near 1 the data add nothing to the prior,
+        near 0 they fix the parameter.
+    scale : float
+        The factor applied to ``cov`` (≥ 1).
+    """
+
+    cov: np.ndarray
+    ratio: np.ndarray
+    scale: float
+
+    @property
+    def sd(self) -> np.ndarray:
+        return np.sqrt(np.clip(np.diag(self.cov), 0, None))
+
+
+def _weights(prior_sd) -> np.ndarray:
+    sd = np.asarray(prior_sd, float)
+    return np.where(np.isfinite(sd), 1.0 / np.where(np.isfinite(sd), sd, 1.0), 0.0)
+
+
+def solve(residuals, jacobian, x0, *, prior_sd, lower=None, upper=None, max_nfev: int = 16,
+          x_scale=1.0, xtol: float = 1e-4, ftol: float = 1e-6, gtol: float = 1e-8) -> Solution:
+    """Minimise ``|r(x)|² + Σ (x_i/σ_i)²`` within bounds.
+
+    Parameters
+    ----------
+    residuals : callable
+        ``residuals(x) -> r``, shape (n,), each divided by its standard error.
+    jacobian : callable
+        ``jacobian(x) -> J``, shape (n, k), ``∂r/∂x``.
+    x0 : array_like, shape (k,)
+        The start (inside the bounds).
+    prior_sd : array_like, shape (k,)
+        The prior's standard deviation per parameter, in x's units; ``inf`` for none.
+    lower, upper : array_like, shape (k,), optional
+        Bounds (default none).
+    max_nfev : int
+        Most residual evaluations.
+    x_scale : float, array_like or "jac"
+        scipy's variable scaling: 1 where x is already in comparable units (prior standard
+        deviations), ``"jac"`` where it is in SI of different sizes.
+    """
+    x0 = np.asarray(x0, float)
+    w = _weights(prior_sd)
+
+    def fun(x):
+        return np.concatenate([residuals(x), w * x])
+
+    def jac(x):
+        return np.vstack([jacobian(x), np.diag(w)])
+
+    k = len(x0)
+    lo = np.full(k, -np.inf) if lower is None else np.asarray(lower, float)
+    hi = np.full(k, np.inf) if upper is None else np.asarray(upper, float)
+    sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=x_scale,
+                        max_nfev=max_nfev, xtol=xtol, ftol=ftol, gtol=gtol)
+    r = sol.fun[:len(sol.fun) - k]          # the data rows, as evaluated at the solution
+    return Solution(x=sol.x, chi2=float(r @ r), chi2_prior=float(np.sum((w * sol.x) ** 2)),
+                    nfev=int(sol.nfev), at_limit=sol.status == 0)
+
+
+def posterior(jac, precision, chi2: float, n: int, *, reference=None) -> Posterior:
+    """The Gauss-Newton posterior ``(JᵀJ + diag(precision))⁻¹`` at a solution.
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n, k)
+        ``∂r/∂x`` of the data residuals at the solution.
+    precision : array_like, shape (k,)
+        The prior's precision per parameter (``1/σ²``; 0 for none, e.g. a registration that the
+        data always fix; a tiny one keeps an undetermined freed parameter finite).
+    chi2 : float
+        The data χ² at the solution; ``n`` residuals.
+    reference : array_like, shape (k,), optional
+        The standard deviation each parameter's posterior is compared with for its
+        identifiability (default 1: x already in prior standard deviations).
+    """
+    jac = np.asarray(jac, float)
+    k = jac.shape[1]
+    info = jac.T @ jac + np.diag(np.asarray(precision, float))
+    cov = np.linalg.pinv(info)
+    ref = np.ones(k) if reference is None else np.asarray(reference, float)
+    ratio = np.sqrt(np.clip(np.diag(cov), 0, None)) / ref
+    scale = max(1.0, chi2 / max(n - k, 1))
+    return Posterior(cov=cov * scale, ratio=ratio, scale=scale)
+
+
+def identifiability(ratio: float, resolved: bool = True) -> str:
+    """``"identifiable"`` where the data carry most of what is known of a parameter (posterior
+    below 0.3 of its reference) and fix it to the resolution that matters (``resolved``);
+    ``"weak"`` where they narrow it noticeably (below 0.7); else ``"not identifiable"``: the
+    data leave it at its prior."""
+    if ratio < IDENTIFIABLE and resolved:
+        return "identifiable"
+    return "weak" if ratio < WEAK else "not identifiable"
