@@ -5,7 +5,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test bench install clean
+.PHONY: demo test bench bench-summary install clean
 
 install: $(STAMP)
 
@@ -44,6 +44,11 @@ bench: $(STAMP)
 	$(BIN)/python bench/lobes.py | tee bench/results/lobes.txt
 	$(BIN)/python bench/any_robot.py | tee bench/results/any_robot.txt
 	$(BIN)/python bench/report.py | tee bench/results/report.txt
+	$(BIN)/python bench/summary.py
+
+# bench/README.md: the last JSON line of every bench/results/*.txt as tables (standard library only)
+bench-summary: $(STAMP)
+	$(BIN)/python bench/summary.py
 
 clean:
 	rm -rf $(VENV) rmbench_demo
