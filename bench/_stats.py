@@ -81,13 +81,34 @@ def package_files(*exclude: str) -> list:
     return [p for p in src.rglob("*.py") if p.relative_to(src).parts[0] not in exclude]
 
 
-def keyed_run(args, stem: str, bench_file: str) -> None:
+def used_files(*modules: str) -> list:
+    """Every module of the rmbench subpackages that importing ``modules`` loads (a subpackage
+    whole, so that its functions' late imports count too), ``cli`` left out: the code a bench
+    that calls them runs."""
+    import importlib
+
+    import rmbench
+
+    for m in modules:
+        importlib.import_module(m)
+    src = Path(rmbench.__file__).parent
+    top = {name.split(".")[1] for name in sys.modules if name.startswith("rmbench.")} - {"cli"}
+    return [p for p in src.rglob("*.py") if p.relative_to(src).parts[0].removesuffix(".py") in top]
+
+
+def keyed_run(args, stem: str, bench_file: str, *, modules: tuple = (), extra: tuple = ()) -> None:
     """Fill ``args.seed`` (a fresh one unless given) and ``args.lines`` (unless given:
     ``bench/results/STEM_s<seed>_<digest>.jsonl``, resumed only by the same seed and the same code,
-    so a rerun on changed code starts afresh), and print both."""
+    so a rerun on changed code starts afresh), and print both.
+
+    The digest covers the bench file, the bench modules ``extra`` (file names beside it: the truth
+    it builds) and the rmbench subpackages that importing ``modules`` loads, or every subpackage
+    but ``cli`` where none are named."""
     if args.seed is None:
         args.seed = fresh_seed()
     if args.lines is None:
-        digest = code_digest(package_files("cli") + [Path(bench_file)])
+        here = Path(bench_file).resolve().parent
+        code = used_files(*modules) if modules else package_files("cli")
+        digest = code_digest(code + [Path(bench_file)] + [here / f for f in extra])
         args.lines = str(Path(bench_file).resolve().parent / "results" / f"{stem}_s{args.seed}_{digest}.jsonl")
     print(f"seed {args.seed}; cases in {args.lines}", flush=True)

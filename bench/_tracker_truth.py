@@ -17,7 +17,7 @@ import re
 import numpy as np
 
 from rmbench.robot import Robot
-from rmbench.tracker import MH180_JOINT_BOX, sobol_points
+from rmbench.tracker import MH180_CALIBRATION_BOX, MH180_JOINT_BOX, sobol_points
 from rmbench.tracker.simulator import ErrorDistribution, TrackerSimulator
 
 STRUCTURAL = ("payload", "gear_periodic_error", "frame_error")
@@ -128,9 +128,15 @@ class SpreadRobot:
         return p
 
 
-def campaign(rng: np.random.Generator, n_config: int = 250, repeats: int = 2):
-    """Commands, their order (configuration labels) and the configuration each reading came from."""
-    lo, hi = MH180_JOINT_BOX
+BOXES = {"calibration": MH180_CALIBRATION_BOX, "machining": MH180_JOINT_BOX}
+"""The campaigns' joint ranges: every joint swept as far as the cell allows (kinematic
+calibration's practice), or the machining region in front of the robot."""
+
+
+def campaign(rng: np.random.Generator, n_config: int = 250, repeats: int = 2, box: str = "calibration"):
+    """Commands, their order (configuration labels) and the configuration each reading came from,
+    ``n_config`` quasi-random configurations of the joint ranges ``BOXES[box]``."""
+    lo, hi = BOXES[box]
     q_conf = sobol_points(n_config, lo, hi, rng)
     order = np.concatenate([rng.permutation(n_config) for _ in range(repeats)])
     q = q_conf[order]

@@ -134,8 +134,9 @@ def report(cases) -> dict:
     return s
 
 
-def run_spread_case(i: int, seed: int) -> dict:
-    """One spread robot (``bench/_tracker_truth.py``), diagnosed with and without ``--calibrate``."""
+def run_spread_case(i: int, seed: int, box: str = "calibration") -> dict:
+    """One spread robot (``bench/_tracker_truth.py``), read over the joint ranges ``box``, diagnosed
+    with and without ``--calibrate``."""
     from _tracker_truth import SpreadRobot, campaign, draw_structural, spread_xml
 
     from rmbench.gap.tracker import TrackerData, TrackerSettings, default_covariance, diagnose_tracker
@@ -148,14 +149,14 @@ def run_spread_case(i: int, seed: int) -> dict:
     if i % 2 == 1:          # half carry a structural source, one in four of those outside the library
         source = draw_structural(rng, in_library=(i // 2) % 4 != 3, n_joint=len(nominal.arm_joints))
     truth = SpreadRobot(xml, source, rng, tool=nominal.tool)
-    q, order, previous = campaign(rng)
+    q, order, previous = campaign(rng, box=box)
     t = np.arange(len(q)) * 15.0
     y = truth.positions(q, previous, rng)
     cov = default_covariance(nominal, q, y)
     data = TrackerData(q, y, order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), t, tuple(nominal.arm_joints),
                        covariance=cov)
     p_true = truth.positions(q, previous)
-    out = {"index": i, "seed": seed, "drawn": drawn, "source": source,
+    out = {"index": i, "seed": seed, "box": box, "drawn": drawn, "source": source,
            "name": None if source is None else f"{source['kind']}@{source['location']}",
            "in_library": source is None or source["kind"] not in ("backlash", "directional_stiffness")}
     for label, cal in (("calibrated", True), ("plain", False)):
@@ -211,7 +212,8 @@ def summarise_spread(cases) -> dict:
 
 def run_spread(args) -> dict:
     """The spread cases into their own keyed JSON-lines file, resumed; their summary."""
-    lines = Path(args.lines).with_name(Path(args.lines).name.replace("gap_tracker_", "gap_tracker_spread_"))
+    stem = "gap_tracker_spread_" if args.spread_box == "calibration" else f"gap_tracker_spread_{args.spread_box}_"
+    lines = Path(args.lines).with_name(Path(args.lines).name.replace("gap_tracker_", stem))
     done = {}
     if lines.exists():
         for s_ in lines.read_text().splitlines():
@@ -221,7 +223,7 @@ def run_spread(args) -> dict:
     for i in range(args.spread):
         if i in done:
             continue
-        c = run_spread_case(i, args.seed)
+        c = run_spread_case(i, args.seed, args.spread_box)
         with open(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
         done[i] = c
@@ -249,11 +251,15 @@ def main() -> int:
     ap.add_argument("--spread", type=int, default=40,
                     help="robots whose every joint, link and mass differs (issue 43), diagnosed with --calibrate")
     ap.add_argument("--spread-only", action="store_true", help="run only the spread cases")
+    ap.add_argument("--spread-box", choices=("calibration", "machining"), default="calibration",
+                    help="the spread campaign's joint ranges: every joint swept wide (default), or the "
+                         "machining region, where a gear error once per revolution looks like offset and compliance")
     ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
     ap.add_argument("--lines", default=None,
                     help="JSON-lines file (default: bench/results/gap_tracker_s<seed>_<code digest>.jsonl)")
     args = ap.parse_args()
-    keyed_run(args, "gap_tracker", __file__)
+    keyed_run(args, "gap_tracker", __file__, extra=("_tracker_truth.py", "_stats.py"),
+              modules=("rmbench.gap.tracker", "rmbench.gap.tracker_blind", "rmbench.robot", "rmbench.tracker"))
     spread = run_spread(args) if args.spread else {}
     if args.spread_only:
         print(json.dumps({**_spread_line(spread), "seed": args.seed}))

@@ -160,7 +160,7 @@ def chain(sp_m, depths, exact_all, runs) -> tuple[float, Path]:
     import tempfile
     import warnings
 
-    from rmbench.impact import load_config, open_campaign, run_campaign
+    from rmbench.impact import default_lines, load_config, open_campaign, run_campaign
     from rmbench.modal.campaign_fit import fit_campaign
     from rmbench.predict import PosturePredictor
     from rmbench.robot import validation_postures
@@ -177,7 +177,8 @@ def chain(sp_m, depths, exact_all, runs) -> tuple[float, Path]:
         pred = PosturePredictor("mtgp-grouped").fit(fit)
         alone = PosturePredictor("mtgp-grouped", clusters="none").fit(fit)
     print(f"  112-posture campaign, fit and grouped MTGP: {time.perf_counter() - t0:.0f} s")
-    bands = {"low": (np.arange(4.0, 40.01, 0.125), 0.0334), "high": (np.arange(600.0, 1400.1, 2.0), 0.020)}
+    grid = default_lines()
+    bands = {"low": (grid["low"], 0.0334), "high": (grid["high"], 0.020)}
     speeds = np.linspace(5000.0, 20000.0, 60)
     worst = 0.0
     fig = None

@@ -48,7 +48,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
-from rmbench.impact import load_config, run_campaign  # noqa: E402
+from rmbench.impact import default_lines, load_config, run_campaign  # noqa: E402
 from rmbench.rcsa import (FULL_COORDS, POINT_COORDS, campaign_receptance,  # noqa: E402
                           change_tool, full_receptance, identify_contact)
 from rmbench.rcsa.contact import Contact  # noqa: E402
@@ -101,8 +101,9 @@ def fd_table(ref_ds: xr.Dataset) -> None:
           "(largest error of each entry relative to its peak over the band)")
     op = Robot.load("irb6660", tool="dummy").at(validation_postures()[1])
     print(f"  {'band':<6}{'input':<26}{'S mm':>6}{'L_xx':>8}{'N_xx':>8}{'P_xx':>8}{'P_yy':>8}{'L_xy':>8}")
-    for band, f, s_list in (("low", np.arange(4.0, 40.01, 0.125), (0.005, 0.0334)),
-                            ("high", np.arange(600.0, 1400.1, 2.0), (0.005, 0.010, 0.013, 0.020, 0.030))):
+    grid = default_lines()
+    for band, f, s_list in (("low", grid["low"], (0.005, 0.0334)),
+                            ("high", grid["high"], (0.005, 0.010, 0.013, 0.020, 0.030))):
         exact = op.frf(f, FULL_COORDS)
         rows = [(f"exact translations", s, full_receptance(op.frf(f, POINT_COORDS, s_1a=s), s)) for s in s_list]
         t = campaign_receptance(ref_ds, 1, band)
@@ -318,7 +319,7 @@ def main() -> None:
             print(f"  exact FRFs 600-{f_max:.0f} Hz, free {label:<19} k_t {c.k_t / TGT.k_t - 1:+.3f}  "
                   f"k_r {c.k_r / TGT.k_r - 1:+.3f}  c_t {c.c_t / TGT.c_t - 1:+.3f}  c_r {c.c_r / TGT.c_r - 1:+.3f}  "
                   f"at bound {list(fit.at_bound)}")
-    f = np.arange(600.0, 1400.1, 2.0)
+    f = default_lines()["high"]
     # what the exact-FRF c_t error is made of: the rotational contact held at the reference's values,
     # and the tool's structural damping (hysteretic in the beam, viscous at the first bending mode
     # in the simulator)

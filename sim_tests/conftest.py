@@ -1,8 +1,19 @@
 """Shared fixtures: the bundled robots at a few operating points (built once per session)."""
 
+import os
+
 import pytest
 
 from rmbench.robot import Posture, Robot
+from rmbench.threads import available_cores, limit_threads
+
+
+def pytest_configure(config):
+    # under pytest-xdist each test process takes its share of the cores for its BLAS and torch
+    # pools and for the commands it starts: two processes of two threads each on two cores thrash
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "0") or 0)
+    if workers > 1:
+        limit_threads(max(1, available_cores() // workers))
 
 
 @pytest.fixture(scope="session")

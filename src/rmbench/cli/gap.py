@@ -3,7 +3,6 @@ laser-tracker readings."""
 
 from __future__ import annotations
 
-import json
 import sys
 import warnings
 from pathlib import Path
@@ -209,7 +208,7 @@ def _blind_tracker(args) -> int:
 
 
 def cmd_blind(args) -> int:
-    from rmbench.gap.blind import case_from_dict, dumps, run_blind
+    from rmbench.gap.blind import run_blind
 
     if args.cases < 1:
         raise InputError(f"--cases must be at least 1, got {args.cases}")
@@ -217,18 +216,7 @@ def cmd_blind(args) -> int:
         return _blind_tracker(args)
     if not 0 <= args.time_share <= 1:
         raise InputError(f"--time-share must lie in [0, 1], got {args.time_share}")
-    done = {}
-    out = Path(args.out) if args.out else None
-    if out is not None and out.is_file():
-        for line in out.read_text().splitlines():
-            if line.strip():
-                case = case_from_dict(json.loads(line))
-                done[case.index] = case
-
     def progress(case):
-        if out is not None:
-            with open(out, "a") as fh:
-                fh.write(dumps(case) + "\n")
         if not args.json:
             hidden = " + ".join(h.name for h in case.hidden)
             top = case.ranked[0][0] if case.ranked else "-"
@@ -236,7 +224,7 @@ def cmd_blind(args) -> int:
                   f"shrink {100 * case.shrink:.0f} %", file=sys.stderr)
 
     report = run_blind(args.cases, args.seed, method=args.method, time_share=args.time_share,
-                       workers=args.workers, progress=progress, done=done)
+                       workers=args.workers, progress=progress, out=args.out or None)
     s = report.summary
     if args.json:
         print_json(s)

@@ -123,6 +123,7 @@ def _predicted(args, bands) -> dict:
     """Target-tool structures per band from a predictor: predict, rebuild, RCSA, fit (stability.chain)."""
     import warnings
 
+    from rmbench.impact import default_lines
     from rmbench.predict import PosturePredictor
     from rmbench.rcsa.tool_change import tool_geometry
     from rmbench.robot import parse_posture
@@ -141,7 +142,8 @@ def _predicted(args, bands) -> dict:
         out = pred.predict([[p.x, p.y, p.theta]])
     for w in caught:   # on stderr: stdout is the diagram (or its JSON) alone
         print(f"rmbench: warning: {w.message}", file=sys.stderr)
-    lines = {"low": (np.arange(4.0, 40.01, 0.125), s_low), "high": (np.arange(600.0, 1400.1, 2.0), s_high)}
+    grid = default_lines()
+    lines = {"low": (grid["low"], s_low), "high": (grid["high"], s_high)}
     ref = tool_geometry(args.reference_tool)
     tgt = tool_geometry(args.tool) if args.tool else ref
     _, _, structures = predicted_tool_structures(out, {b: lines[b] for b in bands}, ref, tgt)

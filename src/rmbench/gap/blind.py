@@ -21,6 +21,7 @@ top 3, and the calibration of the confidences.
 
 from __future__ import annotations
 
+import json
 import shutil
 import tempfile
 import time
@@ -358,9 +359,9 @@ def _campaign_toml(robot_name: str, tool, postures, method: str, seed: int, *, c
     if commands_from:
         lines.append(f'commands_from = "{commands_from}"')
     lines += ["[grid]", 'kind = "list"', f"postures = [{rows}]"]
-    from rmbench.impact.config import _default_bands
+    from rmbench.impact.config import default_bands
 
-    for band, b in _default_bands().items():
+    for band, b in default_bands().items():
         lines += [f"[bands.{band}]", f"f_min = {b.f_min}", f"f_max = {b.f_max}",
                   f'sensor = "{b.sensor}"', f"s_1a_mm = {b.s_1a_mm}", f"sample_rate = {b.sample_rate}",
                   f"line_spacing = {b.line_spacing}", f"[bands.{band}.hammer]",
@@ -556,19 +557,30 @@ def summarise(cases) -> dict:
 
 def run_blind(cases: int, seed: int, *, method: str = "linear", time_share: float = 0.25,
               workers: int | None = None, workdir=None, progress=None, start: int = 0,
-              done: dict | None = None) -> BlindReport:
+              out=None) -> BlindReport:
     """Run ``cases`` blind cases (``method`` "linear", "time", or "mixed": a ``time_share`` of
-    time-domain cases). ``done`` maps case indices already run (resumed) to their CaseResult."""
-    results = dict(done or {})
+    time-domain cases). With ``out`` (a JSON-lines path) each finished case is appended to it, and
+    the cases it already holds are not run again: a killed run resumes. ``progress(case)`` is
+    called after each case run here."""
+    results = {}
+    out = Path(out) if out is not None else None
+    if out is not None and out.is_file():
+        for line in out.read_text().splitlines():
+            if line.strip():
+                case = case_from_dict(json.loads(line))
+                results[case.index] = case
     n_time = int(round(time_share * cases)) if method == "mixed" else (cases if method == "time" else 0)
     for i in range(start, start + cases):
         if i in results:
             continue
         m = "time" if (i - start) < n_time else "linear"
         results[i] = run_case(i, seed, m, workers=workers, workdir=workdir)
+        if out is not None:
+            with open(out, "a") as fh:
+                fh.write(dumps(results[i]) + "\n")
         if progress is not None:
             progress(results[i])
-    ordered = tuple(results[i] for i in sorted(results))
+    ordered = tuple(results[i] for i in sorted(results) if start <= i < start + cases)
     return BlindReport(cases=ordered, summary=summarise(ordered))
 
 

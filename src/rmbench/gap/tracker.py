@@ -36,7 +36,7 @@ from rmbench.gap.jsonable import jsonable, write_whole
 from rmbench.gap.selection import SearchSettings, bic, bootstrap_shrink, confidences, selection_weights, significant
 from rmbench.gap.sources import PoseModel, Source, source_library
 from rmbench.io.strict_json import strict_dumps
-from rmbench.tracker.chain import _skew
+from rmbench.tracker.chain import skew
 
 _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
 ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")   # what a robot calibration fits
@@ -481,7 +481,7 @@ class _Engine:
         cols = np.zeros((n, 3, 6))
         cols[:, :, :3] = np.eye(3)
         # small rotation ω of the registered points: d p = ω × p = −[p]x ω
-        cols[:, :, 3:] = -_skew(p)
+        cols[:, :, 3:] = -skew(p)
         return np.einsum("nij,njk->nik", self.white[idx], cols).reshape(3 * n, 6)
 
     def prior_sd(self, sources) -> np.ndarray:

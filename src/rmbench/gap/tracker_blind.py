@@ -144,7 +144,7 @@ class TrueRobot:
         from rmbench.tracker.chain import SerialChain
         from rmbench.tracker.repeatability import joint_sigma_for_rp
         from rmbench.tracker.simulator import (HiddenErrors, TrackerSimulator, TrackerSpec,
-                                               _reference_q, nominal_stiffness)
+                                               reference_joints, nominal_stiffness)
 
         chain = SerialChain.from_kinematics(robot.kinematics, robot.arm_joints)
         n = chain.n_joint
@@ -184,7 +184,7 @@ class TrueRobot:
         hiddenerr = HiddenErrors(twists=twists, offsets=offsets, stiffness=k, mass_scale=np.ones(n),
                                  payload_mass=payload, gear_amplitude=amp, gear_phase=phase)
         true_chain = chain.perturbed(twists).with_payload(payload, chain.tool_translation)
-        js = joint_sigma_for_rp(chain.jacobian(_reference_q(robot, n)), 0.2e-3)
+        js = joint_sigma_for_rp(chain.jacobian(reference_joints(robot, n)), 0.2e-3)
         self.sim = TrackerSimulator(chain, true_chain, hiddenerr, TrackerSpec(), js)
         self.rng = rng
 

@@ -254,7 +254,7 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
         else:
             _run_dask([(i, postures[i]) for i in todo], config_json, toml, parts, bar, scheduler)
     bar.close()
-    ds = parts.assemble(toml, postures)
+    ds = parts.assemble(toml, postures, built.robot)
     dataset.save(ds, out)
     parts.remove()
     return out

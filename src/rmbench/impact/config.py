@@ -34,7 +34,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from rmbench.errors import InputError
 
 __all__ = ["CampaignConfig", "BandConfig", "HammerConfig", "LaserConfig", "AccelerometerConfig",
-           "HitConfig", "GridConfig", "RobotConfig", "load_config", "parse_config", "bundled_configs"]
+           "HitConfig", "GridConfig", "RobotConfig", "load_config", "parse_config", "bundled_configs",
+           "default_bands"]
 
 
 class _Strict(BaseModel):
@@ -162,7 +163,9 @@ class HitConfig(_Strict):
         return self
 
 
-def _default_bands() -> dict[str, BandConfig]:
+def default_bands() -> dict[str, BandConfig]:
+    """The two measurement bands of a campaign (METHODS.md §2): ``low`` 4-40 Hz with a laser
+    sensor and a soft hammer tip, ``high`` 600-1400 Hz with an accelerometer."""
     return {
         "low": BandConfig(f_min=4.0, f_max=40.0, sensor="laser", s_1a_mm=33.4, sample_rate=1024.0,
                           line_spacing=0.125, hammer=HammerConfig(pulse_ms=8.0, peak_n=300.0)),
@@ -181,7 +184,7 @@ class CampaignConfig(_Strict):
     robot: RobotConfig = RobotConfig()
     grid: GridConfig = GridConfig()
     hits: HitConfig = HitConfig()
-    bands: dict[Literal["low", "high"], BandConfig] = Field(default_factory=_default_bands)
+    bands: dict[Literal["low", "high"], BandConfig] = Field(default_factory=default_bands)
     laser: LaserConfig = LaserConfig()
     accelerometer: AccelerometerConfig = AccelerometerConfig()
     noise_scale: float = Field(1.0, ge=0)  # scales every noise level at once (0: noise-free)

@@ -192,8 +192,9 @@ class PartStore:
         with np.load(self.path(index), allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
 
-    def assemble(self, toml: str, postures) -> xr.Dataset:
-        """One dataset from all parts, modes tracked over the postures."""
+    def assemble(self, toml: str, postures, robot) -> xr.Dataset:
+        """One dataset from all parts, modes tracked over the postures; ``robot`` (the campaign's
+        :class:`rmbench.robot.Robot`) names the joints of ``q_cmd`` and gives the table height."""
         from rmbench.robot.modes import ModeTable
 
         cfg = self.cfg
@@ -247,9 +248,7 @@ class PartStore:
                 modal[k] = np.concatenate([modal[k], np.full((self.n, pad, 16), np.nan)], axis=1)
         if len(mode_band) < n_modes:
             mode_band = np.concatenate([mode_band, ["?"] * (n_modes - len(mode_band))])
-        from rmbench.impact.campaign import Campaign
-
-        joints = list(Campaign.build(cfg).robot.arm_joints) if n_joint else []
+        joints = list(robot.arm_joints) if n_joint else []
         ds = xr.Dataset(
             {
                 "H": (("posture", "freq", "out", "inp"), data["H"]),
@@ -294,7 +293,7 @@ class PartStore:
             created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             config=toml or cfg.model_dump_json(), config_digest=cfg.digest, seed=cfg.seed, method=cfg.method,
             robot=robot_name, commands_from=cfg.robot.commands_from or robot_name,
-            tool=str(cfg.robot.tool), table_z=float(Campaign.build(cfg).robot.table_z),
+            tool=str(cfg.robot.tool), table_z=float(robot.table_z),
             sensor_spacing_low=1e-3 * cfg.bands["low"].s_1a_mm if "low" in cfg.bands else np.nan,
             sensor_spacing_high=1e-3 * cfg.bands["high"].s_1a_mm if "high" in cfg.bands else np.nan,
             receptance_from="accelerance (high band), displacement (low band)", upstream="",

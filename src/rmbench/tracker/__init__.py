@@ -17,7 +17,8 @@ from rmbench.tracker.baselines import (BaselineResult, largest_error, mean_error
 from rmbench.tracker.benchmark import (METHODS, SEED_TABLE1, ErrorProfile, NoisyMeasure, Table1,
                                        accuracy_vs_measurements, sine_profile, table1)
 from rmbench.tracker.calibration import CalibratedModel, GeometricCalibration
-from rmbench.tracker.campaign import MH180_JOINT_BOX, CampaignConfig, TrackerCampaign
+from rmbench.tracker.campaign import (MH180_CALIBRATION_BOX, MH180_JOINT_BOX, CampaignConfig,
+                                      TrackerCampaign)
 from rmbench.tracker.chain import SerialChain
 from rmbench.tracker.invalidation import InvalidationResult, invalidate
 from rmbench.tracker.readings import ReadingsJudgement, judge_readings, register_readings
@@ -36,7 +37,7 @@ __all__ = [
     "sine_profile", "METHODS", "SEED_TABLE1",
     "SerialChain", "TrackerSimulator", "TrackerSpec", "ErrorDistribution", "HiddenErrors",
     "GeometricCalibration", "CalibratedModel", "kabsch", "FrameRefit",
-    "CampaignConfig", "TrackerCampaign", "MH180_JOINT_BOX", "robot_test", "RobotTest",
+    "CampaignConfig", "TrackerCampaign", "MH180_JOINT_BOX", "MH180_CALIBRATION_BOX", "robot_test", "RobotTest",
     "true_maximum", "workspace_errors", "judge_readings", "register_readings", "ReadingsJudgement",
     "iso9283_rp", "joint_sigma_for_rp", "sobol_points", "quasi_random_order",
 ]

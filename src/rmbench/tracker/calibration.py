@@ -19,7 +19,7 @@ from scipy import linalg
 
 from rmbench.errors import InputError, RmbenchError
 from rmbench.tracker._checks import check_finite_array
-from rmbench.tracker.chain import SerialChain, _skew
+from rmbench.tracker.chain import SerialChain, skew
 from rmbench.tracker.registration import kabsch
 
 __all__ = ["CalibratedModel", "GeometricCalibration"]
@@ -181,7 +181,7 @@ class GeometricCalibration:
         rb = model.base_rotation
         jq = rb @ state.position_jacobian()                                # (m, 3, n)
         base = np.concatenate([np.broadcast_to(rb, (len(q), 3, 3)),
-                               -rb @ _skew(state.tcp)], axis=2)            # (m, 3, 6)
+                               -rb @ skew(state.tcp)], axis=2)            # (m, 3, 6)
         cols = [rb @ state.placement_jacobian(), jq,
                 jq * (self.nominal_compliance * torque)[:, None, :], base]
         jac = np.concatenate(cols, axis=2).reshape(-1, self.n_param)

@@ -24,12 +24,20 @@ from rmbench.tracker.sampling import sobol_points
 from rmbench.tracker.simulator import (ErrorDistribution, TrackerSimulator, TrackerSpec,
                                        nominal_stiffness)
 
-__all__ = ["CampaignConfig", "TrackerCampaign", "MH180_JOINT_BOX"]
+__all__ = ["CampaignConfig", "TrackerCampaign", "MH180_JOINT_BOX", "MH180_CALIBRATION_BOX"]
 
 MH180_JOINT_BOX = (tuple(math.radians(v) for v in (-45, -20, -30, -60, 30, -60)),
                    tuple(math.radians(v) for v in (45, 40, 30, 60, 120, 60)))
 """Joint ranges of the campaigns (rad): J1 ±45°, J2 −20..40°, J3 ±30°, J4 ±60°, J5 30..120°,
 J6 ±60°: a machining region in front of the robot, clear of the wrist singularity (J5 = 0)."""
+
+MH180_CALIBRATION_BOX = (tuple(math.radians(v) for v in (-90, -30, -60, -150, 30, -150)),
+                         tuple(math.radians(v) for v in (90, 60, 60, 150, 120, 150)))
+"""Joint ranges of a calibration campaign (rad): J1 ±90°, J2 −30..60°, J3 ±60°, J4 ±150°,
+J5 30..120°, J6 ±150°. Each joint sweeps as far as the cell allows, as kinematic calibration
+does: over the machining region's ±30-60° a gear error once per output revolution, a sin(q + φ),
+is nearly a zero offset plus a slope, which the joint's offset and compliance take up
+(``bench/gap_tracker.py --spread-box`` measures both boxes)."""
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from rmbench.errors import InputError, ModelError
 
-__all__ = ["SerialChain", "ChainState", "GRAVITY"]
+__all__ = ["SerialChain", "ChainState", "GRAVITY", "skew"]
 
 GRAVITY = 9.81
 """Gravitational acceleration, m/s², along base −z."""
@@ -66,7 +66,7 @@ class ChainState:
             r = self.frames[:, i]                                         # (m, 3, 3)
             out[:, :, 6 * i: 6 * i + 3] = r
             # ω in the placement frame: d tcp = (R ω) × lever = -[lever]x R ω
-            out[:, :, 6 * i + 3: 6 * i + 6] = -_skew(lever[:, i]) @ r
+            out[:, :, 6 * i + 3: 6 * i + 6] = -skew(lever[:, i]) @ r
         out[:, :, 6 * n: 6 * n + 3] = self.tcp_rotation
         out[:, :, 6 * n + 3:] = 0.0  # rotating a point about itself does not move it
         return out
@@ -265,7 +265,7 @@ class SerialChain:
         return q.reshape(-1, self.n_joint)
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
+def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrices [v]x of vectors (m, 3), shape (m, 3, 3)."""
     out = np.zeros(v.shape[:-1] + (3, 3))
     out[..., 0, 1], out[..., 0, 2], out[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]

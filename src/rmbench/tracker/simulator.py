@@ -32,7 +32,7 @@ from rmbench.tracker.chain import SerialChain
 from rmbench.tracker.repeatability import joint_sigma_for_rp
 
 __all__ = ["ErrorDistribution", "HiddenErrors", "TrackerSpec", "TrackerSimulator",
-           "nominal_stiffness", "reading_sigma", "reading_covariance"]
+           "nominal_stiffness", "reading_sigma", "reading_covariance", "reference_joints"]
 
 
 @dataclass(frozen=True)
@@ -219,7 +219,7 @@ class TrackerSimulator:
         true_chain = (nominal.perturbed(hidden.twists).with_mass_scale(hidden.mass_scale)
                       .with_payload(hidden.payload_mass, nominal.tool_translation))
         if reference_q is None:
-            reference_q = _reference_q(robot, nominal.n_joint)
+            reference_q = reference_joints(robot, nominal.n_joint)
         sigma = joint_sigma_for_rp(nominal.jacobian(np.asarray(reference_q, float)), repeatability)
         return cls(nominal, true_chain, hidden, tracker, sigma)
 
@@ -275,7 +275,7 @@ def reading_covariance(robot, q, measured, *, repeatability: float = 0.2e-3,
     (n, n_joint), rad — one joint's scatter moves the TCP along one direction, so the axes are
     correlated — plus the tracker's noise at the range of the readings ``measured`` (n, 3), m."""
     chain = SerialChain.from_kinematics(robot.kinematics, robot.arm_joints)
-    sv = joint_sigma_for_rp(chain.jacobian(_reference_q(robot, chain.n_joint)), repeatability)
+    sv = joint_sigma_for_rp(chain.jacobian(reference_joints(robot, chain.n_joint)), repeatability)
     jac = chain.jacobian(np.asarray(q, float)) * sv
     noise = tracker.sigma(np.linalg.norm(np.asarray(measured, float), axis=-1))
     return jac @ np.swapaxes(jac, -1, -2) + noise[..., None, None] ** 2 * np.eye(3)
@@ -289,7 +289,9 @@ def reading_sigma(robot, q, measured, *, repeatability: float = 0.2e-3,
     return np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
 
 
-def _reference_q(robot, n: int) -> np.ndarray:
+def reference_joints(robot, n: int) -> np.ndarray:
+    """The robot's reference joint commands (its MJCF's ``rmbench_reference_q``), else zeros, rad,
+    shape (n,)."""
     from rmbench.robot.spec import custom_numeric
 
     ref = custom_numeric(robot.spec, "rmbench_reference_q")
