@@ -165,7 +165,7 @@ def chain(sp_m, depths, exact_all, runs) -> tuple[float, Path]:
     from rmbench.predict import PosturePredictor
     from rmbench.robot import validation_postures
     from rmbench.robot.tool import TOOLS
-    from rmbench.stability.chain import predicted_lobes
+    from rmbench.path.chain import predicted_lobes
 
     work = Path(tempfile.mkdtemp(prefix="lobes_chain_"))
     t0 = time.perf_counter()
@@ -228,7 +228,7 @@ def exact_reference_lobes(p, bands, speeds, depths) -> dict:
     from rmbench.modal.residual import project_terms, residual_frf
     from rmbench.rcsa import POINT_COORDS
     from rmbench.robot.tool import TOOLS
-    from rmbench.stability.chain import tool_structures
+    from rmbench.path.chain import tool_structures
 
     ref, tgt = Robot.load("irb6660", tool="dummy").at(p), Robot.load("irb6660", tool="endmill").at(p)
     n_modes = {b: len(tgt.modes(b)) for b in bands}

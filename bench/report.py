@@ -133,17 +133,20 @@ def reports(work: Path) -> dict:
     from rmbench.stability import ALUMINIUM_6061, Structure, lobes, lowest_envelope
     from rmbench.tracker import MH180_JOINT_BOX, sobol_points
 
+    import xarray as xr
+
+    from rmbench.predict import validate_predictor
+
     camp, modal = data_112(work)
     paths = {"campaign": write_report(camp, work / "r_campaign.html"),
              "modal": write_report(modal, work / "r_modal.html", data=camp)}
     pred_file = work / "pred.npz"
     if not pred_file.exists():
-        import xarray as xr
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             _timed(lambda: PosturePredictor("mtgp-grouped").fit(xr.load_dataset(modal)).save(pred_file), "grouped MTGP")
-    paths["predictor"] = write_report(pred_file, work / "r_predictor.html", data=modal, learners=["knn"])
+    validation = validate_predictor(PosturePredictor.load(pred_file), xr.load_dataset(modal), ["knn"])
+    paths["predictor"] = write_report(pred_file, work / "r_predictor.html", validation=validation)
 
     op = reference_point()
     d = design(robot_plant(op, ("tangential",), order=14))

@@ -210,7 +210,7 @@ def test_tool_change_chain_from_the_reference_frfs_gives_the_target_lobes():
     from rmbench.rcsa import POINT_COORDS
     from rmbench.robot import validation_postures
     from rmbench.robot.tool import TOOLS
-    from rmbench.stability.chain import tool_structures
+    from rmbench.path.chain import tool_structures
 
     p = validation_postures()[1]
     ref = Robot.load("irb6660", tool="dummy").at(p)
@@ -235,7 +235,7 @@ def test_chain_from_band_modes_needs_their_out_of_band_terms():
     from rmbench.rcsa import POINT_COORDS
     from rmbench.robot import validation_postures
     from rmbench.robot.tool import TOOLS
-    from rmbench.stability.chain import tool_structures
+    from rmbench.path.chain import tool_structures
 
     p = validation_postures()[1]
     ref = Robot.load("irb6660", tool="dummy").at(p)

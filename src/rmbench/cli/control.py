@@ -87,38 +87,23 @@ def _weights(spec):
 
 
 def cmd_design(args) -> int:
-    from rmbench.control import Controller, design, measured_plant, robot_plant
-    from rmbench.control.plant import parse_axes
+    from rmbench.control import Controller
+    from rmbench.control.axes import design_axes
 
-    axes = parse_axes(args.axes)
     weights = _weights(args.set)
     op = _operating_point(args)
-    if args.plant == "measured" and (args.mimo and len(axes) > 1):
-        raise InputError("--plant measured identifies one mode per axis; it gives SISO designs only")
-
-    def plant_of(ax):
-        if args.plant == "measured":
-            return measured_plant(op, ax[0])
-        return robot_plant(op, ax, order=14 + 10 * (len(ax) - 1))
-
-    if args.mimo or len(axes) == 1:
-        d = design(plant_of(axes), weights, order=args.order or 12 + 8 * (len(axes) - 1),
-                   modified=args.modified)
-        ctrl, gammas, modes = d.controller, [d.gamma], list(d.plant.mode_hz)
-    else:
-        parts = [design(plant_of((a,)), weights, order=args.order or 12, modified=args.modified) for a in axes]
-        ctrl = Controller.block_diagonal([p.controller for p in parts])
-        gammas, modes = [p.gamma for p in parts], [p.plant.mode_hz[0] for p in parts]
-    meta = dict(ctrl.meta, robot=args.robot, q_cmd=op.q_cmd.tolist(), structure="MIMO" if args.mimo else "SISO",
-                mode_hz=modes, gamma=gammas if len(gammas) > 1 else gammas[0], plant_source=args.plant)
-    ctrl = Controller(ctrl.axes, ctrl.A, ctrl.B, ctrl.C, ctrl.D, meta)
+    d = design_axes(op, args.axes, weights, mimo=args.mimo, plant=args.plant, order=args.order,
+                    modified=args.modified)
+    c = d.controller
+    ctrl = Controller(c.axes, c.A, c.B, c.C, c.D, dict(c.meta, robot=args.robot))
     ctrl.save(args.out)
-    summary = {"out": str(args.out), "axes": list(axes), "structure": meta["structure"], "order": ctrl.order,
+    gammas, modes = list(d.gammas), list(d.mode_hz)
+    summary = {"out": str(args.out), "axes": list(ctrl.axes), "structure": d.structure, "order": ctrl.order,
                "gamma": gammas, "mode_hz": modes, "modified": args.modified, "plant": args.plant}
     if args.json:
         print_json(summary)
     else:
-        print(f"{meta['structure']} controller for {', '.join(axes)}: order {ctrl.order}, gamma "
+        print(f"{d.structure} controller for {', '.join(ctrl.axes)}: order {ctrl.order}, gamma "
               f"{', '.join(f'{g:.3g}' for g in gammas)}, modes {', '.join(f'{f:.2f}' for f in modes)} Hz")
         print(f"wrote {args.out}")
     return 0

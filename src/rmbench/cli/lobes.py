@@ -120,14 +120,14 @@ def _structures(args) -> tuple[dict, str]:
 
 
 def _predicted(args, bands) -> dict:
-    """Target-tool structures per band from a predictor: predict, rebuild, RCSA, fit (stability.chain)."""
+    """Target-tool structures per band from a predictor: predict, rebuild, RCSA, fit (path.chain)."""
     import warnings
 
     from rmbench.impact import default_lines
     from rmbench.predict import PosturePredictor
     from rmbench.rcsa.tool_change import tool_geometry
     from rmbench.robot import parse_posture
-    from rmbench.stability.chain import predicted_tool_structures
+    from rmbench.path.chain import predicted_tool_structures
 
     if not args.posture:
         raise InputError("a predictor needs --posture")

@@ -71,7 +71,6 @@ def cmd_tool(args) -> int:
     import warnings
 
     import numpy as np
-    import xarray as xr
 
     from rmbench.rcsa import Contact, IllConditionedWarning
     from rmbench.rcsa.tool_change import posture_index, predict_campaign_tool, tool_geometry
@@ -109,11 +108,7 @@ def cmd_tool(args) -> int:
     if args.save:
         from rmbench.impact.dataset import save
 
-        out = xr.Dataset({f"T_{b}": tc.to_dataarray().rename(freq=f"freq_{b}") for b, tc in res.bands.items()},
-                         attrs={"kind": "rcsa_tool_change", "reference": str(args.reference),
-                                "posture_index": index, "method": args.method,
-                                "tool_model": args.tool_model})
-        save(out, args.save)
+        save(res.to_dataset(reference=args.reference), args.save)
     if args.out:
         from rmbench.rcsa import campaign_receptance
         from rmbench.rcsa.plot import plot_tool_change

@@ -41,6 +41,15 @@ def cmd_report(args) -> int:
     for opt, kinds in (("data", ("modal", "predictor")), ("runs", ("controller",)), ("learners", ("predictor",))):
         if getattr(args, opt) is not None and kind not in kinds:
             raise InputError(f"--{opt} applies to {' or '.join(kinds)} reports, not to a {kind.replace('_', ' ')}")
-    path = write_report(args.path, out, data=args.data, runs=args.runs, learners=learners, posture=args.posture)
+    validation, data = None, args.data
+    if kind == "predictor" and data is not None:
+        from rmbench.cli._common import load_dataset
+        from rmbench.predict import PosturePredictor, validate_predictor
+
+        modal = load_dataset(data, "modal dataset")
+        if "modal" not in modal:
+            raise InputError(f"{data}: not a modal dataset (no 'modal'): --data must be what the predictor learnt")
+        validation, data = validate_predictor(PosturePredictor.load(args.path), modal, learners), None
+    path = write_report(args.path, out, data=data, runs=args.runs, validation=validation, posture=args.posture)
     print(f"wrote {path} ({kind.replace('_', ' ')} report, {path.stat().st_size / 1e6:.1f} MB)")
     return 0

@@ -14,6 +14,7 @@
 Signals in SI (N, m, m/s²); frequencies in Hz. Sign convention ``u = K y`` (hinfsyn's).
 """
 
+from rmbench.control.axes import AxesDesign, controller_order, design_axes, plant_order
 from rmbench.control.analysis import closed_loop_matrix, is_stable, peak_near, reduction, sensitivity
 from rmbench.control.closed_loop import Hardware, LoopDiverged, LoopRecord, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import CONTROLLER_VERSION, Controller
@@ -31,4 +32,5 @@ __all__ = ["AXES", "Plant", "ReactionMass", "reaction_mass", "robot_plant", "two
            "Controller", "CONTROLLER_VERSION", "closed_loop_matrix", "is_stable", "sensitivity",
            "reduction", "peak_near", "Hardware", "LoopRecord", "LoopDiverged", "run_loop",
            "eccentric_force_amplitude", "sine_sweep", "eccentric_test", "excitation_frequencies",
-           "reduction_at", "settle_time", "cluster", "posture_for_mode_ratio"]
+           "reduction_at", "settle_time", "cluster", "posture_for_mode_ratio",
+           "AxesDesign", "design_axes", "plant_order", "controller_order"]

@@ -133,6 +133,46 @@ def eccentric_force_amplitude(model: mujoco.MjModel, f_spin: float) -> float:
     return float(me * (2 * np.pi * f_spin) ** 2)
 
 
+def _actuator(m, name: str) -> int:
+    i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
+    if i < 0:
+        raise InputError(f"the robot has no actuator {name!r}")
+    return i
+
+
+def _joint(m, name: str) -> int:
+    j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
+    if j < 0:
+        raise InputError(f"the robot has no joint {name!r}")
+    return j
+
+
+def _accelerometer(m, d, op, axes) -> tuple[int, np.ndarray, np.ndarray]:
+    """The accelerometer ``acc``: its sensordata address, the rows E (len(axes), 3) taking its
+    site-frame reading onto the world ``axes``, and E times its static reading (subtracted, so
+    the loop sees the vibration alone)."""
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "acc")
+    if sid < 0:
+        raise InputError("the robot has no accelerometer sensor 'acc'")
+    adr = m.sensor_adr[sid]
+    mujoco.mj_forward(m, d)
+    rot = d.site_xmat[m.sensor_objid[sid]].reshape(3, 3).copy()
+    E = axis_directions(op, axes) @ rot if axes else np.zeros((0, 3))
+    return adr, E, E @ d.sensordata[adr:adr + 3].copy()
+
+
+def _shaker_forces(m, shaker: dict | None, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """Actuator indices of the shaker coils and their forces per controller sample, (n, n_coil), N."""
+    idx, forces = [], []
+    for a, f in (shaker or {}).items():
+        idx.append(_actuator(m, f"shaker_{a}"))
+        sig = np.asarray(f(np.arange(n) / fs) if callable(f) else f, float)
+        if sig.shape != (n,):
+            raise InputError(f"shaker force for {a!r} must have {n} samples, got shape {sig.shape}")
+        forces.append(sig)
+    return np.array(idx, int), (np.array(forces).T if forces else np.zeros((n, 0)))
+
+
 def run_loop(op, controller: Controller | None, duration: float, *, hardware: Hardware | None = None,
              shaker: dict | None = None, spindle_hz: float | None = None, record_axes=("tangential", "axial"),
              seed: int = 0) -> LoopRecord:
@@ -163,56 +203,23 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
     m, d = stepping_model(op, dt=1.0 / (hw.fs * hw.substeps), integrator="euler")
     d.time = 0.0
     ctrl0 = op.data.ctrl.copy()
-
-    def actuator(name):
-        i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
-        if i < 0:
-            raise InputError(f"the robot has no actuator {name!r}")
-        return i
-
-    def joint(name):
-        j = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
-        if j < 0:
-            raise InputError(f"the robot has no joint {name!r}")
-        return j
-
     record_axes = tuple(record_axes)
     ctrl_axes = controller.axes if controller is not None else ()
     for a in record_axes + ctrl_axes:
         if a not in AXES:
             raise InputError(f"unknown axis {a!r}; use {', '.join(AXES)}")
-    # accelerometer: site frame reading minus the static one, rotated to the world, on the axes
-    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SENSOR, "acc")
-    if sid < 0:
-        raise InputError("the robot has no accelerometer sensor 'acc'")
-    adr = m.sensor_adr[sid]
-    mujoco.mj_forward(m, d)
-    site = m.sensor_objid[sid]
-    rot = d.site_xmat[site].reshape(3, 3).copy()
-    r0 = d.sensordata[adr:adr + 3].copy()
-    E_rec = axis_directions(op, record_axes) @ rot  # (n_rec, 3) site frame → axes
-    E_ctl = axis_directions(op, ctrl_axes) @ rot if ctrl_axes else np.zeros((0, 3))
-    vc = np.array([actuator(f"vc_{a}") for a in ctrl_axes], int)
-    pm_adr = np.array([m.jnt_qposadr[joint(f"pm_{a}")] for a in ctrl_axes], int)
+    adr, E_all, c0 = _accelerometer(m, d, op, record_axes + ctrl_axes)
+    vc = np.array([_actuator(m, f"vc_{a}") for a in ctrl_axes], int)
+    pm_adr = np.array([m.jnt_qposadr[_joint(m, f"pm_{a}")] for a in ctrl_axes], int)
     lo, hi = m.actuator_ctrlrange[vc, 0], m.actuator_ctrlrange[vc, 1]
-    stroke = np.array([max(abs(m.jnt_range[joint(f"pm_{a}")])) for a in ctrl_axes])
+    stroke = np.array([max(abs(m.jnt_range[_joint(m, f"pm_{a}")])) for a in ctrl_axes])
     stroke = np.where(stroke > 0, stroke, np.inf)
-    pm_dof = np.array([m.jnt_dofadr[joint(f"pm_{a}")] for a in ctrl_axes], int)
-
-    shake_idx, shake_f = [], []
-    for a, f in (shaker or {}).items():
-        shake_idx.append(actuator(f"shaker_{a}"))
-        t = np.arange(n) / hw.fs
-        sig = np.asarray(f(t) if callable(f) else f, float)
-        if sig.shape != (n,):
-            raise InputError(f"shaker force for {a!r} must have {n} samples, got shape {sig.shape}")
-        shake_f.append(sig)
-    shake_idx = np.array(shake_idx, int)
-    shake_f = np.array(shake_f).T if shake_f else np.zeros((n, 0))
+    pm_dof = np.array([m.jnt_dofadr[_joint(m, f"pm_{a}")] for a in ctrl_axes], int)
+    shake_idx, shake_f = _shaker_forces(m, shaker, n, hw.fs)
     shake0 = ctrl0[shake_idx]
 
     if spindle_hz is not None:
-        sp_act, sp_j = actuator("spindle"), joint("spindle")
+        sp_act, sp_j = _actuator(m, "spindle"), _joint(m, "spindle")
         w_sp = 2 * np.pi * float(spindle_hz)
         d.qvel[m.jnt_dofadr[sp_j]] = w_sp
         sp0 = d.qpos[m.jnt_qposadr[sp_j]]
@@ -231,8 +238,6 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
     alpha = 1.0 - np.exp(-2 * np.pi * hw.amp_bandwidth / (hw.fs * hw.substeps))
     n_delay = hw.delay_samples
     u_hist = np.zeros((n + n_delay, k_ax))  # u_hist[k + n_delay] computed at sample k
-    E_all = np.vstack([E_rec, E_ctl])
-    c0 = E_all @ r0
     acc_all = np.empty((n, n_rec + k_ax))
     pos = np.empty((n, k_ax))
     force = np.empty((n, k_ax))

@@ -70,6 +70,47 @@ def _task(args):
     return fit_posture(freq, h, coh, n_modes=n_modes)
 
 
+def _fit_all(ds: xr.Dataset, bands, n_modes, workers) -> dict:
+    """Every (band, posture) fit of the campaign, keyed so; postures marked not ok are left out."""
+    n_post = ds.sizes["posture"]
+    ok_in = ds.ok.values if "ok" in ds.coords else np.ones(n_post, bool)
+    jobs, keys = [], []
+    for b in bands:
+        sel = ds.band.values == b
+        freq = ds.freq.values[sel]
+        for p in range(n_post):
+            if not ok_in[p]:
+                continue
+            h = ds.H.values[p][sel]
+            coh = ds.coherence.values[p][sel] if "coherence" in ds else None
+            jobs.append((freq, h, coh, n_modes))
+            keys.append((b, p))
+    if workers == 0 or len(jobs) < 4:
+        results = [_task(j) for j in jobs]
+    else:
+        n = workers or default_workers()
+        # forked workers inherit this process's thread pools: one thread each
+        with ProcessPoolExecutor(max_workers=n, initializer=worker_init) as pool:
+            results = list(pool.map(_task, jobs, chunksize=max(1, len(jobs) // (4 * (workers or 2)))))
+    return dict(zip(keys, results))
+
+
+def _tracked(tables, stds, evs, positions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One band's mode tables tracked over the postures, with each mode's standard errors and
+    evidence carried along to its tracked slot: (n_post, n_mode, param) twice and
+    (n_post, n_mode, len(_EVIDENCE))."""
+    tracked, order = _track(tables, positions)
+    std = np.full_like(tracked, np.nan)
+    ev = np.full(tracked.shape[:2] + (len(_EVIDENCE),), np.nan)
+    for p, (sd, e, o) in enumerate(zip(stds, evs, order)):
+        if sd is not None:
+            for i, j in enumerate(o):
+                if j >= 0:
+                    std[p, i] = sd[j]
+                    ev[p, i] = e[j]
+    return tracked, std, ev
+
+
 def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None = None,
                  workers: int | None = None, progress: bool = False) -> xr.Dataset:
     """Fit every posture and band of a campaign dataset (DATA.md layout).
@@ -107,28 +148,9 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     if not present:
         raise InputError(f"no frequency lines of band(s) {', '.join(bands)} in the dataset")
     n_post = ds.sizes["posture"]
-    ok_in = ds.ok.values if "ok" in ds.coords else np.ones(n_post, bool)
-    jobs, keys = [], []
-    for b in present:
-        sel = ds.band.values == b
-        freq = ds.freq.values[sel]
-        for p in range(n_post):
-            if not ok_in[p]:
-                continue
-            h = ds.H.values[p][sel]
-            coh = ds.coherence.values[p][sel] if "coherence" in ds else None
-            jobs.append((freq, h, coh, n_modes))
-            keys.append((b, p))
     t0 = time.perf_counter()
-    if workers == 0 or len(jobs) < 4:
-        results = [_task(j) for j in jobs]
-    else:
-        n = workers or default_workers()
-        # forked workers inherit this process's thread pools: one thread each
-        with ProcessPoolExecutor(max_workers=n, initializer=worker_init) as pool:
-            results = list(pool.map(_task, jobs, chunksize=max(1, len(jobs) // (4 * (workers or 2)))))
+    by_key = _fit_all(ds, present, n_modes, workers)
     elapsed = time.perf_counter() - t0
-    by_key = dict(zip(keys, results))
 
     positions = (posture_positions(ds.x.values, ds.y.values, ds.theta.values)
                  if all(c in ds.coords for c in ("x", "y", "theta")) else None)
@@ -159,15 +181,7 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
             fit_ok[p, bi] = r["fit_ok"]
             reasons[p, bi] = r["reason"]
             notes[p, bi] = "; ".join(r["notes"])
-        tracked, order = _track(tables, positions)
-        std = np.full_like(tracked, np.nan)
-        ev = np.full(tracked.shape[:2] + (len(_EVIDENCE),), np.nan)
-        for p, (sd, e, o) in enumerate(zip(stds, evs, order)):
-            if sd is not None:
-                for i, j in enumerate(o):
-                    if j >= 0:
-                        std[p, i] = sd[j]
-                        ev[p, i] = e[j]
+        tracked, std, ev = _tracked(tables, stds, evs, positions)
         blocks.append(tracked)
         std_blocks.append(std)
         ev_blocks.append(ev)

@@ -16,13 +16,13 @@ parameters with standard deviations and the FRF matrix at any posture, saved as 
 """
 
 from rmbench.predict.baselines import LEARNERS, MULTI_TASK, IDWNeighbours, PerTask, make_learner
-from rmbench.predict.cv import CVScores, cross_validate, folds_of
+from rmbench.predict.cv import CVScores, cross_validate, folds_of, validate_predictor
 from rmbench.predict.data import TrainingSet, training_set
 from rmbench.predict.gp import MTGP, STGP
 from rmbench.predict.mtgp import GroupedMTGP, seed_groups
 from rmbench.predict.predictor import SAVEABLE, ExtrapolationWarning, PosturePredictor, predicted_frf
 
-__all__ = ["training_set", "TrainingSet", "cross_validate", "CVScores", "folds_of",
+__all__ = ["training_set", "TrainingSet", "cross_validate", "CVScores", "folds_of", "validate_predictor",
            "IDWNeighbours", "PerTask", "make_learner", "LEARNERS", "MULTI_TASK", "STGP", "MTGP",
            "GroupedMTGP", "seed_groups", "PosturePredictor", "predicted_frf", "ExtrapolationWarning",
            "SAVEABLE"]

@@ -15,7 +15,7 @@ from rmbench.errors import InputError
 from rmbench.predict.baselines import MULTI_TASK, make_learner
 from rmbench.predict.data import TrainingSet, constant_tasks
 
-__all__ = ["CVScores", "cross_validate", "folds_of"]
+__all__ = ["CVScores", "cross_validate", "folds_of", "validate_predictor"]
 
 
 @dataclass(frozen=True)
@@ -142,3 +142,35 @@ def _r2(y: np.ndarray, pred: np.ndarray) -> float:
     y, pred = y[ok], pred[ok]
     ss = np.sum((y - y.mean()) ** 2) if len(y) >= 2 else 0.0
     return 1.0 - np.sum((y - pred) ** 2) / ss if ss > 0 else np.nan
+
+
+def validate_predictor(pred, modal, learners=None) -> tuple[TrainingSet, list]:
+    """Cross-validate a fitted predictor's learner, and others beside it, on the modal dataset it
+    learnt from.
+
+    Parameters
+    ----------
+    pred : rmbench.predict.PosturePredictor
+    modal : xarray.Dataset
+        The modal dataset (``rmbench modal fit``) the predictor was trained on.
+    learners : sequence of str, optional
+        Default: the predictor's own and the k-nearest-neighbour baseline.
+
+    Returns
+    -------
+    ts : TrainingSet
+        In the predictor's mode order.
+    cvs : list of CVScores
+        One per learner, in order.
+
+    Raises
+    ------
+    rmbench.errors.InputError
+        ``modal`` is not a modal dataset.
+    """
+    from rmbench.predict.data import frequency_ordered, training_set
+
+    if "modal" not in modal:
+        raise InputError("not a modal dataset (no 'modal'): the data must be what the predictor learnt")
+    ts = training_set(frequency_ordered(modal) if getattr(pred, "order", "") == "frequency" else modal)
+    return ts, [cross_validate(ts, m) for m in (learners or dict.fromkeys([pred.model, "knn"]))]

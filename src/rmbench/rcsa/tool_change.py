@@ -81,6 +81,15 @@ class CampaignToolChange:
             out["peak_freq_err_max"] = float(np.nanmax([abs(p.freq_err) for p in self.peaks]))
         return out
 
+    def to_dataset(self, reference: str = "") -> xr.Dataset:
+        """The predicted target-tool receptances as one dataset: ``T_<band>`` per band on its own
+        frequency axis ``freq_<band>`` (Hz); attributes name the reference campaign (``reference``),
+        posture index, method and tool model."""
+        return xr.Dataset({f"T_{b}": tc.to_dataarray().rename(freq=f"freq_{b}") for b, tc in self.bands.items()},
+                          attrs={"kind": "rcsa_tool_change", "reference": str(reference),
+                                 "posture_index": self.index, "method": self.method,
+                                 "tool_model": self.tool_model})
+
 
 def tool_geometry(name: str) -> ToolGeometry:
     """A bundled tool by name."""
@@ -232,6 +241,34 @@ def _truth(data: xr.Dataset, index: int, target: ToolGeometry, freqs: dict) -> d
     return {band: op.frf(f, FULL_COORDS) for band, f in freqs.items()}
 
 
+def _calibrated_contact(data, calibration, calibration_reference, reference, target, *, method, shank,
+                        tool_model, free, mass_loading):
+    """The target contact fitted on a calibration campaign (:func:`predict_campaign_tool`), and a
+    line saying where: (ContactFit, str)."""
+    from rmbench.robot import Posture
+
+    cal, j = calibration
+    ref_name = reference.name
+    if str(cal.attrs.get("tool", "")) != target.name:
+        raise InputError(f"the calibration campaign carries tool {cal.attrs.get('tool')!r}, "
+                         f"not the target {target.name!r}")
+    p = Posture(float(cal["x"].values[j]), float(cal["y"].values[j]), float(cal["theta"].values[j]))
+    if calibration_reference is None:
+        i_ref = posture_index(data, p)
+        fit = _fit_contact(data, i_ref, cal, j, reference, target, method, shank, tool_model, free,
+                           mass_loading)
+        return fit, f"identified at posture {i_ref}"
+    if str(calibration_reference.attrs.get("tool", "")) != ref_name:
+        raise InputError(f"the reference calibration campaign carries tool "
+                         f"{calibration_reference.attrs.get('tool')!r}, not the reference {ref_name!r}")
+    i_ref = posture_index(calibration_reference, p)
+    fit = _fit_contact(calibration_reference, i_ref, cal, j, reference, target, method, shank,
+                       tool_model, free, mass_loading)
+    f_cal = calibration_reference["freq"].values[calibration_reference["band"].values == "high"]
+    return fit, (f"identified at ({p.x * 1e3:g}, {p.y * 1e3:g}, {np.degrees(p.theta):g}) from the "
+                 f"calibration campaigns, {f_cal.min():g}-{f_cal.max():g} Hz")
+
+
 def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
                           contact: Contact | None = None, calibration: tuple[xr.Dataset, int] | None = None,
                           calibration_reference: xr.Dataset | None = None,
@@ -306,28 +343,9 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
     if contact is not None:
         source = "given"
     elif calibration is not None:
-        cal, j = calibration
-        if str(cal.attrs.get("tool", "")) != target.name:
-            raise InputError(f"the calibration campaign carries tool {cal.attrs.get('tool')!r}, "
-                             f"not the target {target.name!r}")
-        from rmbench.robot import Posture
-
-        p = Posture(float(cal["x"].values[j]), float(cal["y"].values[j]), float(cal["theta"].values[j]))
-        if calibration_reference is not None:
-            if str(calibration_reference.attrs.get("tool", "")) != ref_name:
-                raise InputError(f"the reference calibration campaign carries tool "
-                                 f"{calibration_reference.attrs.get('tool')!r}, not the reference {ref_name!r}")
-            i_ref = posture_index(calibration_reference, p)
-            fit = _fit_contact(calibration_reference, i_ref, cal, j, reference, target, method, shank,
-                               tool_model, free, mass_loading)
-            f_cal = calibration_reference["freq"].values[calibration_reference["band"].values == "high"]
-            source = (f"identified at ({p.x * 1e3:g}, {p.y * 1e3:g}, {np.degrees(p.theta):g}) from the "
-                      f"calibration campaigns, {f_cal.min():g}-{f_cal.max():g} Hz")
-        else:
-            i_ref = posture_index(data, p)
-            fit = _fit_contact(data, i_ref, cal, j, reference, target, method, shank, tool_model, free,
-                               mass_loading)
-            source = f"identified at posture {i_ref}"
+        fit, source = _calibrated_contact(data, calibration, calibration_reference, reference, target,
+                                          method=method, shank=shank, tool_model=tool_model, free=free,
+                                          mass_loading=mass_loading)
         contact = fit.contact
     out, freqs = {}, {}
     s_key = {b: float(data.attrs[f"sensor_spacing_{b}"]) for b in bands}

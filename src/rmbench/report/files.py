@@ -7,7 +7,7 @@ campaign netCDF (``H``)                   FRF matrix per posture, accuracy, post
 modal netCDF (``modal``)                  the campaign's report with fitted overlays (when
                                           the campaign is given or named ``upstream``),
                                           parameter maps, stabilisation diagram
-predictor ``.npz``                        parameter maps; cross-validation with ``data``
+predictor ``.npz``                        parameter maps; its cross-validation, given
 controller ``.npz`` (``A B C D``)         controller response; sensitivity with ``runs``
 control runs netCDF (``case``)            sensitivity, stroke and force use
 gap diagnosis folder                      verdict, ranked effects, gap maps, before/after
@@ -72,7 +72,7 @@ def kind_of(path) -> str:
     raise InputError(f"{p}: not a campaign, modal, or control-run dataset (no H, modal or sensitivity)")
 
 
-def report_of(path, *, data=None, runs=None, learners=None, posture: int = 0) -> Page:
+def report_of(path, *, data=None, runs=None, validation=None, posture: int = 0) -> Page:
     """The report page of one file.
 
     Parameters
@@ -81,12 +81,11 @@ def report_of(path, *, data=None, runs=None, learners=None, posture: int = 0) ->
         A campaign, modal fit, predictor, controller, control runs or gap diagnosis folder.
     data : path-like, optional
         For a modal fit: its campaign (default: the file named in its ``upstream`` attribute,
-        when it exists). For a predictor: the modal dataset it was trained on, to cross-validate.
+        when it exists).
     runs : path-like, optional
         For a controller: the runs ``rmbench control run --out`` wrote.
-    learners : sequence of str, optional
-        For a predictor with ``data``: the learners to cross-validate (default: the predictor's
-        own and the k-nearest-neighbour baseline).
+    validation : (TrainingSet, list of CVScores), optional
+        For a predictor: its cross-validation (:func:`rmbench.predict.validate_predictor`).
     posture : int
         Posture of the stabilisation diagram (modal fits).
     """
@@ -128,15 +127,8 @@ def report_of(path, *, data=None, runs=None, learners=None, posture: int = 0) ->
                                                     "trained on": f"{len(pred.X_train_)} postures",
                                                     "source": str(getattr(pred, "source_", ""))})
         predictor_sections(page, pred)
-        if data is not None:
-            from rmbench.predict import cross_validate, training_set
-            from rmbench.predict.data import frequency_ordered
-
-            modal = _load_nc(data)
-            if "modal" not in modal:
-                raise InputError(f"{data}: not a modal dataset (no 'modal'): --data must be what the predictor learnt")
-            ts = training_set(frequency_ordered(modal) if getattr(pred, "order", "") == "frequency" else modal)
-            cv_sections(page, ts, [cross_validate(ts, m) for m in (learners or dict.fromkeys([pred.model, "knn"]))])
+        if validation is not None:
+            cv_sections(page, *validation)
         return page
     if kind == "controller":
         from rmbench.control import Controller
