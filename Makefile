@@ -4,7 +4,8 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
-# pytest processes (pytest-xdist): one per core; each keeps its BLAS and torch pools to its share
+# pytest processes (pytest-xdist): one per core, a test file per process (its module fixtures built
+# once); each keeps its BLAS and torch pools to its share
 TEST_WORKERS ?= auto
 
 .PHONY: demo test bench bench-summary install clean
@@ -24,7 +25,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	@if [ -f ../shared/tools/check_layers.py ]; then $(BIN)/python ../shared/tools/check_layers.py src/rmbench; fi
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) sim_tests
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile sim_tests
 
 bench: $(STAMP)
 	$(BIN)/python bench/modes.py | tee bench/results/modes.txt
