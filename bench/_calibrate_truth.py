@@ -116,7 +116,7 @@ def _subtree_mass(body) -> float:
 # -- structural effects on top of the spread (the gap half of the bench) -------------------------
 # In-library kinds the calibrated diagnosis searches (beyond the ordinary spread where a group
 # covers the kind: a tool holder 3-5 times off, a body 30-60 % heavier than its data sheet), and
-# out-of-library ones near them. Injected by rmbench.gap.blind.inject (the variant primitives and
+# out-of-library ones near them. Injected by rmbench.gap.cases.blind.inject (the variant primitives and
 # MjSpec edits of its own, never the diagnosis's library) plus an off-origin mass written here.
 IN_LIBRARY = ("base_compliance", "tool_contact_stiffness", "added_mass", "sensor_misalignment",
               "non_reciprocity")
@@ -125,8 +125,8 @@ _MASS_BODIES = ("upper_arm", "forearm", "wrist", "flange")
 
 
 def draw_structural(rng: np.random.Generator, in_library: bool):
-    """One structural effect (:class:`rmbench.gap.blind.Hidden`)."""
-    from rmbench.gap.blind import Hidden
+    """One structural effect (:class:`rmbench.gap.cases.blind.Hidden`)."""
+    from rmbench.gap.cases.blind import Hidden
 
     def factor(lo, hi):
         f = _logu(rng, lo, hi)
@@ -164,7 +164,7 @@ def draw_structural(rng: np.random.Generator, in_library: bool):
 def inject_structural(xml: str, hidden):
     """The spread robot's MJCF with the structural effect, the sensors' placement errors per
     band and the spindle speed it is measured at."""
-    from rmbench.gap.blind import inject
+    from rmbench.gap.cases.blind import inject
     from rmbench.robot import Robot
     from rmbench.robot.spec import spec_to_xml
     from rmbench.robot.variant import add_point_mass

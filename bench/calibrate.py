@@ -74,15 +74,14 @@ CACHE = HERE / ".cache"
 N_UNSEEN = 200
 
 
-_NOT_RUN = ("blind", "tracker", "tracker_blind", "sources", "real", "plot")
-
-
 def _digest() -> str:
     import rmbench
 
     src = Path(rmbench.__file__).parent
-    # the FRF diagnosis's modules, not the tracker's, the blind generators' or the plots'
-    gap = [p for p in src.joinpath("gap").glob("*.py") if p.stem not in _NOT_RUN]
+    # the FRF diagnosis's modules and the selection engine it shares, not the tracker's, the
+    # cases' or the plots'
+    gap = list(src.joinpath("gap", "frf").glob("*.py")) + list(src.joinpath("gap").glob("*.py"))
+    gap = [p for p in gap if p.name != "plot.py"]
     files = (list(src.joinpath("calibrate").glob("*.py")) + gap
              + [src / "robot" / "parameters.py", HERE / "_calibrate_truth.py", Path(__file__)])
     return code_digest(files)

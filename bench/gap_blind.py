@@ -44,7 +44,7 @@ import numpy as np  # noqa: E402
 from _stats import RMBENCH, blind_cases, keyed_run  # noqa: E402
 from _stats import rate as _rate  # noqa: E402
 
-from rmbench.gap.blind import case_from_dict, summarise  # noqa: E402
+from rmbench.gap.cases.blind import case_from_dict, summarise  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 

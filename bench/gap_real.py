@@ -31,7 +31,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmbench.gap.real import VALIDATION, diagnose_seed000, write_table_b1_uff  # noqa: E402
+from rmbench.gap.cases.real import VALIDATION, diagnose_seed000, write_table_b1_uff  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 

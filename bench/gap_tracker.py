@@ -1,7 +1,7 @@
 """Gap diagnosis on laser-tracker readings (issue 14): which error sources, found how often, at what cost.
 
 1. Blind cases: ``rmbench gap blind --data tracker --cases N --seed S`` (each case an MH180 with
-   hidden error sources drawn by :mod:`rmbench.gap.tracker_blind` — one source in three cases of
+   hidden error sources drawn by :mod:`rmbench.gap.cases.tracker_blind` — one source in three cases of
    five, two or three in one, backlash outside the library in one — read at 250 quasi-random
    configurations twice, 500 readings, diagnosed against the nominal robot). The cases go to a
    JSON-lines file, so a killed run resumes.
@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 
 from _stats import RMBENCH, blind_cases, keyed_run, rate  # noqa: E402
 
-from rmbench.gap.tracker_blind import summarise_tracker  # noqa: E402
+from rmbench.gap.cases.tracker_blind import summarise_tracker  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 
@@ -52,7 +52,7 @@ def run_cases(args) -> list:
 
 def speed() -> tuple[float, str]:
     """Seconds of ``rmbench gap diagnose --readings`` on 500 readings, and its verdict line."""
-    from rmbench.gap.tracker_blind import HiddenSource, TrueRobot
+    from rmbench.gap.cases.tracker_blind import HiddenSource, TrueRobot
     from rmbench.io.tracker_csv import TrackerReadings, write_tracker_csv
     from rmbench.robot import Robot
     from rmbench.tracker import MH180_JOINT_BOX, sobol_points
@@ -139,7 +139,7 @@ def run_spread_case(i: int, seed: int, box: str = "calibration") -> dict:
     with and without ``--calibrate``."""
     from _tracker_truth import SpreadRobot, campaign, draw_structural, spread_xml
 
-    from rmbench.gap.tracker import TrackerData, TrackerSettings, default_covariance, diagnose_tracker
+    from rmbench.gap.tracker.diagnosis import TrackerData, TrackerSettings, default_covariance, diagnose_tracker
     from rmbench.robot import Robot
 
     rng = np.random.default_rng([seed, i, 43])
@@ -259,7 +259,7 @@ def main() -> int:
                     help="JSON-lines file (default: bench/results/gap_tracker_s<seed>_<code digest>.jsonl)")
     args = ap.parse_args()
     keyed_run(args, "gap_tracker", __file__, extra=("_tracker_truth.py", "_stats.py"),
-              modules=("rmbench.gap.tracker", "rmbench.gap.tracker_blind", "rmbench.robot", "rmbench.tracker"))
+              modules=("rmbench.gap.tracker.diagnosis", "rmbench.gap.cases.tracker_blind", "rmbench.robot", "rmbench.tracker"))
     spread = run_spread(args) if args.spread else {}
     if args.spread_only:
         print(json.dumps({**_spread_line(spread), "seed": args.seed}))

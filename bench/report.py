@@ -118,7 +118,7 @@ def reports(work: Path) -> dict:
     from rmbench.control import design, excitation_frequencies, robot_plant, sine_sweep
     from rmbench.control.experiments import traced_runs
     from rmbench.gap import GapDataWarning, diagnose, diagnose_tracker, tracker_data
-    from rmbench.gap.tracker_blind import HiddenSource, TrueRobot
+    from rmbench.gap.cases.tracker_blind import HiddenSource, TrueRobot
     from rmbench.io.tracker_csv import TrackerReadings
     from rmbench.predict import PosturePredictor
     from rmbench.rcsa import campaign_receptance

@@ -153,7 +153,7 @@ def test_mill_out_file_is_strict_and_a_runaway_resumes_unbounded(tmp_path, monke
 
 def test_gap_blind_case_lines_are_strict_and_read_back():
     """A blind case whose visibility could not be probed (NaN) is written null and read back NaN."""
-    from rmbench.gap.blind import CaseResult, Hidden, case_from_dict, dumps
+    from rmbench.gap.cases.blind import CaseResult, Hidden, case_from_dict, dumps
 
     case = CaseResult(index=0, method="linear", hidden=(Hidden("joint_stiffness", "j3_flex", {"factor": 1.3}),),
                       verdict="explained", ranked=(("joint_stiffness@j3_flex", 1.0),), equivalent=(),

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from rmbench.gap.blind import Hidden, _within_library, draw_case, inject, summarise
+from rmbench.gap.cases.blind import Hidden, _within_library, draw_case, inject, summarise
 from rmbench.robot import Robot
 
 
@@ -75,7 +75,7 @@ def test_a_bending_link_has_a_hinge_about_an_axis_none_of_its_joints_has(robot):
 
 
 def test_out_of_library_draws_cover_every_outside_kind():
-    from rmbench.gap.blind import _OUT_KINDS
+    from rmbench.gap.cases.blind import _OUT_KINDS
 
     rng = np.random.default_rng(1)
     kinds = {draw_case(rng, "out")[0].kind for _ in range(200)}
@@ -89,7 +89,7 @@ def test_hidden_effects_stay_inside_the_librarys_ranges():
 
 
 def test_summary_counts_each_kind_of_case():
-    from rmbench.gap.blind import CaseResult
+    from rmbench.gap.cases.blind import CaseResult
 
     def case(hidden, verdict, ranked, **kw):
         base = dict(index=0, method="linear", hidden=hidden, verdict=verdict, ranked=ranked,
@@ -112,7 +112,7 @@ def test_summary_counts_each_kind_of_case():
 def test_the_summary_counts_rejected_draws():
     from dataclasses import replace
 
-    from rmbench.gap.blind import CaseResult
+    from rmbench.gap.cases.blind import CaseResult
 
     a = Hidden("joint_stiffness", "j2_flex", {"factor": 1.3})
     c = CaseResult(index=0, method="linear", hidden=(a,), verdict="explained", ranked=(), equivalent=(),
@@ -122,7 +122,7 @@ def test_the_summary_counts_rejected_draws():
 
 
 def test_seed000_tables_are_read_with_the_mirror_postures():
-    from rmbench.gap.real import VALIDATION, seed000_modes
+    from rmbench.gap.cases.real import VALIDATION, seed000_modes
 
     keys, meas = seed000_modes()
     assert keys[:3] == list(VALIDATION) and len(keys) == 4
@@ -134,7 +134,7 @@ def test_seed000_tables_are_read_with_the_mirror_postures():
 
 
 def test_table_b1_frf_is_written_as_uff58_and_reads_back(tmp_path):
-    from rmbench.gap.real import write_table_b1_uff
+    from rmbench.gap.cases.real import write_table_b1_uff
     from rmbench.io import read_uff58
     from rmbench.modal import synthesize
     from rmbench.modal.synthetic import table_b1

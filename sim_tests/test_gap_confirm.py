@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from rmbench.calibrate import TestDesign
-from rmbench.gap.confirm import _terms, confirmable
+from rmbench.gap.frf.confirm import _terms, confirmable
 from rmbench.gap.selection import bootstrap_shrink
-from rmbench.gap.effects import library
+from rmbench.gap.frf.effects import library
 from rmbench.impact import load_config
 from rmbench.robot.parameters import parameter_set
 
@@ -45,10 +45,24 @@ def test_a_heavier_body_candidate_reads_back_as_mass_added_to_the_nominal(irb, c
     assert terms.values({"wrist.mass": np.log(1.4)})[0] == pytest.approx(0.4 * m0)
 
 
-def test_sensor_and_spin_candidates_map_onto_no_model_parameter(calibrated_library):
+def test_spin_and_joint_candidates_map_onto_neither_a_model_parameter_nor_the_design(calibrated_library):
     kinds = {e.kind for e in calibrated_library.values() if not confirmable(e)}
-    assert {"sensor_misalignment", "sensor_misplacement", "joint_stiffness"} <= kinds
-    assert not ({"tool_contact_stiffness", "base_compliance", "added_mass"} & kinds)
+    assert {"non_reciprocity", "joint_stiffness", "load_dependent_stiffness"} <= kinds
+    assert not ({"tool_contact_stiffness", "base_compliance", "added_mass", "sensor_misalignment",
+                 "sensor_misplacement"} & kinds)
+
+
+def test_a_turned_sensor_candidate_frees_nothing_and_corrects_the_design_at_its_fitted_size(irb, calibrated_library):
+    """A sensor's placement is no parameter of the robot: the recalibration reads the data through
+    the design turned by the joint search's angle, and reports that angle back."""
+    effect = calibrated_library["sensor_misalignment@high:1Y"]
+    terms = _terms(effect, {}, ("joints",), irb, size=[-8.0])
+    assert terms.extra == () and terms.free == () and terms.groups == ("joints",)
+    (offset,) = terms.change.offsets
+    assert offset.angle == pytest.approx(np.radians(-8.0))
+    assert terms.values({}) == pytest.approx([-8.0])
+    with pytest.raises(ValueError, match="fitted size"):
+        _terms(effect, {}, ("joints",), irb)
 
 
 def test_the_shrink_against_the_null_is_of_the_rms_gap():
@@ -61,7 +75,7 @@ def test_the_shrink_against_the_null_is_of_the_rms_gap():
 def _confirmed_with(u: dict, freed):
     from types import SimpleNamespace
 
-    from rmbench.gap.confirm import Confirmed
+    from rmbench.gap.frf.confirm import Confirmed
 
     cal = SimpleNamespace(params=[SimpleNamespace(name=n) for n in u], u=np.array(list(u.values())))
     return Confirmed(effect=None, values=None, calibration=cal, robot=None, chi2_held=1.0, n_held=1,
@@ -70,7 +84,7 @@ def _confirmed_with(u: dict, freed):
 
 
 def test_a_holder_confirmed_inside_its_ordinary_spread_is_no_structural_effect(irb):
-    from rmbench.gap.diagnosis import _within_spread
+    from rmbench.gap.frf.diagnosis import _within_spread
 
     names = ("tool_contact.translation", "tool_contact.rotation")
     # × 0.8: inside the tool group's prior range (0.4-2.5): the first calibration's prior held it back
@@ -86,16 +100,17 @@ def test_each_confirmable_kind_is_confirmed_once_and_an_unrefined_foundation_too
     """After a calibration has mimicked a sliding foundation, the first-order search can rank it
     below everything (or not refine it at all): the recalibration sees one candidate of each
     kind, the best-scored first."""
-    from rmbench.gap.diagnosis import _confirm_picks
+    from rmbench.gap.frf.diagnosis import _confirm_picks
 
     def row(name, score):
         return {"params": {name: {}}, "score": score}
 
     models = [{"params": {}, "score": 0.0}, row("added_mass@wrist", 1.0), row("added_mass@flange", 2.0),
               row("sensor_misalignment@low:1aX", 0.5), row("tool_contact_stiffness@tool_contact", 3.0)]
-    picks = [e.name for e in _confirm_picks(models, calibrated_library, 4)]
-    assert picks[:2] == ["added_mass@wrist", "tool_contact_stiffness@tool_contact"]
-    assert set(picks[2:]) == {"spindle_stiffness@spindle", "base_compliance@base"}
+    picks = [e.name for e in _confirm_picks(models, calibrated_library, 5)]
+    assert picks[:3] == ["sensor_misalignment@low:1aX", "added_mass@wrist", "tool_contact_stiffness@tool_contact"]
+    # the unrefined kinds follow, but no unrefined sensor: it has no fitted size to be confirmed at
+    assert set(picks[3:]) == {"spindle_stiffness@spindle", "base_compliance@base"}
     assert len(_confirm_picks(models, calibrated_library, 2)) == 2
 
 
@@ -104,7 +119,7 @@ def test_a_holder_explanation_is_read_on_top_of_the_calibrated_holder(irb):
     calibration left at ×1.1 is ×0.94 of the nominal, inside the tool group's spread."""
     from types import SimpleNamespace
 
-    from rmbench.gap.diagnosis import _ordinary_total
+    from rmbench.gap.frf.diagnosis import _ordinary_total
 
     e = SimpleNamespace(kind="tool_contact_stiffness", params={"ln_translation": 0.0, "ln_rotation": np.log(0.85)})
     total = _ordinary_total(e, {"tool_contact.rotation": np.log(1.1)}, irb)
@@ -121,7 +136,7 @@ def test_an_ordinary_parameter_left_on_a_bound_of_its_spread_stands_for_the_stru
     residual, is the sign. A foundation resting at rigid (its nominal, a bound) is no sign."""
     from types import SimpleNamespace
 
-    from rmbench.gap.diagnosis import _pinned
+    from rmbench.gap.frf.diagnosis import _pinned
 
     def est(name, on_bound, value=2.0, nominal=1.0):
         return SimpleNamespace(name=name, on_bound=on_bound, value=value, nominal=nominal)
@@ -137,8 +152,8 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
     """The masses' prior range is ×0.8-1.25: ×1.5 ± 5 % lies beyond it; ×1.3 ± 10 % reaches back into it."""
     from types import SimpleNamespace
 
-    from rmbench.gap.confirm import Confirmed
-    from rmbench.gap.diagnosis import _beyond_spread
+    from rmbench.gap.frf.confirm import Confirmed
+    from rmbench.gap.frf.diagnosis import _beyond_spread
 
     def freed(factor, sd):
         cal = SimpleNamespace(params=[SimpleNamespace(name="forearm.mass")], u=np.array([np.log(factor)]),

@@ -104,8 +104,8 @@ def test_modes_that_pair_with_none_of_the_models_are_refused():
     """Measured modes 50 % above every model mode (another robot, tool or sensor layout) pair
     with none: a diagnosis would explain nothing, so the data are refused."""
     from rmbench.gap import MeasuredModes, ModelBench, TestDesign
-    from rmbench.gap.diagnosis import _check_match
-    from rmbench.gap.effects import Change
+    from rmbench.gap.frf.diagnosis import _check_match
+    from rmbench.gap.frf.effects import Change
     from rmbench.impact import load_config
     from rmbench.robot import Posture
 
@@ -191,3 +191,31 @@ def test_a_negative_number_of_confirmations_is_a_one_line_error(tmp_path, capsys
     code = main(["gap", "diagnose", "--data", str(tmp_path / "x.nc"), "--calibrate", "--confirm", "-1"])
     err = capsys.readouterr().err
     assert code == 2 and "--confirm must be 0 or more" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("option, value, message", [("--heldout", "1.5", "heldout must be between 0 and 1"),
+                                                     ("--p-noise", "0", "p_noise must be between 0 and 1"),
+                                                     ("--refine", "0", "refine must be 1 or more"),
+                                                     ("--bootstrap", "-5", "bootstrap must be 0 or more")])
+def test_a_search_setting_out_of_range_is_a_one_line_error(tmp_path, capsys, option, value, message):
+    code = main(["gap", "diagnose", "--data", str(tmp_path / "x.nc"), option, value])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_command_lines_search_settings_reach_the_diagnosis(monkeypatch, tmp_path):
+    """``--heldout`` and ``--p-noise`` are the settings object's, not parsed again elsewhere."""
+    import rmbench.gap
+
+    seen = {}
+
+    def fake(robot, data, **kw):
+        seen.update(settings=kw["settings"])
+        raise InputError("stop here")
+
+    monkeypatch.setattr(rmbench.gap, "diagnose", fake)
+    (tmp_path / "x.nc").write_text("")
+    assert main(["gap", "diagnose", "--data", str(tmp_path / "x.nc"), "--heldout", "0.25",
+                 "--p-noise", "0.01"]) == 2
+    assert seen["settings"].heldout == 0.25 and seen["settings"].p_noise == 0.01
+    assert seen["settings"].refine == 6       # the default where the command line is silent

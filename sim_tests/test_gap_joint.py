@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from rmbench.calibrate import TestDesign
-from rmbench.gap.diagnosis import DiagnosisSettings, _explains
-from rmbench.gap.effects import Change, library
-from rmbench.gap.joint import Ordinary
-from rmbench.gap.model import ModelBench
-from rmbench.gap.search import Fitted
+from rmbench.gap.frf.diagnosis import DiagnosisSettings, _explains
+from rmbench.gap.frf.effects import Change, library
+from rmbench.gap.frf.joint import Ordinary
+from rmbench.gap.frf.model import ModelBench
+from rmbench.gap.frf.search import Fitted
 from rmbench.impact import load_config
 from rmbench.robot import Posture
 from rmbench.robot.parameters import parameter_set

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from rmbench.errors import InputError
-from rmbench.gap.sources import SOURCE_KINDS, PoseModel, source_library
-from rmbench.gap.tracker import TrackerData, default_covariance, diagnose_tracker
-from rmbench.gap.tracker_blind import HiddenSource, TrueRobot
+from rmbench.gap.tracker.sources import SOURCE_KINDS, PoseModel, source_library
+from rmbench.gap.tracker.diagnosis import TrackerData, default_covariance, diagnose_tracker
+from rmbench.gap.cases.tracker_blind import HiddenSource, TrueRobot
 from rmbench.robot import Robot
 from rmbench.tracker import MH180_JOINT_BOX, sobol_points
 from rmbench.tracker.chain import SerialChain
@@ -160,7 +160,7 @@ def test_cli_diagnoses_a_readings_csv(mh180, tmp_path, capsys):
 
 
 def test_blind_tracker_case_scores_recall_and_false_sources():
-    from rmbench.gap.tracker_blind import run_tracker_case
+    from rmbench.gap.cases.tracker_blind import run_tracker_case
 
     case = run_tracker_case(0, 1, n_config=120, levels=False, n_workspace=2000)
     assert set(case.found) == {h.name for h in case.hidden}     # every hidden source is scored
@@ -194,7 +194,7 @@ def test_thermal_drift_follows_the_temperature_when_the_readings_carry_it(mh180)
 
 
 def test_tracker_recall_counts_every_hidden_source_not_only_the_large_ones():
-    from rmbench.gap.tracker_blind import summarise_tracker
+    from rmbench.gap.cases.tracker_blind import summarise_tracker
 
     # a large source found, a small one (5 % of the error) missed: recall 1/2, of the large ones 1/1
     case = {"in_library": True, "found": {"payload@j6": True, "joint_offset@j5": False},
@@ -236,7 +236,7 @@ def test_calibrating_first_leaves_the_reflector_offset_alone_on_a_softer_robot(m
     payload, a gear error and one joint's compliance beside the true 2 mm reflector offset; with the
     ordinary parameters calibrated first, only the offset is reported, and the compliances come out
     near +20 % (within 0.1: the prior's pull and 250 configurations' noise)."""
-    from rmbench.gap.tracker import TrackerSettings
+    from rmbench.gap.tracker.diagnosis import TrackerSettings
 
     data = _softer_with_reflector_offset(mh180, [0.002, 0.0, 0.0])
     dg = diagnose_tracker(mh180, data, settings=TrackerSettings(calibrate=True))
@@ -263,7 +263,7 @@ def test_at_the_noise_a_calibrated_model_takes_a_source_only_on_decisive_evidenc
     five of the spread bench took a gear harmonic for it); a payload's drop of ~100 does not."""
     from types import SimpleNamespace
 
-    from rmbench.gap.tracker import _decisive
+    from rmbench.gap.tracker.diagnosis import _decisive
 
     def fit(chi2, k):
         return SimpleNamespace(chi2_held=chi2, chi2_prior=0.0, k=k)
@@ -278,7 +278,9 @@ def test_at_the_noise_a_calibrated_model_takes_a_source_only_on_decisive_evidenc
 def test_carrying_the_calibrations_uncertainty_widens_every_held_out_residual(mh180):
     """A held-out reading is predicted with the calibrated parameters' error as well as measured
     with noise: its σ can only grow, and it grows with the number of parameters fitted."""
-    from rmbench.gap.tracker import ORDINARY, TrackerSettings, _Engine, _prior_sd, _split
+    from rmbench.gap.tracker.data import split_readings
+    from rmbench.gap.tracker.diagnosis import ORDINARY, TrackerSettings, _prior_sd
+    from rmbench.gap.tracker.engine import Engine
 
     chain = SerialChain.from_kinematics(mh180.kinematics, mh180.arm_joints)
     comp = 1.0 / nominal_stiffness(mh180)
@@ -287,8 +289,8 @@ def test_carrying_the_calibrations_uncertainty_widens_every_held_out_residual(mh
     q = sobol_points(60, *MH180_JOINT_BOX, rng)
     y = model.positions(q) + rng.normal(scale=50e-6, size=(60, 3))
     data = TrackerData(q, y, np.arange(60), np.full((60, 3), 50e-6), None, tuple(mh180.arm_joints))
-    train, held, _, _ = _split(data, 0.5)
-    eng = _Engine(model, data, train, held)
+    train, held, _, _ = split_readings(data, 0.5)
+    eng = Engine(model, data, train, held)
     base = tuple(s for s in source_library(chain, comp, masses=True) if s.kind in ORDINARY)
     eng.prior = {s.name: _prior_sd(s, TrackerSettings()) for s in base}
     fit = eng.fit(base, iterations=4)

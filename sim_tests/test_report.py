@@ -92,8 +92,8 @@ def control_files(files, op, default_design):
 def tracker_gap(files, mh180):
     """A tracker diagnosis of an MH180 whose j3 is 1 mrad off (120 readings)."""
     from rmbench.gap import diagnose_tracker
-    from rmbench.gap.tracker import TrackerData, default_covariance
-    from rmbench.gap.tracker_blind import HiddenSource, TrueRobot
+    from rmbench.gap.tracker.diagnosis import TrackerData, default_covariance
+    from rmbench.gap.cases.tracker_blind import HiddenSource, TrueRobot
     from rmbench.tracker import MH180_JOINT_BOX, sobol_points
 
     rng = np.random.default_rng(7)

@@ -531,7 +531,7 @@ def linearisation(robot, data, u, postures, settings: CalibrationSettings = Cali
     """The residuals and their sensitivity to the calibrated parameters, per posture and band.
 
     What a search on top of a calibration needs to let the ordinary parameters follow it to first
-    order (:mod:`rmbench.gap.joint`). The parameters are those of ``settings.groups``, on the modal
+    order (:mod:`rmbench.gap.frf.joint`). The parameters are those of ``settings.groups``, on the modal
     residuals: ``settings.extra``, ``free`` and ``frf`` do not apply here.
 
     Parameters

@@ -10,7 +10,7 @@ The prior is Tikhonov regularisation toward the nominal, its weight set by the s
 rather than tuned per case. It is solved by a bounded trust-region Gauss-Newton (scipy's
 ``least_squares``, ``trf``) with the prior as extra rows. The FRF calibration
 (:func:`rmbench.calibrate.calibrate`, modal and FRF residuals, x in prior standard deviations)
-and the tracker calibration (:mod:`rmbench.gap.tracker`, pose residuals, x in SI) both use it, and
+and the tracker calibration (:mod:`rmbench.gap.tracker.diagnosis`, pose residuals, x in SI) both use it, and
 both read their account from :func:`posterior` and :func:`identifiability`.
 """
 

@@ -275,7 +275,7 @@ def _demo_tracker_gap(out: Path, page) -> None:
     """An MH180 with a gear error on j4 and a heavier tool than its model: read by a tracker,
     diagnosed, the accuracy it costs before and after."""
     from rmbench.gap import diagnose_tracker, tracker_data
-    from rmbench.gap.tracker_blind import HiddenSource, TrueRobot
+    from rmbench.gap.cases.tracker_blind import HiddenSource, TrueRobot
     from rmbench.io.tracker_csv import TrackerReadings, read_tracker_csv, write_tracker_csv
     from rmbench.robot import Robot
     from rmbench.tracker import MH180_JOINT_BOX, sobol_points

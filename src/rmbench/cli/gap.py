@@ -31,8 +31,17 @@ def register(sub) -> None:
                         "compliance and every link's mass), then search the structural effects on the calibrated model")
     d.add_argument("--confirm", type=int, default=4, metavar="N",
                    help="with --calibrate: recalibrate with the best candidate of each of N kinds (tool holder, "
-                        "spindle, foundation, a body's mass) in place, and once without, before calling the gap "
-                        "unexplained (default 4; 0: no recalibration)")
+                        "spindle, foundation, a body's mass, a sensor's placement) in place, and once without, "
+                        "before calling the gap unexplained (default 4; 0: no recalibration)")
+    d.add_argument("--heldout", type=float, default=None, metavar="SHARE",
+                   help="share of the postures or configurations held out of every fit (default 0.5)")
+    d.add_argument("--p-noise", type=float, default=None, metavar="P",
+                   help="a held-out residual whose p-value against the noise falls below P is a gap (default 0.001)")
+    d.add_argument("--refine", type=int, default=None, metavar="N",
+                   help="candidates refined after each screening (default 6)")
+    d.add_argument("--bootstrap", type=int, default=None, metavar="N",
+                   help="resamples of the held-out postures for the shrink's interval and the confidences "
+                        "(default 400)")
     d.add_argument("--out", default=None, help="directory for figures, tables and the updated variant MJCF")
     d.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
     d.add_argument("--json", action="store_true", help="print the diagnosis as JSON")
@@ -74,6 +83,13 @@ def _report(args, dg, paths) -> None:
         print(f"wrote {args.report}")
 
 
+def _search_options(args) -> dict:
+    """The search settings the command line gave (:class:`rmbench.gap.selection.SearchSettings`;
+    the settings check their values)."""
+    return {k: v for k, v in (("heldout", args.heldout), ("p_noise", args.p_noise), ("refine", args.refine),
+                              ("bootstrap", args.bootstrap)) if v is not None}
+
+
 def cmd_diagnose(args) -> int:
     report_path(args)
     if args.readings is not None:
@@ -82,11 +98,12 @@ def cmd_diagnose(args) -> int:
     from rmbench.gap import DiagnosisSettings, diagnose
     from rmbench.robot.parameters import parse_groups
 
-    settings = DiagnosisSettings()
+    extra = {}
     if args.calibrate is not None:
         if args.confirm < 0:
             raise InputError(f"--confirm must be 0 or more, got {args.confirm}")
-        settings = DiagnosisSettings(calibrate=parse_groups(args.calibrate), confirm=args.confirm)
+        extra = {"calibrate": parse_groups(args.calibrate), "confirm": args.confirm}
+    settings = DiagnosisSettings(**_search_options(args), **extra)
 
     test = read_test_design(args)
     data = Path(args.data)
@@ -134,7 +151,7 @@ def cmd_diagnose(args) -> int:
 
 
 def _diagnose_readings(args) -> int:
-    from rmbench.gap.tracker import TrackerSettings, diagnose_tracker, tracker_data
+    from rmbench.gap.tracker.diagnosis import TrackerSettings, diagnose_tracker, tracker_data
     from rmbench.io.tracker_csv import read_tracker_csv
     from rmbench.robot import Robot
 
@@ -150,7 +167,7 @@ def _diagnose_readings(args) -> int:
     if args.calibrate not in (None, "default"):
         raise InputError("--calibrate takes no groups with --readings: it calibrates every joint's zero "
                          "offset, placement, gravity compliance and link mass")
-    settings = TrackerSettings(calibrate=args.calibrate is not None)
+    settings = TrackerSettings(calibrate=args.calibrate is not None, **_search_options(args))
     dg = diagnose_tracker(robot, data, settings=settings, progress=say)
     paths = dg.save(args.out) if args.out else {}
     if args.report:
@@ -185,7 +202,7 @@ def _diagnose_readings(args) -> int:
 
 
 def _blind_tracker(args) -> int:
-    from rmbench.gap.tracker_blind import run_tracker_blind, summarise_tracker
+    from rmbench.gap.cases.tracker_blind import run_tracker_blind, summarise_tracker
 
     def progress(i, case):
         if not args.json:
@@ -208,7 +225,7 @@ def _blind_tracker(args) -> int:
 
 
 def cmd_blind(args) -> int:
-    from rmbench.gap.blind import run_blind
+    from rmbench.gap.cases.blind import run_blind
 
     if args.cases < 1:
         raise InputError(f"--cases must be at least 1, got {args.cases}")

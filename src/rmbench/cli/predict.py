@@ -143,7 +143,7 @@ def cmd_at(args) -> int:
 
     import numpy as np
 
-    from rmbench.predict import ExtrapolationWarning, PosturePredictor, predicted_frf
+    from rmbench.predict import ExtrapolationWarning, PosturePredictor, predicted_frf_dataset
     from rmbench.robot import parse_posture
 
     pred = PosturePredictor.load(args.predictor)
@@ -154,19 +154,9 @@ def cmd_at(args) -> int:
         out = pred.predict(X)
     notes = [str(w.message) for w in caught if issubclass(w.category, ExtrapolationWarning)]
     if args.frf:
-        import xarray as xr
-
         from rmbench.impact.dataset import save
 
-        freq = np.concatenate([np.arange(2.0, 60.0, 0.05), np.arange(500.0, 1500.0, 0.5)])
-        H = predicted_frf(out, freq)
-        coords = ["1X", "1Y", "1aX", "1aY"]
-        save(xr.Dataset({"H": (("posture", "freq", "out", "inp"), H)},
-                        coords={"posture": out.posture.values, "x": ("posture", X[:, 0]),
-                                "y": ("posture", X[:, 1]), "theta": ("posture", X[:, 2]),
-                                "freq": freq, "out": coords, "inp": coords},
-                        attrs={"kind": "predicted_frf", "units": "m/N", "model": pred.model,
-                               "predictor": str(args.predictor)}), args.frf)
+        save(predicted_frf_dataset(out, model=pred.model, source=str(args.predictor)), args.frf)
     if args.json:
         print_json({"model": pred.model, "warnings": notes, "postures": [
             {"x_mm": 1e3 * x[0], "y_mm": 1e3 * x[1], "theta_deg": float(np.degrees(x[2])),

@@ -173,6 +173,18 @@ def _shaker_forces(m, shaker: dict | None, n: int, fs: float) -> tuple[np.ndarra
     return np.array(idx, int), (np.array(forces).T if forces else np.zeros((n, 0)))
 
 
+def _proof_masses(m, axes) -> tuple:
+    """Per controlled axis: the voice-coil actuator, the proof mass's qpos and dof addresses,
+    the coil's control range (N) and the stroke (m, inf where the joint has no range)."""
+    vc = np.array([_actuator(m, f"vc_{a}") for a in axes], int)
+    joints = [_joint(m, f"pm_{a}") for a in axes]
+    pm_adr = np.array([m.jnt_qposadr[j] for j in joints], int)
+    pm_dof = np.array([m.jnt_dofadr[j] for j in joints], int)
+    stroke = np.array([max(abs(m.jnt_range[j])) for j in joints])
+    stroke = np.where(stroke > 0, stroke, np.inf)
+    return vc, pm_adr, pm_dof, m.actuator_ctrlrange[vc, 0], m.actuator_ctrlrange[vc, 1], stroke
+
+
 def run_loop(op, controller: Controller | None, duration: float, *, hardware: Hardware | None = None,
              shaker: dict | None = None, spindle_hz: float | None = None, record_axes=("tangential", "axial"),
              seed: int = 0) -> LoopRecord:
@@ -209,12 +221,7 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
         if a not in AXES:
             raise InputError(f"unknown axis {a!r}; use {', '.join(AXES)}")
     adr, E_all, c0 = _accelerometer(m, d, op, record_axes + ctrl_axes)
-    vc = np.array([_actuator(m, f"vc_{a}") for a in ctrl_axes], int)
-    pm_adr = np.array([m.jnt_qposadr[_joint(m, f"pm_{a}")] for a in ctrl_axes], int)
-    lo, hi = m.actuator_ctrlrange[vc, 0], m.actuator_ctrlrange[vc, 1]
-    stroke = np.array([max(abs(m.jnt_range[_joint(m, f"pm_{a}")])) for a in ctrl_axes])
-    stroke = np.where(stroke > 0, stroke, np.inf)
-    pm_dof = np.array([m.jnt_dofadr[_joint(m, f"pm_{a}")] for a in ctrl_axes], int)
+    vc, pm_adr, pm_dof, lo, hi, stroke = _proof_masses(m, ctrl_axes)
     shake_idx, shake_f = _shaker_forces(m, shaker, n, hw.fs)
     shake0 = ctrl0[shake_idx]
 

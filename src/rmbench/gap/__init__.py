@@ -11,17 +11,19 @@ unmodelled effect causes it, and how far the gap shrinks once that effect is in 
     from rmbench.gap import diagnose_tracker, tracker_data   # laser-tracker readings
     dg = diagnose_tracker("mh180", tracker_data(read_tracker_csv("readings.csv"), robot=...))
     dg.verdict, [s.name for s in dg.chosen], dg.heldout_before, dg.heldout_after
+
+Layout: one engine per data kind, :mod:`rmbench.gap.frf` and :mod:`rmbench.gap.tracker`, around
+the selection engine they share (:mod:`rmbench.gap.selection`: significance, information criteria,
+bootstrap shrink and confidence); the blind cases and the real robot in :mod:`rmbench.gap.cases`;
+figures in :mod:`rmbench.gap.plot`.
 """
 
 from rmbench.calibrate.design import SensorOffset, TestDesign
-from rmbench.gap.diagnosis import Diagnosis, DiagnosisSettings, EffectResult, diagnose, load_data
-from rmbench.gap.effects import KINDS, Change, Effect, Param, library
 from rmbench.calibrate.measured import GapDataWarning, MeasuredModes, measured_data
-from rmbench.gap.model import ModelBench, ModelModes
-from rmbench.gap.sources import PoseModel, Source, source_library
-from rmbench.gap.tracker import (FittedPose, PoseErrorMap, SourceResult, TrackerData,
-                                 TrackerDiagnosis, TrackerSettings, diagnose_tracker, tracker_data)
-from rmbench.gap.where import GapMap, gap_map
+from rmbench.gap.frf import (KINDS, Change, Diagnosis, DiagnosisSettings, Effect, EffectResult, GapMap, ModelBench,
+                             ModelModes, Param, diagnose, gap_map, library, load_data)
+from rmbench.gap.tracker import (FittedPose, PoseErrorMap, PoseModel, Source, SourceResult, TrackerData,
+                                 TrackerDiagnosis, TrackerSettings, diagnose_tracker, source_library, tracker_data)
 
 __all__ = ["diagnose", "Diagnosis", "DiagnosisSettings", "EffectResult", "load_data",
            "TestDesign", "SensorOffset", "Effect", "Param", "Change", "library", "KINDS",

@@ -19,6 +19,8 @@ import numpy as np
 from scipy.stats import chi2 as chi2_dist
 from scipy.stats import norm
 
+from rmbench.errors import InputError
+
 __all__ = ["SearchSettings", "significant", "bic", "selection_weights", "confidences", "bootstrap_shrink"]
 
 
@@ -45,6 +47,16 @@ class SearchSettings:
     p_noise: float = 1e-3
     bootstrap: int = 400
     kinds: tuple | None = None
+
+    def __post_init__(self):
+        if not 0 < self.heldout < 1:
+            raise InputError(f"heldout must be between 0 and 1, got {self.heldout!r}")
+        if not 0 < self.p_noise < 1:
+            raise InputError(f"p_noise must be between 0 and 1, got {self.p_noise!r}")
+        if self.refine < 1:
+            raise InputError(f"refine must be 1 or more, got {self.refine!r}")
+        if self.bootstrap < 0:
+            raise InputError(f"bootstrap must be 0 or more, got {self.bootstrap!r}")
 
 
 def significant(chi2: float, n: int, *, p: float = 1e-3, peak: float | None = None) -> bool:

@@ -200,11 +200,9 @@ class PartStore:
         cfg = self.cfg
         parts = [self.read(i) for i in range(self.n)]
         bands = list(cfg.bands)
-        freq_b = {}
-        for b in bands:
-            from rmbench.impact.measure import band_lines
+        from rmbench.impact.measure import band_lines
 
-            freq_b[b] = band_lines(cfg.bands[b])
+        freq_b = {b: band_lines(cfg.bands[b]) for b in bands}
         freq = np.concatenate([freq_b[b] for b in bands])
         band_coord = np.concatenate([[b] * len(freq_b[b]) for b in bands])
         shape = (self.n, len(freq), 4, 4)
@@ -232,22 +230,8 @@ class PartStore:
                     else:
                         tables[(b, k)].append(None)
                 start += n_b
-        modal, mode_band = {}, []
-        for k in ("modes", "modes_bare"):
-            pos = posture_positions([p.x for p in postures], [p.y for p in postures],
-                                    [p.theta for p in postures])
-            blocks = [track_modes(tables[(b, k)], pos) for b in bands]
-            modal[k] = np.concatenate(blocks, axis=1) if blocks else np.zeros((self.n, 0, 16))
-            if k == "modes":
-                mode_band = np.concatenate([[b] * blk.shape[1] for b, blk in zip(bands, blocks)])
-        # the bare and as-tested sets may differ in count; pad to a common mode axis
-        n_modes = max(modal["modes"].shape[1], modal["modes_bare"].shape[1])
-        for k in modal:
-            pad = n_modes - modal[k].shape[1]
-            if pad:
-                modal[k] = np.concatenate([modal[k], np.full((self.n, pad, 16), np.nan)], axis=1)
-        if len(mode_band) < n_modes:
-            mode_band = np.concatenate([mode_band, ["?"] * (n_modes - len(mode_band))])
+        modal, mode_band = _tracked_modes(tables, postures, bands, self.n)
+        n_modes = modal["modes"].shape[1]
         joints = list(robot.arm_joints) if n_joint else []
         ds = xr.Dataset(
             {
@@ -279,29 +263,56 @@ class PartStore:
                 "param": list(PARAMS),
             },
         )
-        ds["H"].attrs.update(units="m/N", long_name="measured receptance (H1)")
-        ds["H_exact"].attrs.update(units="m/N", long_name="exact receptance as tested")
-        ds["H_exact_bare"].attrs.update(units="m/N", long_name="exact receptance without sensors")
-        ds["x"].attrs["units"] = "m"
-        ds["y"].attrs["units"] = "m"
-        ds["theta"].attrs["units"] = "rad"
-        ds["freq"].attrs["units"] = "Hz"
-        ds["q_cmd"].attrs["units"] = "rad"
-        robot_name = cfg.robot.name
-        ds.attrs.update(
-            rmbench_version=__version__, rmbench_dataset_version=DATASET_VERSION,
-            created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-            config=toml or cfg.model_dump_json(), config_digest=cfg.digest, seed=cfg.seed, method=cfg.method,
-            robot=robot_name, commands_from=cfg.robot.commands_from or robot_name,
-            tool=str(cfg.robot.tool), table_z=float(robot.table_z),
-            sensor_spacing_low=1e-3 * cfg.bands["low"].s_1a_mm if "low" in cfg.bands else np.nan,
-            sensor_spacing_high=1e-3 * cfg.bands["high"].s_1a_mm if "high" in cfg.bands else np.nan,
-            receptance_from="accelerance (high band), displacement (low band)", upstream="",
-            software=_versions())
+        _annotate(ds, cfg, toml, robot)
         return ds
 
     def remove(self) -> None:
         shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def _tracked_modes(tables: dict, postures, bands, n: int) -> tuple[dict, np.ndarray]:
+    """The exact modes as tested and bare, each tracked over the postures per band
+    (``{"modes" | "modes_bare": (n, n_modes, 16)}``, padded to a common mode count), and each
+    mode's band."""
+    modal, mode_band = {}, []
+    pos = posture_positions([p.x for p in postures], [p.y for p in postures], [p.theta for p in postures])
+    for k in ("modes", "modes_bare"):
+        blocks = [track_modes(tables[(b, k)], pos) for b in bands]
+        modal[k] = np.concatenate(blocks, axis=1) if blocks else np.zeros((n, 0, 16))
+        if k == "modes":
+            mode_band = np.concatenate([[b] * blk.shape[1] for b, blk in zip(bands, blocks)])
+    # the bare and as-tested sets may differ in count; pad to a common mode axis
+    n_modes = max(modal["modes"].shape[1], modal["modes_bare"].shape[1])
+    for k in modal:
+        pad = n_modes - modal[k].shape[1]
+        if pad:
+            modal[k] = np.concatenate([modal[k], np.full((n, pad, 16), np.nan)], axis=1)
+    if len(mode_band) < n_modes:
+        mode_band = np.concatenate([mode_band, ["?"] * (n_modes - len(mode_band))])
+    return modal, np.asarray(mode_band)
+
+
+def _annotate(ds: xr.Dataset, cfg, toml: str, robot) -> None:
+    """Units of the variables and coordinates, and the campaign's provenance in the attributes."""
+    ds["H"].attrs.update(units="m/N", long_name="measured receptance (H1)")
+    ds["H_exact"].attrs.update(units="m/N", long_name="exact receptance as tested")
+    ds["H_exact_bare"].attrs.update(units="m/N", long_name="exact receptance without sensors")
+    ds["x"].attrs["units"] = "m"
+    ds["y"].attrs["units"] = "m"
+    ds["theta"].attrs["units"] = "rad"
+    ds["freq"].attrs["units"] = "Hz"
+    ds["q_cmd"].attrs["units"] = "rad"
+    robot_name = cfg.robot.name
+    ds.attrs.update(
+        rmbench_version=__version__, rmbench_dataset_version=DATASET_VERSION,
+        created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        config=toml or cfg.model_dump_json(), config_digest=cfg.digest, seed=cfg.seed, method=cfg.method,
+        robot=robot_name, commands_from=cfg.robot.commands_from or robot_name,
+        tool=str(cfg.robot.tool), table_z=float(robot.table_z),
+        sensor_spacing_low=1e-3 * cfg.bands["low"].s_1a_mm if "low" in cfg.bands else np.nan,
+        sensor_spacing_high=1e-3 * cfg.bands["high"].s_1a_mm if "high" in cfg.bands else np.nan,
+        receptance_from="accelerance (high band), displacement (low band)", upstream="",
+        software=_versions())
 
 
 def save(ds: xr.Dataset, path: str | Path) -> Path:

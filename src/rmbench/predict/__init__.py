@@ -20,9 +20,11 @@ from rmbench.predict.cv import CVScores, cross_validate, folds_of, validate_pred
 from rmbench.predict.data import TrainingSet, training_set
 from rmbench.predict.gp import MTGP, STGP
 from rmbench.predict.mtgp import GroupedMTGP, seed_groups
-from rmbench.predict.predictor import SAVEABLE, ExtrapolationWarning, PosturePredictor, predicted_frf
+from rmbench.predict.predictor import (SAVEABLE, ExtrapolationWarning, PosturePredictor, frf_lines, predicted_frf,
+                                      predicted_frf_dataset)
 
 __all__ = ["training_set", "TrainingSet", "cross_validate", "CVScores", "folds_of", "validate_predictor",
            "IDWNeighbours", "PerTask", "make_learner", "LEARNERS", "MULTI_TASK", "STGP", "MTGP",
-           "GroupedMTGP", "seed_groups", "PosturePredictor", "predicted_frf", "ExtrapolationWarning",
+           "GroupedMTGP", "seed_groups", "PosturePredictor", "predicted_frf", "predicted_frf_dataset", "frf_lines",
+           "ExtrapolationWarning",
            "SAVEABLE"]

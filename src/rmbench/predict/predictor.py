@@ -580,3 +580,22 @@ def predicted_frf(pred: xr.Dataset, freq, posture: int | None = None, *, band: s
             h = h + residual[p]
         out.append(h)
     return out[0] if posture is not None else np.stack(out)
+
+
+def frf_lines() -> np.ndarray:
+    """The default lines of a predicted FRF, Hz: 2-60 Hz every 0.05 Hz and 500-1500 Hz every
+    0.5 Hz (both campaign bands with margin, finer than their lines), shape (3160,)."""
+    return np.concatenate([np.arange(2.0, 60.0, 0.05), np.arange(500.0, 1500.0, 0.5)])
+
+
+def predicted_frf_dataset(pred: xr.Dataset, *, freq=None, model: str = "", source: str = "") -> xr.Dataset:
+    """The receptance matrices of a prediction (:func:`predicted_frf`) as a dataset with the
+    postures' coordinates, on ``freq`` (Hz; default :func:`frf_lines`); ``model`` and ``source``
+    (the predictor's kind and file) go into the attributes."""
+    freq = frf_lines() if freq is None else np.asarray(freq, float)
+    H = predicted_frf(pred, freq)
+    return xr.Dataset({"H": (("posture", "freq", "out", "inp"), H)},
+                      coords={"posture": pred.posture.values, "x": ("posture", pred["x"].values),
+                              "y": ("posture", pred["y"].values), "theta": ("posture", pred["theta"].values),
+                              "freq": freq, "out": list(COORDS), "inp": list(COORDS)},
+                      attrs={"kind": "predicted_frf", "units": "m/N", "model": model, "predictor": source})

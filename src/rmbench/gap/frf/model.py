@@ -17,7 +17,7 @@ import numpy as np
 
 from rmbench.calibrate.modes import ModelModes, modes_seen
 from rmbench.errors import RmbenchError
-from rmbench.gap.effects import Change
+from rmbench.gap.frf.effects import Change
 from rmbench.impact.measure import hammer_rows
 from rmbench.impact.sensors import COORDS
 from rmbench.robot import Posture, Robot

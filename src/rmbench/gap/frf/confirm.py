@@ -1,6 +1,6 @@
 """A structural candidate confirmed by a full recalibration with it in place.
 
-The joint search (:mod:`rmbench.gap.joint`) lets the calibrated ordinary parameters follow a
+The joint search (:mod:`rmbench.gap.frf.joint`) lets the calibrated ordinary parameters follow a
 candidate to first order. A large structural effect (a tool holder five times softer, a foundation
 that slides) pulls the calibration far from the truth before the search starts, and a first-order
 move back from there falls short: the candidate closes most of the gap but not all of it, and the
@@ -20,8 +20,15 @@ it.
 A candidate explains the gap when its recalibrated model's held-out residual is noise (the
 selection engine's test) and it closes at least ``min_shrink`` of the null's held-out rms gap.
 Candidates are scored on the held-out postures only, with the parameters their training fit
-chose. Kinds that map onto no parameter of the model (sensor placement, a spinning spindle,
-load-dependent stiffness) keep the joint search's verdict.
+chose.
+
+A sensor's placement maps onto no model parameter but onto the test design: a sensor candidate
+is confirmed at the size the joint search fitted it (a turned sensor's angle is found there to a
+few hundredths of a degree, since it rotates the mode shapes the ordinary parameters cannot), the
+calibration run again from the nominal on the data read through the corrected design, and scored
+through it. A sensor error the first calibration had bent the ordinary parameters to meet
+(mode shapes it could not turn) is then no longer in the way. Kinds that map onto neither (a
+spinning spindle, load-dependent stiffness) keep the joint search's verdict.
 """
 
 from __future__ import annotations
@@ -31,14 +38,18 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rmbench.gap.effects import Change, Effect
-from rmbench.gap.model import ModelBench
-from rmbench.gap.search import Objective, _peak
+from rmbench.gap.frf.effects import Change, Effect
+from rmbench.gap.frf.model import ModelBench
+from rmbench.gap.frf.search import Objective, peak_residual
 from rmbench.gap.selection import significant
 
-__all__ = ["CONFIRMABLE", "Confirmed", "confirmable", "confirm"]
+__all__ = ["CONFIRMABLE", "DESIGN_KINDS", "Confirmed", "confirmable", "confirm"]
 
-CONFIRMABLE = ("tool_contact_stiffness", "spindle_stiffness", "base_compliance", "added_mass")
+CONFIRMABLE = ("tool_contact_stiffness", "spindle_stiffness", "base_compliance", "added_mass",
+               "sensor_misplacement", "sensor_misalignment")
+
+# kinds confirmed through the test design at the joint search's size, not by a freed parameter
+DESIGN_KINDS = ("sensor_misplacement", "sensor_misalignment")
 
 
 @dataclass(frozen=True)
@@ -59,7 +70,7 @@ class Confirmed:
     chi2_held_posture : ndarray
         Held-out χ² of each held-out posture.
     objective : Objective
-        The held-out objective on the recalibrated model (unchanged: ``Change()``).
+        The held-out objective on the recalibrated model, read with ``change``.
     significant : bool
         The held-out residual is above the noise.
     seconds : float
@@ -68,6 +79,8 @@ class Confirmed:
         The parameters fitted without a prior (the candidate's).
     rounds : int
         Recalibrations run, each continuing the last (see :func:`confirm`'s ``min_shrink``).
+    change : Change
+        The test design's correction a sensor candidate reads the data through (null otherwise).
     """
 
     effect: Effect | None
@@ -83,6 +96,7 @@ class Confirmed:
     seconds: float
     freed: tuple = ()
     rounds: int = 1
+    change: Change = Change()
 
     @property
     def name(self) -> str:
@@ -119,17 +133,26 @@ class _Terms:
     free: tuple            # parameters to fit without a prior
     groups: tuple          # the calibration's groups (the base group added for a tilt)
     values: object         # callable: {name: u} of the recalibration -> the effect's values
+    change: Change = Change()   # the test design's correction (a sensor candidate's)
 
 
 def confirmable(effect: Effect) -> bool:
-    """Whether the effect maps onto model parameters a calibration can fit."""
+    """Whether the effect maps onto model parameters a calibration can fit, or onto the test
+    design it reads the data through."""
     return effect.kind in CONFIRMABLE
 
 
-def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal) -> _Terms:
+def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=None) -> _Terms:
     """The candidate's parameters (added where the first calibration, of ``cal_u``, lacks them),
-    and its size read back from a recalibration in the effect's units, relative to the nominal."""
+    and its size read back from a recalibration in the effect's units, relative to the nominal.
+    A sensor candidate frees nothing: it is held at ``size`` (its joint-search fit, in the
+    effect's units) as a correction of the test design."""
     k = effect.kind
+    if k in DESIGN_KINDS:
+        if size is None:
+            raise ValueError(f"{effect.name} is confirmed at a fitted size: none given")
+        v = np.asarray(size, float)
+        return _Terms((), (), groups, lambda u: v, change=effect.change(v))
     if k in ("tool_contact_stiffness", "spindle_stiffness"):
         stem = "tool_contact" if k == "tool_contact_stiffness" else "spindle"
         names = (f"{stem}.translation", f"{stem}.rotation") if stem == "tool_contact" else \
@@ -153,7 +176,7 @@ def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal) -> _Terms:
 
 def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, bands, held, settings,
             max_iter: int = 8, p_noise: float = 1e-3, min_shrink: float = 0.5, accept=None,
-            need_gap: bool = True, progress=None) -> tuple:
+            need_gap: bool = True, sizes=None, progress=None) -> tuple:
     """The null recalibration and one per candidate, each scored on the held-out postures.
 
     Parameters
@@ -195,6 +218,8 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
         False: run the candidates even where the null reaches the noise (an ordinary parameter
         that ended on its bound: the calibration reached the data only by pushing it to the edge
         of its spread, and the candidate asks whether it lies beyond).
+    sizes : dict, optional
+        ``{effect name: values}``: the joint search's fitted size of each sensor candidate.
 
     Returns
     -------
@@ -210,7 +235,11 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
 
     def run(effect, prev: Confirmed | None = None):
         t0 = time.perf_counter()
-        terms = None if effect is None else _terms(effect, cal_u, tuple(settings.groups), nominal)
+        terms = None if effect is None else _terms(effect, cal_u, tuple(settings.groups), nominal,
+                                                    (sizes or {}).get(effect.name))
+        change = Change() if terms is None else terms.change
+        # a sensor candidate: the data read through the corrected design
+        used = data if change.is_null() else replace(data, design=data.design.with_offsets(change.offsets))
         if prev is not None:            # a continuation
             start, iters = dict(zip([p.name for p in prev.calibration.params],
                                     np.asarray(prev.calibration.u, float))), max_iter
@@ -225,22 +254,23 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
         s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
                     max_iter=iters, extra=() if terms is None else terms.extra,
                     free=() if terms is None else terms.free)
-        cal = calibrate(nominal, data, held=held_data, settings=s, start=start)
+        cal = calibrate(nominal, used, held=held_data, settings=s, start=start)
         robot = Robot(cal.xml, name=nominal.name, tool=nominal.tool, spindle_rpm=nominal.spindle_rpm)
         bench = ModelBench(robot, data.design, q_cmd)
         obj = Objective(bench, meas, frf, bands, held)
-        e = obj.vector(Change())
-        per = obj.per_posture(Change())
+        e = obj.vector(change)
+        per = obj.per_posture(change)
         out_values = None
         if terms is not None:
             u = dict(zip([p.name for p in cal.params], np.asarray(cal.u, float)))
             out_values = terms.values(u)
         chi2 = float(e @ e)
         c = Confirmed(effect=effect, values=out_values, calibration=cal, robot=robot, chi2_held=chi2,
-                      n_held=obj.n, peak_held=_peak(e), chi2_held_posture=np.asarray(per), objective=obj,
-                      significant=significant(chi2, obj.n, p=p_noise, peak=_peak(e)),
+                      n_held=obj.n, peak_held=peak_residual(e), chi2_held_posture=np.asarray(per), objective=obj,
+                      significant=significant(chi2, obj.n, p=p_noise, peak=peak_residual(e)),
                       seconds=round(time.perf_counter() - t0 + (0 if prev is None else prev.seconds), 1),
-                      freed=() if terms is None else terms.free, rounds=1 if prev is None else prev.rounds + 1)
+                      freed=() if terms is None else terms.free, rounds=1 if prev is None else prev.rounds + 1,
+                      change=change)
         say(f"recalibrated with {c.name}: held-out χ²/residual {chi2 / max(obj.n, 1):.3g}"
             + (" (noise)" if not c.significant else ""))
         return c

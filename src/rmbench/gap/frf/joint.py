@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rmbench.calibrate.residual import FRF_SEGMENTS
-from rmbench.gap.search import Objective
+from rmbench.gap.frf.search import Objective
 
 __all__ = ["Ordinary", "JointObjective"]
 
@@ -72,7 +72,7 @@ class Ordinary:
 
 
 class JointObjective(Objective):
-    """An :class:`~rmbench.gap.search.Objective` (modal residuals only) whose ordinary parameters
+    """An :class:`~rmbench.gap.frf.search.Objective` (modal residuals only) whose ordinary parameters
     follow every change to first order.
 
     Parameters
@@ -94,6 +94,10 @@ class JointObjective(Objective):
 
     def subset(self, postures) -> "JointObjective":
         return JointObjective(self.bench, self.meas, self.frf, self.bands, postures, self.ordinary)
+
+    def rebound(self, bench, fitted_on=None) -> "JointObjective":
+        return JointObjective(bench, self.meas, self.frf, self.bands, self.postures, self.ordinary,
+                              fitted_on=fitted_on if self.fitted_on is not None else None)
 
     def delta(self, change) -> np.ndarray:
         """The ordinary parameters' move (prior σ) with ``change`` (this objective's fit)."""

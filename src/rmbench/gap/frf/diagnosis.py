@@ -13,7 +13,6 @@ the gap shrinks once the effect is in the model (METHODS.md §11).
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -22,17 +21,18 @@ import xarray as xr
 
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.calibrate.design import TestDesign
-from rmbench.gap.effects import Change, Effect, library
+from rmbench.gap.frf.effects import Change, library
 from rmbench.calibrate.measured import fit_measured, frf_targets, measured_data, postures_of
-from rmbench.gap.model import ModelBench
+from rmbench.gap.frf.model import ModelBench
 from rmbench.calibrate.residual import mode_residuals
-from rmbench.gap.search import _GRID_PAIR, Fitted, Objective, Refiner, _peak, per_posture_chi2
+from rmbench.gap.frf.search import GRID_PAIR, Fitted, Objective, Refiner, peak_residual, per_posture_chi2
 from rmbench.gap.jsonable import write_whole
 from rmbench.gap.selection import SearchSettings, bootstrap_shrink, confidences, selection_weights, significant
-from rmbench.gap.where import GapMap, gap_map
+from rmbench.gap.frf.where import GapMap, gap_map
 from rmbench.io.strict_json import strict_dumps
 
-__all__ = ["diagnose", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings", "structural_kinds"]
+__all__ = ["diagnose", "diagnose_modes", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings",
+           "SearchData", "structural_kinds"]
 
 _DB = 20 / np.log(10)
 
@@ -59,7 +59,7 @@ class DiagnosisSettings(SearchSettings):
         model, for the structural effects only (the library's kinds other than the gearboxes',
         their damping's and the servos': a foundation or tool holder far outside its ordinary
         spread stays a candidate), each fitted jointly with the ordinary parameters
-        (:mod:`rmbench.gap.joint`).
+        (:mod:`rmbench.gap.frf.joint`).
     min_shrink : float
         Least held-out shrink of the rms normalised gap for an effect to be called the
         explanation: one that brings the gap to the noise only because the gap was small
@@ -68,7 +68,7 @@ class DiagnosisSettings(SearchSettings):
         With ``calibrate``, when the joint search explains nothing: how many of the kinds that
         map onto model parameters (tool holder, spindle bearings, foundation, a body's mass) are
         confirmed by a full recalibration with their best candidate in place, against a null
-        recalibration (:mod:`rmbench.gap.confirm`); 0 for none.
+        recalibration (:mod:`rmbench.gap.frf.confirm`); 0 for none.
     """
 
     pairs_of: int = 3
@@ -172,7 +172,7 @@ class Diagnosis:
         With ``settings.calibrate``: the calibrated MJCF the structural search ran on.
     confirmation : dict or None
         With ``settings.confirm``: the null recalibration and each confirmed candidate's held-out
-        χ², noise test and shrink against the null (:mod:`rmbench.gap.confirm`).
+        χ², noise test and shrink against the null (:mod:`rmbench.gap.frf.confirm`).
     """
 
     verdict: str
@@ -342,8 +342,9 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
                                                           held, settings, workers, say, data)
         bench = ModelBench(robot, design, bench.q_cmd)
         t["calibrate"] = time.perf_counter()
-    dg = _diagnose(robot, design, bench, meas, frf, bands, _xyt(ds), ds, train, held, settings,
-                   workers, say, t, ordinary=ordinary)
+    data = SearchData(robot, design, bench, tuple(meas), None if frf is None else tuple(frf), tuple(bands),
+                      _xyt(ds), ds, tuple(train), tuple(held))
+    dg = _diagnose(data, settings, workers, say, t, ordinary=ordinary)
     if calibration is None:
         return dg
     from dataclasses import replace
@@ -367,7 +368,7 @@ _COVERED = {"joints": "joint_stiffness", "damping": "joint_damping", "servo": "s
 
 def structural_kinds(groups) -> tuple:
     """The library's kinds left to search once ``groups`` are calibrated."""
-    from rmbench.gap.effects import KINDS
+    from rmbench.gap.frf.effects import KINDS
 
     covered = {_COVERED[g] for g in groups if g in _COVERED}
     return tuple(k for k in KINDS if k not in covered)
@@ -375,11 +376,11 @@ def structural_kinds(groups) -> tuple:
 
 def _calibrated(robot, design, postures, meas, frf, bands, train, held, settings, workers, say, data):
     """The nominal calibrated on the training postures: the calibrated robot, the calibration's
-    account, its parameters linearised (:class:`~rmbench.gap.joint.Ordinary`) and the
+    account, its parameters linearised (:class:`~rmbench.gap.frf.joint.Ordinary`) and the
     :class:`~rmbench.calibrate.Calibration` itself (with the modal data it was fitted to, in
     training-then-held-out order, as ``(cal, data)``)."""
     from rmbench.calibrate import CalibrationSettings, ModalData, calibrate, linearisation
-    from rmbench.gap.joint import Ordinary
+    from rmbench.gap.frf.joint import Ordinary
     from rmbench.robot import Robot
 
     name = data.name if isinstance(data, Path) else (Path(data).name if isinstance(data, str) else "dataset")
@@ -401,13 +402,13 @@ def _calibrated(robot, design, postures, meas, frf, bands, train, held, settings
 def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, bands, train, held, ds, settings,
                say, t) -> Diagnosis:
     """The diagnosis after the confirmable candidates were recalibrated in place, best-ranked
-    first (:mod:`rmbench.gap.confirm`): explained by the first whose held-out residual is noise,
+    first (:mod:`rmbench.gap.frf.confirm`): explained by the first whose held-out residual is noise,
     that closes ``min_shrink`` of the baseline's held-out gap and that left its ordinary spread;
     "no significant gap" when the null recalibration alone reaches the noise; otherwise
     unexplained as before."""
     from dataclasses import replace
 
-    from rmbench.gap.confirm import confirm
+    from rmbench.gap.frf.confirm import confirm
 
     cal, sub, cal_settings = first
     # the search's library: the calibrated robot's (a lateral-only foundation where the
@@ -415,6 +416,7 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
     lib = {e.name: e for e in library(calibrated, sub.design)}
     pinned = _pinned(cal, lib)
     gap = dg.verdict == "unexplained"
+    sizes = _fitted_sizes(dg.models)
     if gap:
         picks = _confirm_picks(dg.models, lib, settings.confirm)
         picks += [e for e in pinned if e not in picks]
@@ -446,7 +448,8 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
         say("on a bound of their spread after calibration, confirmed freed: " + ", ".join(e.name for e in pinned))
     null, done = confirm(nominal, sub, held_sub, cal, picks, q_cmd=q_cmd, meas=meas, frf=frf, bands=bands,
                          held=held, settings=cal_settings, p_noise=settings.p_noise,
-                         min_shrink=settings.min_shrink, accept=explains, need_gap=gap, progress=say)
+                         min_shrink=settings.min_shrink, accept=explains, need_gap=gap, sizes=sizes,
+                         progress=say)
     t["confirm"] = time.perf_counter()
     if null.chi2_held <= first_chi2:
         base = null
@@ -484,7 +487,7 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
                                 n_units, [0] + [c.effect.n_params for c in done])
     conf = float(weights[1 + done.index(best)])
     shrink, interval = bootstrap_shrink(base.chi2_held_posture, best.chi2_held_posture, settings.bootstrap)
-    before, after = _metrics(base.objective, ds, Change()), _metrics(best.objective, ds, Change())
+    before, after = _metrics(base.objective, ds, Change()), _metrics(best.objective, ds, best.change)
     top = EffectResult(name=best.effect.name, kind=best.effect.kind, location=best.effect.location,
                        params=best.effect.params_dict(best.values), description=best.effect.describe(best.values),
                        heldout_before=before, heldout_after=after, shrink=shrink, shrink_interval=interval,
@@ -499,21 +502,23 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
                      f"bound of the spread (training objective {null.train_objective:.3g}, data and prior); with "
                      f"{best.effect.name} freed it is {best.train_objective:.3g} and the size lies beyond the "
                      "spread: the held-out shrink is small because the calibration had mimicked the effect")
+    design_changes = (best.effect.describe(best.values),) if not best.change.is_null() else ()
     return replace(dg, verdict="explained", effects=(top,) + rest, variant_xml=best.calibration.xml,
-                   notes=tuple(notes), confirmation=record, seconds=_seconds(t),
+                   design_changes=design_changes, notes=tuple(notes), confirmation=record, seconds=_seconds(t),
                    localisation=dg.where.describe())
 
 
 def _confirm_picks(models, lib: dict, n: int) -> list:
     """The candidates to confirm: the best-scored refined single of each confirmable kind (the
-    tool holder, the spindle bearings, the foundation, a body's mass), then the kinds no refined
-    single stands for, at most ``n``.
+    tool holder, the spindle bearings, the foundation, a body's mass, a sensor's placement), then
+    the kinds no refined single stands for (not a sensor: it is confirmed at its fitted size), at
+    most ``n``.
 
     One per kind rather than the best few overall: after a calibration has moved the ordinary
     parameters to mimic a structural effect, the first-order search can rank that effect below
     the others (a sliding foundation's sway is what the first joints' stiffness and the base's
     tilt mimic best), and the recalibration is what can tell them apart."""
-    from rmbench.gap.confirm import confirmable
+    from rmbench.gap.frf.confirm import DESIGN_KINDS, confirmable
 
     best = {}
     for m in models:
@@ -527,10 +532,19 @@ def _confirm_picks(models, lib: dict, n: int) -> list:
             best[effect.kind] = (m["score"], effect)
     picks = [e for _, e in sorted(best.values(), key=lambda x: x[0])]
     for effect in lib.values():
-        if confirmable(effect) and effect.kind != "added_mass" and effect.kind not in best:
+        # a sensor is confirmed at its fitted size: only a refined one
+        if (confirmable(effect) and effect.kind not in ("added_mass",) + DESIGN_KINDS
+                and effect.kind not in best):
             best[effect.kind] = (np.inf, effect)
             picks.append(effect)
     return picks[:n]
+
+
+def _fitted_sizes(models) -> dict:
+    """``{effect name: values}`` of every refined single (the size a sensor candidate is
+    confirmed at), in the effect's units."""
+    return {name: np.array(list(values.values()), float)
+            for m in models if len(m["params"]) == 1 for name, values in m["params"].items()}
 
 
 # ordinary parameters that stand for a confirmable structural effect when they end on a bound of
@@ -627,33 +641,98 @@ def _within_spread(c, nominal, groups) -> bool:
     return bool(shared) and all(bounds[n][0] <= u[n] <= bounds[n][1] for n in shared)
 
 
-def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, settings, workers,
-              say, t, notes=(), ordinary=None) -> Diagnosis:
+@dataclass(frozen=True)
+class SearchData:
+    """What the search runs on, once the data are in.
+
+    Attributes
+    ----------
+    robot : Robot
+        The model searched from (the nominal, or the calibrated one).
+    design : TestDesign
+    bench : ModelBench
+        ``robot`` under ``design`` at the measured postures.
+    meas : tuple of dict
+        Per posture, ``{band: MeasuredModes}``.
+    frf : tuple of dict or None
+        Per posture, ``{band: FrfTarget}``; None for modes alone (a modal table).
+    bands : tuple of str
+    xyt : ndarray, shape (n_postures, 3)
+        Posture coordinates (x, y m; θ rad) of the gap map.
+    ds : xarray.Dataset or None
+        The measured FRFs (None for a modal table).
+    train, held : tuple of int
+        Posture indices the candidates are fitted on and scored on.
+    """
+
+    robot: object
+    design: TestDesign
+    bench: ModelBench
+    meas: tuple
+    frf: tuple | None
+    bands: tuple
+    xyt: np.ndarray
+    ds: object
+    train: tuple
+    held: tuple
+
+
+def diagnose_modes(robot, postures, meas, *, design: TestDesign, train, held, bands=("low", "high"),
+                   settings: DiagnosisSettings = DiagnosisSettings(), workers: int | None = None,
+                   notes=(), bench: ModelBench | None = None, progress=None) -> Diagnosis:
+    """The search on measured modes alone (a modal table, no FRFs), on a split the caller chose.
+
+    Parameters
+    ----------
+    robot : Robot
+    postures : sequence of Posture
+    meas : sequence of dict
+        Per posture, ``{band: MeasuredModes}``.
+    design : TestDesign
+        The test design the modes were measured under.
+    train, held : sequence of int
+        Posture indices to fit the candidates on and to score them on.
+    notes : sequence of str
+        Carried into the diagnosis's notes (which fold this is, say).
+    bench : ModelBench, optional
+        ``robot`` under ``design`` at ``postures``, to share its caches between calls (folds).
+    """
+    bench = bench if bench is not None else ModelBench.commanded(robot, design, list(postures))
+    xyt = np.array([[p.x, p.y, p.theta] for p in postures])
+    data = SearchData(robot, design, bench, tuple(meas), None, tuple(bands), xyt, None, tuple(train),
+                      tuple(held))
+    return _diagnose(data, settings, workers, progress or (lambda msg: None), {"start": time.perf_counter()},
+                     notes=notes)
+
+
+def _diagnose(data: SearchData, settings, workers, say, t, notes=(), ordinary=None) -> Diagnosis:
     """The search, once the data are in: nominal gap, screening, refinement, pairs, verdict.
 
     With ``ordinary`` (a calibration's parameters, linearised) every candidate is fitted jointly
-    with them on the modal residuals (:mod:`rmbench.gap.joint`)."""
+    with them on the modal residuals (:mod:`rmbench.gap.frf.joint`)."""
+    robot, design, bench, meas, frf, bands = data.robot, data.design, data.bench, data.meas, data.frf, data.bands
+    xyt, ds, train, held = data.xyt, data.ds, data.train, data.held
     n = bench.n_postures
     if ordinary is None:
         obj_all = Objective(bench, meas, frf, bands, range(n))
         obj_train = Objective(bench, meas, frf, bands, train)
         obj_held = Objective(bench, meas, frf, bands, held)
     else:
-        from rmbench.gap.joint import JointObjective
+        from rmbench.gap.frf.joint import JointObjective
 
         obj_train = JointObjective(bench, meas, frf, bands, train, ordinary)
         obj_held = JointObjective(bench, meas, frf, bands, held, ordinary, fitted_on=obj_train)
         obj_all = JointObjective(bench, meas, frf, bands, range(n), ordinary, fitted_on=obj_train)
     nominal_change = Change()
     e_all = obj_all.vector(nominal_change)
-    chi2_all, peak_all = float(e_all @ e_all), _peak(e_all)
+    chi2_all, peak_all = float(e_all @ e_all), peak_residual(e_all)
     where = gap_map(bench, meas, ds, bands, nominal_change, xyt, averages=design.averages(),
                     scatter=design.direction_scatter())
     t["where"] = time.perf_counter()
     say("gap map")
     e_held = obj_held.vector(nominal_change)
     nom = Fitted((), (), obj_train.chi2(nominal_change), float(e_held @ e_held),
-                 obj_train.n, obj_held.n, peak_held=_peak(e_held),
+                 obj_train.n, obj_held.n, peak_held=peak_residual(e_held),
                  chi2_held_posture=per_posture_chi2(obj_held, e_held))
     notes = list(notes)
     effects = library(robot, design)
@@ -684,25 +763,8 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
         best = min(singles, key=lambda f: f.score)
         explained = _explains(best, nom, settings)
         if not explained and settings.pairs_of > 0:
-            jobs = []
-            # the second effect is screened on every other training posture (the pairs are
-            # refined on all): half the cost, and the screening only has to rank
-            coarse = obj_train.subset(obj_train.postures[::2])
-            for first in _pair_bases(singles, _equivalent(screens)):
-                base = first.change()
-                e1 = coarse.vector(base)
-                others = refiner.screen([e for e in effects if e.name != first.effects[0].name],
-                                        e1, base, grid=_GRID_PAIR, postures=coarse.postures)
-                jobs += [(first.effects + (sc.effect,), first.values + (sc.values,))
-                         for sc in sorted(others, key=lambda s_: s_.chi2)[:settings.pairs_of]]
-            pairs = refiner.run(jobs)
+            singles, pairs = _pairs(refiner, obj_train, effects, singles, screens, settings.pairs_of)
             if pairs:
-                # each effect of the best pair alone, refitted from its value in the pair: a
-                # single's refinement can stall (at a bound, in a local minimum) where the pair's
-                # found the way, and a pair whose second effect does nothing must lose to its first
-                best_pair = min(pairs, key=lambda f: f.score)
-                again = refiner.run([((e,), (v,)) for e, v in zip(best_pair.effects, best_pair.values)])
-                singles = _better_singles(singles, again)
                 scored = [nom] + singles + pairs
                 best = min(singles + pairs, key=lambda f: f.score)
                 explained = _explains(best, nom, settings)
@@ -735,6 +797,32 @@ def _diagnose(robot, design, bench, meas, frf, bands, xyt, ds, train, held, sett
 
 
 # -- helpers -----------------------------------------------------------------------------------
+def _pairs(refiner, obj_train, effects, singles, screens, pairs_of: int) -> tuple[list, list]:
+    """Pairs on the best singles: the second effect screened on top of each base, the best
+    ``pairs_of`` refined with it. Returns the singles (improved where a pair's effect alone,
+    refitted from its value in the pair, beats them) and the pairs."""
+    jobs = []
+    # the second effect is screened on every other training posture (the pairs are refined on
+    # all): half the cost, and the screening only has to rank
+    coarse = obj_train.subset(obj_train.postures[::2])
+    for first in _pair_bases(singles, _equivalent(screens)):
+        base = first.change()
+        e1 = coarse.vector(base)
+        others = refiner.screen([e for e in effects if e.name != first.effects[0].name],
+                                e1, base, grid=GRID_PAIR, postures=coarse.postures)
+        jobs += [(first.effects + (sc.effect,), first.values + (sc.values,))
+                 for sc in sorted(others, key=lambda s_: s_.chi2)[:pairs_of]]
+    pairs = refiner.run(jobs)
+    if pairs:
+        # each effect of the best pair alone, refitted from its value in the pair: a single's
+        # refinement can stall (at a bound, in a local minimum) where the pair's found the way,
+        # and a pair whose second effect does nothing must lose to its first
+        best_pair = min(pairs, key=lambda f: f.score)
+        again = refiner.run([((e,), (v,)) for e, v in zip(best_pair.effects, best_pair.values)])
+        singles = _better_singles(singles, again)
+    return singles, pairs
+
+
 def _explains(best: Fitted, nom: Fitted, settings) -> bool:
     """Whether ``best`` explains the gap: its held-out residual is noise, and it closed at least
     ``settings.min_shrink`` of the held-out rms gap (an effect that tidies up a small gap is no

@@ -9,7 +9,7 @@ the best model's held-out residuals are noise.
 1. **Where** (:class:`PoseErrorMap`): the nominal model's registered error per axis, the share of
    it above the noise, its rms over bins of each joint's angle, and how much of it each joint's
    angle, gravity torque and the harmonics of its angle explain (R² of a linear fit).
-2. **Which**: every source of :func:`~rmbench.gap.sources.source_library` is screened by one
+2. **Which**: every source of :func:`~rmbench.gap.tracker.sources.source_library` is screened by one
    linearised least-squares step on top of the current model; the best few are refined by
    Gauss-Newton (sources and the base registration together) and scored held out; the best joins
    the model while it lowers the held-out score and the residual is not yet noise.
@@ -29,14 +29,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from rmbench.errors import InputError
 from rmbench.gap.jsonable import jsonable, write_whole
-from rmbench.gap.selection import SearchSettings, bic, bootstrap_shrink, confidences, selection_weights, significant
-from rmbench.gap.sources import PoseModel, Source, source_library
+from rmbench.gap.selection import SearchSettings, bootstrap_shrink, confidences, selection_weights, significant
+from rmbench.gap.tracker.data import (TrackerData, check_readings, default_covariance, default_sigma,
+                                      split_readings, tracker_data)
+from rmbench.gap.tracker.engine import Engine, Fit, pruned, signatures
+from rmbench.gap.tracker.sources import PoseModel, Source, source_library
 from rmbench.io.strict_json import strict_dumps
-from rmbench.tracker.chain import skew
 
 _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
 ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")   # what a robot calibration fits
@@ -44,62 +45,6 @@ ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass") 
 __all__ = ["TrackerData", "TrackerSettings", "SourceResult", "PoseErrorMap", "TrackerDiagnosis",
            "FittedPose", "diagnose_tracker", "pose_error_map", "tracker_data", "default_sigma",
            "default_covariance"]
-
-
-@dataclass(frozen=True)
-class TrackerData:
-    """What the diagnosis reads: joint commands, readings and their noise.
-
-    Attributes
-    ----------
-    q : ndarray, shape (n, n_joint), rad
-        Commanded joint angles.
-    measured : ndarray, shape (n, 3), m
-        Tracker readings (tracker frame).
-    location : ndarray of int, shape (n,)
-        Configuration label (repeats share it).
-    sigma : ndarray, shape (n, 3), m
-        Standard deviation of each reading per axis.
-    t : ndarray, shape (n,), s, or None
-        Time stamps.
-    joints : tuple of str
-    temperature : ndarray, shape (n,), °C, or None
-        The robot's temperature at each reading.
-    covariance : ndarray, shape (n, 3, 3), m², or None
-        Full covariance of each reading in the robot's base frame (joint repeatability moves the
-        TCP along one direction per joint: the axes are correlated); residuals are whitened with
-        it, turned into the base frame by the registration, else divided by ``sigma``.
-    """
-
-    q: np.ndarray
-    measured: np.ndarray
-    location: np.ndarray
-    sigma: np.ndarray
-    t: np.ndarray | None = None
-    joints: tuple = ()
-    temperature: np.ndarray | None = None
-    covariance: np.ndarray | None = None
-
-    def whitening(self, rotation=np.eye(3)) -> np.ndarray:
-        """Per reading, W with W Σ Wᵀ = I for the readings' (tracker-frame) errors, shape
-        (n, 3, 3), 1/m; ``rotation`` turns base-frame vectors into the tracker frame."""
-        if self.covariance is None:
-            return np.eye(3)[None] / self.sigma[:, :, None]
-        # Σ_tracker = R Σ Rᵀ = (R L)(R L)ᵀ: W = L⁻¹ Rᵀ
-        return np.linalg.inv(np.linalg.cholesky(self.covariance)) @ np.asarray(rotation).T
-
-    @property
-    def drive_kind(self) -> str | None:
-        """What thermal drift can follow: "temperature", "time" or None."""
-        return "temperature" if self.temperature is not None else ("time" if self.t is not None else None)
-
-    def drive(self, idx=slice(None)) -> np.ndarray | None:
-        """Kelvin above the first reading's temperature, else hours since it (None without)."""
-        if self.temperature is not None:
-            return self.temperature[idx] - self.temperature[0]
-        if self.t is not None:
-            return (self.t[idx] - self.t.min()) / 3600.0
-        return None
 
 
 @dataclass(frozen=True)
@@ -344,256 +289,6 @@ class TrackerDiagnosis:
         return {k: str(v) for k, v in paths.items()}
 
 
-def tracker_data(readings, *, robot=None, sigma=None, repeatability: float = 0.2e-3) -> TrackerData:
-    """The diagnosis's input from :class:`~rmbench.io.tracker_csv.TrackerReadings`.
-
-    ``sigma`` (n, 3), m, overrides the readings' own; without either, the noise of a robot of
-    rated RP ``repeatability`` (m) read by the default tracker is used, with its correlation
-    between axes (:func:`rmbench.tracker.simulator.reading_covariance`, needs ``robot``). Time
-    stamps and temperatures come with the readings when they have them.
-    """
-    s = sigma if sigma is not None else readings.sigma
-    cov = None
-    if s is None:
-        if robot is None:
-            raise InputError("readings carry no sigma columns: give the robot for the default noise")
-        cov = default_covariance(robot, readings.q, readings.measured, repeatability=repeatability)
-        s = np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
-    return TrackerData(np.asarray(readings.q, float), np.asarray(readings.measured, float),
-                       np.asarray(readings.location, int), np.asarray(s, float),
-                       None if readings.t is None else np.asarray(readings.t, float),
-                       tuple(readings.joints),
-                       None if readings.temperature is None else np.asarray(readings.temperature, float),
-                       cov)
-
-
-def default_covariance(robot, q, measured, *, repeatability: float = 0.2e-3) -> np.ndarray:
-    """Covariance per reading of a robot of rated RP ``repeatability`` (m) read by the default
-    tracker (:func:`rmbench.tracker.simulator.reading_covariance`), shape (n, 3, 3), m²."""
-    from rmbench.tracker.simulator import reading_covariance
-
-    return reading_covariance(robot, q, measured, repeatability=repeatability)
-
-
-def default_sigma(robot, q, measured, *, repeatability: float = 0.2e-3) -> np.ndarray:
-    """σ per reading and axis (the diagonal of :func:`default_covariance`), shape (n, 3), m."""
-    cov = default_covariance(robot, q, measured, repeatability=repeatability)
-    return np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
-
-
-# -- the fit -----------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class _Fit:
-    sources: tuple
-    values: tuple          # one array per source
-    rotation: np.ndarray   # registration: tracker = R p + t
-    translation: np.ndarray
-    chi2_train: float
-    n_train: int
-    chi2_held: float
-    n_held: int
-    chi2_held_unit: tuple  # per held-out configuration
-    peak_held: float
-    chi2_prior: float = 0.0  # Σ (v/σ)² of the parameters with a prior (the calibrated ones)
-
-    @property
-    def k(self) -> int:
-        return sum(s.n_params for s in self.sources)
-
-    @property
-    def score(self) -> float:
-        # the prior's term too: a calibrated parameter pulled far beyond its tolerance to mimic a
-        # structural source (a 2 mm reflector offset as a j6 zero offset of 9σ, its first-order
-        # look-alike) costs what the prior says it is worth
-        return bic(self.chi2_held + self.chi2_prior, self.k, self.n_held)
-
-    @property
-    def names(self) -> tuple:
-        return tuple(s.name for s in self.sources)
-
-    @property
-    def name(self) -> str:
-        return " + ".join(self.names) if self.sources else "nominal"
-
-
-class _Engine:
-    """Fits source models to the readings: Gauss-Newton on the sources and the registration."""
-
-    def __init__(self, model: PoseModel, data: TrackerData, train: np.ndarray, held: np.ndarray):
-        self.model, self.data = model, data
-        self.train, self.held = train, held          # reading indices
-        self.white = data.whitening()
-        if data.covariance is not None:   # the base frame's covariance turned into the tracker's
-            self.white = data.whitening(self.register((), [])[0])
-        self.held_units = np.unique(data.location[held])
-        self.prior = {}        # {source name: prior σ per parameter}: a Gaussian prior at zero
-        self.held_scale = np.ones((len(held), 3))   # held-out σ over the readings' (see carry)
-
-    def prior_rows(self, sources, values) -> tuple[np.ndarray, np.ndarray]:
-        """The prior's residuals ``−v/σ`` and their columns (one row per prior parameter, one
-        column per parameter of ``sources``)."""
-        rows, res = [], []
-        n = sum(s.n_params for s in sources)
-        off = 0
-        for s, v in zip(sources, values):
-            sd = self.prior.get(s.name)
-            if sd is not None:
-                for k in range(s.n_params):
-                    row = np.zeros(n)
-                    row[off + k] = 1.0 / sd[k]
-                    rows.append(row)
-                    res.append(-np.atleast_1d(v)[k] / sd[k])
-            off += s.n_params
-        return np.array(res), (np.array(rows) if rows else np.zeros((0, n)))
-
-    def positions(self, sources, values, idx) -> np.ndarray:
-        return self.model.positions(self.data.q[idx], sources, values, drive=self.data.drive(idx))
-
-    def residual(self, sources, values, rot, trans, idx) -> np.ndarray:
-        """Normalised residuals (reading − model) / σ, shape (len(idx), 3)."""
-        p = self.positions(sources, values, idx) @ rot.T + trans
-        return np.einsum("nij,nj->ni", self.white[idx], self.data.measured[idx] - p)
-
-    def error(self, sources, values, rot, trans, idx) -> np.ndarray:
-        """Reading − model, m, shape (len(idx), 3)."""
-        return self.data.measured[idx] - (self.positions(sources, values, idx) @ rot.T + trans)
-
-    def columns(self, sources, values, rot, idx, *, of=None) -> np.ndarray:
-        """∂(model position)/∂(parameter) / σ for the parameters of ``of`` (default: all of
-        ``sources``), by central differences, shape (3 len(idx), n_params)."""
-        of = sources if of is None else of
-        cols = []
-        w = self.white[idx]
-        for s in of:
-            k_src = list(sources).index(s) if s in sources else None
-            for k in range(s.n_params):
-                h = 1e-3 * s.scale[k]
-                vp, vm = _stepped(sources, values, s, k, h, k_src)
-                srcs = sources if k_src is not None else tuple(sources) + (s,)
-                dp = (self.positions(srcs, vp, idx) - self.positions(srcs, vm, idx)) @ rot.T / (2 * h)
-                cols.append(np.einsum("nij,nj->ni", w, dp).ravel())
-        return np.column_stack(cols) if cols else np.zeros((3 * len(idx), 0))
-
-    def registration_columns(self, sources, values, rot, idx) -> np.ndarray:
-        p = self.positions(sources, values, idx) @ rot.T
-        n = len(idx)
-        cols = np.zeros((n, 3, 6))
-        cols[:, :, :3] = np.eye(3)
-        # small rotation ω of the registered points: d p = ω × p = −[p]x ω
-        cols[:, :, 3:] = -skew(p)
-        return np.einsum("nij,njk->nik", self.white[idx], cols).reshape(3 * n, 6)
-
-    def prior_sd(self, sources) -> np.ndarray:
-        """The prior's standard deviation per parameter of ``sources`` (inf where none)."""
-        return np.concatenate([self.prior.get(s.name, np.full(s.n_params, np.inf)) for s in sources]
-                              or [np.zeros(0)])
-
-    def fit(self, sources, start=None, *, iterations: int = 6) -> _Fit:
-        """The sources and the base registration fitted together on the training readings, with
-        the prior of the calibrated parameters: the calibration stage's regularised least squares
-        (:func:`rmbench.calibrate.solver.solve`), in x = (source values, registration translation
-        and small rotation about the start's)."""
-        from rmbench.calibrate.solver import solve
-
-        sources = tuple(sources)
-        values = [np.zeros(s.n_params) for s in sources] if start is None else \
-            [np.array(v, float) for v in start]
-        rot0, trans0 = self.register(sources, values)
-        idx = self.train
-        sizes = np.cumsum([0] + [s.n_params for s in sources])
-        k = int(sizes[-1])
-
-        def unpack(x):
-            vals = [x[a:b] for a, b in zip(sizes[:-1], sizes[1:])]
-            return vals, Rotation.from_rotvec(x[k + 3:]).as_matrix() @ rot0, trans0 + x[k:k + 3]
-
-        def residuals(x):
-            vals, rot, trans = unpack(x)
-            return self.residual(sources, vals, rot, trans, idx).ravel()
-
-        def jacobian(x):
-            # the residual is reading − model: its sensitivity is minus the model's
-            vals, rot, _ = unpack(x)
-            return -np.hstack([self.columns(sources, vals, rot, idx),
-                               self.registration_columns(sources, vals, rot, idx)])
-
-        x0 = np.concatenate(values + [np.zeros(6)])
-        sol = solve(residuals, jacobian, x0, prior_sd=np.concatenate([self.prior_sd(sources), np.full(6, np.inf)]),
-                    max_nfev=2 * iterations, x_scale="jac", xtol=1e-8, ftol=1e-9, gtol=1e-10)
-        vals, rot, trans = unpack(sol.x)
-        return self.score(sources, vals, rot, trans)
-
-    def register(self, sources, values) -> tuple[np.ndarray, np.ndarray]:
-        """Weighted rigid best fit of the model's positions to the training readings."""
-        from rmbench.tracker.registration import kabsch
-
-        idx = self.train
-        w = 1.0 / np.mean(self.data.sigma[idx] ** 2, axis=1)
-        return kabsch(self.positions(sources, values, idx), self.data.measured[idx], w)
-
-    def held_residual(self, sources, values, rot, trans) -> np.ndarray:
-        """Normalised held-out residuals, shape (len(held), 3): over the readings' σ and, once
-        :meth:`carry` has run, the calibrated parameters' own uncertainty."""
-        return self.residual(sources, values, rot, trans, self.held) / self.held_scale
-
-    def carry(self, fit: _Fit) -> None:
-        """Carry the uncertainty of ``fit``'s parameters (a calibration's, fitted on the training
-        readings with their prior) into the held-out residuals' σ: a held-out reading is
-        predicted with the parameters' error as well as measured with noise, ``σ² (1 + j Σ jᵀ)``
-        per residual. Without it a calibration of 40-odd parameters on a few hundred readings
-        leaves held-out χ² 10-30 % above the noise on a robot that differs only in its ordinary
-        parameters, and the search takes a structural source for it (the tracker spread bench's
-        spread-only robots)."""
-        from rmbench.calibrate.solver import posterior
-
-        sd = self.prior_sd(fit.sources)
-        prec = np.concatenate([np.where(np.isfinite(sd), 1.0 / np.where(np.isfinite(sd), sd, 1.0) ** 2, 0.0),
-                               np.zeros(6)])
-
-        def jac(idx):
-            return np.hstack([self.columns(fit.sources, fit.values, fit.rotation, idx),
-                              self.registration_columns(fit.sources, fit.values, fit.rotation, idx)])
-
-        # the model is taken as right here (unscaled covariance): the test is whether it is
-        cov = posterior(jac(self.train), prec, 0.0, 1).cov
-        j_h = jac(self.held)
-        var = np.einsum("ij,jk,ik->i", j_h, cov, j_h)
-        self.held_scale = np.sqrt(1.0 + var).reshape(-1, 3)
-
-    def score(self, sources, values, rot, trans) -> _Fit:
-        e_tr = self.residual(sources, values, rot, trans, self.train)
-        e_he = self.held_residual(sources, values, rot, trans)
-        loc = self.data.location[self.held]
-        per = tuple(float(np.sum(e_he[loc == u] ** 2)) for u in self.held_units)
-        r_p, _ = self.prior_rows(sources, values)
-        return _Fit(tuple(sources), tuple(np.asarray(v, float) for v in values), rot, trans,
-                    float(np.sum(e_tr ** 2)), e_tr.size, float(np.sum(e_he ** 2)), e_he.size, per,
-                    float(np.max(np.abs(e_he))) if e_he.size else 0.0, float(r_p @ r_p) if len(r_p) else 0.0)
-
-    def screen(self, base: _Fit, candidates) -> list[tuple[float, Source, np.ndarray]]:
-        """Training χ² of ``base`` plus each candidate after one linearised step; sorted."""
-        idx = self.train
-        r = self.residual(base.sources, base.values, base.rotation, base.translation, idx).ravel()
-        j_base = np.hstack([self.columns(base.sources, base.values, base.rotation, idx),
-                            self.registration_columns(base.sources, base.values, base.rotation, idx)])
-        r_p, j_p = self.prior_rows(base.sources, base.values)
-        if len(r_p):        # the calibrated parameters follow a candidate only as their prior lets them
-            r = np.concatenate([r, r_p])
-            j_base = np.vstack([j_base, np.hstack([j_p, np.zeros((len(r_p), 6))])])
-        out = []
-        for s in candidates:
-            j_s = self.columns(base.sources, base.values, base.rotation, idx, of=(s,))
-            j_s = np.vstack([j_s, np.zeros((len(r_p), s.n_params))])
-            jac = np.hstack([j_s, j_base])
-            scale = np.linalg.norm(jac, axis=0)
-            scale[scale == 0] = 1.0
-            x = np.linalg.lstsq(jac / scale, r, rcond=1e-10)[0] / scale
-            res = r - jac @ x
-            out.append((float(res @ res), s, x[: s.n_params]))
-        return sorted(out, key=lambda c: c[0])
-
-
 def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = TrackerSettings(),
                      progress=None) -> TrackerDiagnosis:
     """Diagnose tracker readings against a nominal robot (module docstring).
@@ -619,10 +314,10 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
     say = progress or (lambda msg: None)
     robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal)
     chain = SerialChain.from_kinematics(robot.kinematics, robot.arm_joints)
-    _check(data, chain)
+    check_readings(data, chain)
     compliance = 1.0 / nominal_stiffness(robot)
     model = PoseModel(chain, compliance)
-    train, held, train_units, held_units = _split(data, settings.heldout)
+    train, held, train_units, held_units = split_readings(data, settings.heldout)
     if min(len(train_units), len(held_units)) < 3:
         raise InputError(f"{len(np.unique(data.location))} configurations: the diagnosis needs at "
                          f"least 6 (3 to fit the base registration's 6 parameters and a source on, "
@@ -631,10 +326,10 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
                              masses=settings.calibrate)
     if settings.kinds is not None:
         library = [s for s in library if s.kind in settings.kinds]
-    eng = _Engine(model, data, train, held)
+    eng = Engine(model, data, train, held)
     nominal_fit = eng.fit(())
     notes = []
-    absorbed, equivalent = _signatures(eng, nominal_fit, library)
+    absorbed, equivalent = signatures(eng, nominal_fit, library)
     library = [s for s in library if s.name not in absorbed]
     if absorbed:
         notes.append("no signature beyond the base registration: " + ", ".join(absorbed))
@@ -648,19 +343,62 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
     where = pose_error_map(chain, compliance, data, e_nom)
     say("nominal model registered; gap map")
     e_all = eng.residual((), [], nominal_fit.rotation, nominal_fit.translation, every)
-    base, calibration = (), None
-    start = nominal_fit
+    base, calibration, start = (), None, nominal_fit
     if settings.calibrate:
         base = tuple(s for s in library if s.kind in ORDINARY)
         library = [s for s in library if s.kind not in ORDINARY]
-        eng.prior = {s.name: _prior_sd(s, settings) for s in base}
-        start = eng.fit(base, iterations=8)
-        eng.carry(start)
-        start = eng.score(start.sources, start.values, start.rotation, start.translation)
-        calibration = _calibration(eng, start, nominal_fit, settings.bootstrap)
-        say(f"calibrated {sum(x.n_params for x in base)} ordinary parameters: held-out rms "
-            f"{1e3 * calibration['heldout_before']['rms']:.3f} -> {1e3 * calibration['heldout_after']['rms']:.3f} mm")
-    scored = [start]
+        start, calibration = _calibrated(eng, base, nominal_fit, settings, say)
+    best, scored, verdict, more = _search(eng, library, start, base, e_all, settings, say)
+    notes += more
+    # the prior's term spread over the held-out units, so a resample keeps it on average
+    weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
+                                 for f in scored],
+                                [3 * np.sum(data.location[held] == u) for u in eng.held_units],
+                                [f.k for f in scored], n_boot=settings.bootstrap)
+    conf = confidences([f.names for f in scored], weights)
+    chosen = best if best.sources else None
+    before = _heldout(eng, nominal_fit, settings.bootstrap)
+    after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
+    shrink, interval = _shrink(eng, nominal_fit, best, settings.bootstrap)
+    results = _ranked(eng, start, best if len(best.sources) > len(base) else None, scored, conf, base)
+    return TrackerDiagnosis(
+        verdict=verdict, sources=tuple(results), where=where, heldout_before=before,
+        heldout_after=after, shrink=shrink, shrink_interval=interval, equivalent=equivalent,
+        absorbed=tuple(absorbed),
+        values={s.name: np.atleast_1d(v).tolist() for s, v in zip(best.sources, best.values)}
+        if chosen is not None else {},
+        models=tuple({"name": f.name, "k": f.k, "chi2_train": f.chi2_train, "n_train": f.n_train,
+                      "chi2_held": f.chi2_held, "n_held": f.n_held, "score": f.score,
+                      "weight": float(w)} for f, w in zip(scored, weights)),
+        calibration=calibration,
+        n_readings=len(data.q), train=tuple(int(u) for u in train_units),
+        held=tuple(int(u) for u in held_units), seconds=time.perf_counter() - t0, notes=tuple(notes),
+        fitted=FittedPose(model, best.sources, best.values, best.rotation, best.translation)
+        if chosen is not None else FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation),
+        nominal_fitted=FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation))
+
+
+def _calibrated(eng: Engine, base: tuple, nominal: Fit, settings: TrackerSettings, say) -> tuple:
+    """The ordinary sources ``base`` fitted with their priors (the calibration), their
+    uncertainty carried into the held-out residuals (:meth:`Engine.carry`): the start of the
+    structural search and the calibration's account."""
+    eng.prior = {s.name: _prior_sd(s, settings) for s in base}
+    start = eng.fit(base, iterations=8)
+    eng.carry(start)
+    start = eng.score(start.sources, start.values, start.rotation, start.translation)
+    calibration = _calibration(eng, start, nominal, settings.bootstrap)
+    say(f"calibrated {sum(x.n_params for x in base)} ordinary parameters: held-out rms "
+        f"{1e3 * calibration['heldout_before']['rms']:.3f} -> {1e3 * calibration['heldout_after']['rms']:.3f} mm")
+    return start, calibration
+
+
+def _search(eng: Engine, library, start: Fit, base: tuple, e_all: np.ndarray, settings: TrackerSettings,
+            say) -> tuple:
+    """Forward selection of structural sources on top of ``start`` (the nominal, or the
+    calibration with the ordinary sources ``base``), then pruning and the verdict. ``e_all``: the
+    nominal's normalised residuals at every reading, for the noise test. Returns ``(best, scored,
+    verdict, notes)``."""
+    scored, notes = [start], []
     best = start
     if not significant(float(np.sum(e_all ** 2)), e_all.size, p=settings.p_noise,
                        peak=float(np.max(np.abs(e_all)))):
@@ -694,7 +432,7 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
                 break
         if len(best.sources) > len(base):
             # each chosen source dropped in turn, refitted: a source the others made redundant goes
-            best = _pruned(eng, best, scored, base)
+            best = pruned(eng, best, scored, base)
         noise = not significant(best.chi2_held, best.n_held, p=settings.p_noise, peak=best.peak_held)
         if len(best.sources) > len(base):
             verdict = "explained" if noise else "unexplained"
@@ -703,32 +441,7 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
             if noise and base:
                 notes.append("the calibrated ordinary parameters bring the held-out error to the noise: "
                              "no structural source is needed")
-    # the prior's term spread over the held-out units, so a resample keeps it on average
-    weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
-                                 for f in scored],
-                                [3 * np.sum(data.location[held] == u) for u in eng.held_units],
-                                [f.k for f in scored], n_boot=settings.bootstrap)
-    conf = confidences([f.names for f in scored], weights)
-    chosen = best if best.sources else None
-    before = _heldout(eng, nominal_fit, settings.bootstrap)
-    after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
-    shrink, interval = _shrink(eng, nominal_fit, best, settings.bootstrap)
-    results = _ranked(eng, start, best if len(best.sources) > len(base) else None, scored, conf, base)
-    return TrackerDiagnosis(
-        verdict=verdict, sources=tuple(results), where=where, heldout_before=before,
-        heldout_after=after, shrink=shrink, shrink_interval=interval, equivalent=equivalent,
-        absorbed=tuple(absorbed),
-        values={s.name: np.atleast_1d(v).tolist() for s, v in zip(best.sources, best.values)}
-        if chosen is not None else {},
-        models=tuple({"name": f.name, "k": f.k, "chi2_train": f.chi2_train, "n_train": f.n_train,
-                      "chi2_held": f.chi2_held, "n_held": f.n_held, "score": f.score,
-                      "weight": float(w)} for f, w in zip(scored, weights)),
-        calibration=calibration,
-        n_readings=len(data.q), train=tuple(int(u) for u in train_units),
-        held=tuple(int(u) for u in held_units), seconds=time.perf_counter() - t0, notes=tuple(notes),
-        fitted=FittedPose(model, best.sources, best.values, best.rotation, best.translation)
-        if chosen is not None else FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation),
-        nominal_fitted=FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation))
+    return best, scored, verdict, notes
 
 
 # -- where -------------------------------------------------------------------------------------
@@ -781,103 +494,7 @@ def pose_error_map(chain, compliance, data: TrackerData, error: np.ndarray, *,
 
 # -- helpers -----------------------------------------------------------------------------------
 
-def _check(data: TrackerData, chain) -> None:
-    n = chain.n_joint
-    if data.q.ndim != 2 or data.q.shape[1] != n:
-        raise InputError(f"the readings have {data.q.shape[-1] if data.q.ndim == 2 else '?'} joint "
-                         f"angles per row; the robot has {n} arm joints ({', '.join(chain.names)})")
-    if data.joints and tuple(data.joints) != tuple(chain.names):
-        raise InputError(f"the readings' joints ({', '.join(data.joints)}) are not the robot's "
-                         f"({', '.join(chain.names)})")
-    for name in ("q", "measured", "sigma"):
-        arr = getattr(data, name)
-        if not np.all(np.isfinite(arr)):
-            raise InputError(f"readings {name} must be finite, got NaN or infinity")
-    if not np.all(data.sigma > 0):
-        raise InputError("readings sigma must be > 0")
-    if data.covariance is not None and data.covariance.shape != (len(data.q), 3, 3):
-        raise InputError(f"readings covariance must have shape ({len(data.q)}, 3, 3)")
-    for name in ("t", "temperature"):
-        v = getattr(data, name)
-        if v is not None and (v.shape != (len(data.q),) or not np.all(np.isfinite(v))):
-            raise InputError(f"readings {name} must be one finite value per reading")
-
-
-def _split(data: TrackerData, heldout: float):
-    units = np.unique(data.location)
-    if not 0 < heldout < 1:
-        raise InputError(f"heldout must be between 0 and 1, got {heldout}")
-    step = max(2, int(round(1 / heldout))) if heldout <= 0.5 else 2
-    held_units = units[1::step] if heldout <= 0.5 else units[::step]
-    train_units = np.setdiff1d(units, held_units)
-    train = np.flatnonzero(np.isin(data.location, train_units))
-    held = np.flatnonzero(np.isin(data.location, held_units))
-    return train, held, train_units, held_units
-
-
-def _stepped(sources, values, s, k, h, k_src):
-    """Values with parameter k of source s stepped ±h (s appended at zero if not in sources)."""
-    if k_src is None:
-        base = [np.asarray(v, float) for v in values] + [np.zeros(s.n_params)]
-        k_src = len(base) - 1
-    else:
-        base = [np.asarray(v, float) for v in values]
-    vp = [v.copy() for v in base]
-    vm = [v.copy() for v in base]
-    vp[k_src][k] += h
-    vm[k_src][k] -= h
-    return vp, vm
-
-
-def _signatures(eng: _Engine, fit: _Fit, library, *, cos_min: float = 0.995, absorbed_at: float = 1e-3):
-    """Sources the registration takes up, and groups of look-alikes, from their columns at the
-    nominal model after projecting out the registration's."""
-    idx = eng.train
-    reg = eng.registration_columns((), [], fit.rotation, idx)
-    q_reg, _ = np.linalg.qr(reg)
-    absorbed, vecs, names = [], [], []
-    for s in library:
-        cols = eng.columns((), [], fit.rotation, idx, of=(s,))
-        raw = np.linalg.norm(cols, axis=0)
-        proj = cols - q_reg @ (q_reg.T @ cols)
-        left = np.linalg.norm(proj, axis=0)
-        if np.all(left <= absorbed_at * np.maximum(raw, 1e-300)):
-            absorbed.append(s.name)
-            continue
-        v = proj[:, int(np.argmax(left))]
-        vecs.append(v / np.linalg.norm(v))
-        names.append(s.name)
-    groups, used = [], set()
-    if vecs:
-        V = np.array(vecs)
-        cos = np.abs(V @ V.T)
-        for i in range(len(names)):
-            if i in used:
-                continue
-            g = [j for j in range(len(names)) if cos[i, j] >= cos_min]
-            if len(g) > 1:
-                used.update(g)
-                groups.append(tuple(names[j] for j in g))
-    return absorbed, tuple(groups)
-
-
-def _pruned(eng: _Engine, best: _Fit, scored: list, base: tuple = ()) -> _Fit:
-    """``best`` with each source not in ``base`` dropped in turn while that lowers the score."""
-    while len(best.sources) > len(base) + 1:
-        drops = []
-        for i in range(len(base), len(best.sources)):
-            keep = tuple(s for j, s in enumerate(best.sources) if j != i)
-            vals = tuple(v for j, v in enumerate(best.values) if j != i)
-            drops.append(eng.fit(keep, vals))
-        scored += drops
-        cand = min(drops, key=lambda f: f.score)
-        if cand.score >= best.score:
-            break
-        best = cand
-    return best
-
-
-def _decisive(before: _Fit, after: _Fit, n_candidates: int, p: float) -> bool:
+def _decisive(before: Fit, after: Fit, n_candidates: int, p: float) -> bool:
     """Whether ``after``'s held-out drop (χ² and prior) from ``before`` is beyond what the best
     of ``n_candidates`` sources of its size would reach on noise, at level ``p``."""
     from scipy.stats import chi2 as chi2_dist
@@ -898,7 +515,7 @@ def _prior_sd(source: Source, settings: TrackerSettings) -> np.ndarray:
     return np.array([settings.compliance_sd])
 
 
-def _calibration(eng: _Engine, fit: _Fit, nominal: _Fit, n_boot: int) -> dict:
+def _calibration(eng: Engine, fit: Fit, nominal: Fit, n_boot: int) -> dict:
     """The calibration's account: each ordinary parameter's value, 95 % interval (Gauss-Newton
     covariance with the prior, widened by √(χ²/dof) where the model does not reach the noise)
     and identifiability (posterior over prior σ: below 0.3 the data carry most of what is known,
@@ -928,7 +545,7 @@ def _calibration(eng: _Engine, fit: _Fit, nominal: _Fit, n_boot: int) -> dict:
             "chi2_train_per_n": fit.chi2_train / max(fit.n_train, 1)}
 
 
-def _heldout(eng: _Engine, fit: _Fit, n_boot: int, seed: int = 0) -> dict:
+def _heldout(eng: Engine, fit: Fit, n_boot: int, seed: int = 0) -> dict:
     e = eng.error(fit.sources, fit.values, fit.rotation, fit.translation, eng.held)
     norm = np.linalg.norm(e, axis=1)
     resid = eng.held_residual(fit.sources, fit.values, fit.rotation, fit.translation)
@@ -951,7 +568,7 @@ def _heldout(eng: _Engine, fit: _Fit, n_boot: int, seed: int = 0) -> dict:
     return out
 
 
-def _shrink(eng: _Engine, before: _Fit, after: _Fit, n_boot: int, seed: int = 0):
+def _shrink(eng: Engine, before: Fit, after: Fit, n_boot: int, seed: int = 0):
     loc = eng.data.location[eng.held]
     units = eng.held_units
 
@@ -963,7 +580,7 @@ def _shrink(eng: _Engine, before: _Fit, after: _Fit, n_boot: int, seed: int = 0)
     return bootstrap_shrink(per_unit(before), per_unit(after), n_boot, seed)
 
 
-def _ranked(eng: _Engine, nominal: _Fit, chosen: _Fit | None, scored, conf, base: tuple = ()) -> list[SourceResult]:
+def _ranked(eng: Engine, nominal: Fit, chosen: Fit | None, scored, conf, base: tuple = ()) -> list[SourceResult]:
     """The sources beyond ``base`` (the calibrated ordinary ones): the chosen model's by their
     share of what it removes from ``nominal``'s held-out error, then the others by score."""
     out, seen = [], set()

@@ -36,7 +36,7 @@ from rmbench.errors import RmbenchError
 from rmbench.io.strict_json import strict_dumps
 from rmbench.robot import Robot, seed_grid
 from rmbench.robot.spec import spec_to_xml
-from rmbench.robot.variant import add_compliant_base, add_point_mass, make_variant
+from rmbench.robot.variant import add_point_mass, make_variant
 
 __all__ = ["Hidden", "CaseResult", "BlindReport", "draw_case", "inject", "run_case", "run_blind",
            "VISIBLE_DB"]
@@ -233,7 +233,7 @@ def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
     return xml, placement, rpm
 
 
-# the ranges the diagnosis's library fits (rmbench.gap.effects.library): a hidden effect of a
+# the ranges the diagnosis's library fits (rmbench.gap.frf.effects.library): a hidden effect of a
 # library kind stays inside them, else it would be out of the library in all but name
 _LIBRARY_RANGE = {"factor": {"joint_stiffness": (0.3, 3.0), "joint_damping": (0.1, 10.0),
                              "servo_stiffness": (0.01, 10.0)},
@@ -405,7 +405,7 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
              nominal: str = "irb6660", tool: str = "dummy", kind: str | None = None) -> CaseResult:
     """Draw, inject, measure, export and import, diagnose and score one blind case."""
     from rmbench.calibrate.design import TestDesign
-    from rmbench.gap.diagnosis import diagnose
+    from rmbench.gap.frf.diagnosis import diagnose
     from rmbench.impact import open_campaign, parse_config, run_campaign
     from rmbench.io import read_uff58, write_uff58
 

@@ -31,12 +31,13 @@ import numpy as np
 from scipy.optimize import least_squares, lsq_linear
 
 from rmbench.errors import RmbenchError
-from rmbench.gap.effects import Change, Effect
+from rmbench.gap.frf.effects import Change, Effect
 from rmbench.calibrate.residual import FRF_SEGMENTS, frf_residuals, mode_residuals
 from rmbench.gap.selection import significant
 from rmbench.threads import worker_init
 
-__all__ = ["Objective", "Screen", "Fitted", "screen", "refine", "combined_change", "significant"]
+__all__ = ["Objective", "Screen", "Fitted", "Refiner", "screen", "refine", "combined_change", "significant",
+           "peak_residual", "per_posture_chi2", "GRID_PAIR"]
 
 # kinds whose parameter adds to itself rather than compounding (a second step is not a second
 # factor): their Jacobian columns are re-simulated at the stepped value
@@ -45,7 +46,7 @@ _FAILED = 30.0   # residual of a change the model cannot be evaluated with
 # screening grids, as fractions of a parameter's upper (positive) or lower (negative) bound
 _GRID_FAST = (-0.75, -0.45, -0.25, -0.12, 0.12, 0.25, 0.45, 0.75)
 _GRID_SLOW = (-0.6, -0.2, 0.2, 0.6)
-_GRID_PAIR = (-0.5, -0.2, 0.2, 0.5)
+GRID_PAIR = (-0.5, -0.2, 0.2, 0.5)
 _GRID_CORNER = (-0.6, -0.2, 0.2, 0.6)    # per parameter, for the corners of two-parameter effects
 
 
@@ -92,6 +93,11 @@ class Objective:
     def subset(self, postures) -> "Objective":
         """The objective over other postures of the same bench and data."""
         return Objective(self.bench, self.meas, self.frf, self.bands, postures)
+
+    def rebound(self, bench, fitted_on=None) -> "Objective":
+        """The same objective on another bench of the same robot and design (a worker's own);
+        ``fitted_on``: the training objective a held-out one is scored with, where it has one."""
+        return Objective(bench, self.meas, self.frf, self.bands, self.postures)
 
     def _target(self, p, b):
         return self.frf[p][b] if self.frf is not None else None
@@ -320,7 +326,7 @@ def refine(train: Objective, held: Objective, effects, start, *, max_nfev: int =
     chi2_train = float(sol.fun @ sol.fun)
     e_held = held.vector(change)
     return Fitted(effects, values, chi2_train, float(e_held @ e_held), train.n, held.n,
-                  evaluations=train.evaluations - n0, peak_held=_peak(e_held),
+                  evaluations=train.evaluations - n0, peak_held=peak_residual(e_held),
                   chi2_held_posture=per_posture_chi2(held, e_held))
 
 
@@ -331,7 +337,7 @@ def per_posture_chi2(objective: Objective, e: np.ndarray) -> tuple:
     return tuple(float(x @ x) for x in parts)
 
 
-def _peak(e: np.ndarray) -> float:
+def peak_residual(e: np.ndarray) -> float:
     return float(np.max(np.abs(e))) if len(e) else 0.0
 
 
@@ -392,10 +398,10 @@ class Refiner:
             from concurrent.futures import ProcessPoolExecutor
 
             b = self.train.bench
+            # the objectives travel whole (a forked worker inherits them) and are rebound to the
+            # worker's own bench
             state = (b.robot.xml, b.robot.name, b.robot.tool, b.robot.spindle_rpm,
-                     b.design.config.model_dump_json(), b.q_cmd, self.train.meas, self.train.frf,
-                     self.train.bands, self.train.postures, self.held.postures,
-                     getattr(self.train, "ordinary", None))
+                     b.design.config.model_dump_json(), b.q_cmd, self.train, self.held)
             self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp.get_context("fork"),
                                              initializer=_init_worker, initargs=(state,))
         return self._pool
@@ -407,21 +413,15 @@ _WORKER: dict = {}
 def _init_worker(state) -> None:
     worker_init()
     from rmbench.calibrate.design import TestDesign
-    from rmbench.gap.model import ModelBench
+    from rmbench.gap.frf.model import ModelBench
     from rmbench.impact.config import CampaignConfig
     from rmbench.robot import Robot
 
-    xml, name, tool, rpm, design_json, q_cmd, meas, frf, bands, train, held, ordinary = state
+    xml, name, tool, rpm, design_json, q_cmd, train, held = state
     robot = Robot(xml, name=name, tool=tool, spindle_rpm=rpm)
     bench = ModelBench(robot, TestDesign(CampaignConfig.model_validate_json(design_json)), q_cmd)
-    if ordinary is None:
-        _WORKER["train"] = Objective(bench, meas, frf, bands, train)
-        _WORKER["held"] = Objective(bench, meas, frf, bands, held)
-    else:      # a search on top of a calibration (rmbench.gap.joint)
-        from rmbench.gap.joint import JointObjective
-
-        _WORKER["train"] = JointObjective(bench, meas, frf, bands, train, ordinary)
-        _WORKER["held"] = JointObjective(bench, meas, frf, bands, held, ordinary, fitted_on=_WORKER["train"])
+    _WORKER["train"] = train.rebound(bench)
+    _WORKER["held"] = held.rebound(bench, fitted_on=_WORKER["train"])
 
 
 def _refine_job(job) -> Fitted:

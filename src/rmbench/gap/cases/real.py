@@ -23,10 +23,10 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.calibrate.design import TestDesign
-from rmbench.gap.diagnosis import DiagnosisSettings, _diagnose
-from rmbench.gap.effects import Change
+from rmbench.gap.frf.diagnosis import DiagnosisSettings, diagnose_modes
+from rmbench.gap.frf.effects import Change
 from rmbench.calibrate.measured import MeasuredModes
-from rmbench.gap.model import ModelBench
+from rmbench.gap.frf.model import ModelBench
 from rmbench.robot import Posture
 
 __all__ = ["SEED000_CSV", "RealCase", "seed000_modes", "diagnose_seed000", "write_table_b1_uff"]
@@ -121,15 +121,14 @@ def diagnose_seed000(robot="irb6660", tool="dummy", *, path=None, test: str | No
         raise InputError("the seed-000 table lacks a validation posture")
     postures = [Posture.from_mm_deg(*k) for k in keys]
     bench = ModelBench.commanded(rob, design, postures)
-    xyt = np.array([[p.x, p.y, p.theta] for p in postures])
     folds = []
     for k in range(len(VALIDATION)):
         held = [k]
         train = [i for i in range(len(keys)) if i != k]
         say(f"fold {k + 1}: posture {keys[k]} held out")
-        folds.append(_diagnose(rob, design, bench, meas, None, ("low", "high"), xyt, None, train,
-                               held, settings, workers, say, {"start": time.perf_counter()},
-                               notes=(f"held out: posture {keys[k]}",)))
+        folds.append(diagnose_modes(rob, postures, meas, design=design, train=train, held=held,
+                                    settings=settings, workers=workers, bench=bench, progress=say,
+                                    notes=(f"held out: posture {keys[k]}",)))
     first = {}
     for k in (0, 1):
         mm = meas[k]["low"]

@@ -28,8 +28,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from rmbench.gap.sources import PoseModel
-from rmbench.gap.tracker import TrackerData, TrackerSettings, diagnose_tracker
+from rmbench.gap.tracker.sources import PoseModel
+from rmbench.gap.tracker.diagnosis import TrackerData, TrackerSettings, diagnose_tracker
 from rmbench.io.strict_json import strict_dumps
 
 __all__ = ["HiddenSource", "TrackerCase", "TrueRobot", "draw_sources", "run_tracker_case", "run_tracker_blind",
@@ -172,7 +172,7 @@ class TrueRobot:
                 amp[j, hh - 1] = np.hypot(v[0], v[1])
                 phase[j, hh - 1] = np.arctan2(v[1], v[0])
             elif h.kind in ("link_geometry", "frame_error"):
-                from rmbench.gap.sources import Source
+                from rmbench.gap.tracker.sources import Source
                 tw_sources.append(Source(h.kind, h.location, ("a",) * len(v), (1.0,) * len(v),
                                          joint=j))
                 tw_values.append(v)
@@ -251,7 +251,7 @@ def run_tracker_case(index: int, seed: int, *, robot=None, n_config: int = 250, 
     truth = TrueRobot(robot, hidden, 1.0, rng)
     p_true = truth.positions(q, t, previous, noise=False)
     y = truth.positions(q, t, previous, noise=True, rng=rng)
-    from rmbench.gap.tracker import default_covariance, default_sigma
+    from rmbench.gap.tracker.diagnosis import default_covariance, default_sigma
     cov = default_covariance(robot, q, y)
     data = TrackerData(q, y, order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), t, names,
                        covariance=cov)

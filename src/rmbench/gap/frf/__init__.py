@@ -1,0 +1,15 @@
+"""Gap diagnosis from FRFs (impact campaigns, UFF58, modal tables): the effect library
+(:mod:`.effects`), the model as tested (:mod:`.model`), the first-order and refined search
+(:mod:`.search`), its joint form on a calibrated model (:mod:`.joint`), confirmation by
+recalibration (:mod:`.confirm`), the gap map (:mod:`.where`) and the diagnosis that runs them
+(:mod:`.diagnosis`). Model selection, significance and the bootstrap shrink are
+:mod:`rmbench.gap.selection`'s, shared with the tracker engine.
+"""
+
+from rmbench.gap.frf.diagnosis import Diagnosis, DiagnosisSettings, EffectResult, diagnose, load_data
+from rmbench.gap.frf.effects import KINDS, Change, Effect, Param, library
+from rmbench.gap.frf.model import ModelBench, ModelModes
+from rmbench.gap.frf.where import GapMap, gap_map
+
+__all__ = ["diagnose", "Diagnosis", "DiagnosisSettings", "EffectResult", "load_data", "Effect", "Param",
+           "Change", "library", "KINDS", "ModelBench", "ModelModes", "GapMap", "gap_map"]
