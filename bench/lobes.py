@@ -41,7 +41,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from rmbench.robot import Posture, Robot  # noqa: E402
-from rmbench.stability import (ALUMINIUM_6061, BENCHMARK, Structure, fdm_spectral_radius,  # noqa: E402
+from rmbench.stability import (ALUMINIUM_6061, BENCHMARK, Structure, benchmark_structure, fdm_spectral_radius,  # noqa: E402
                                lobes, lowest_envelope)
 from rmbench.stability.milling import mill_grid  # noqa: E402
 from rmbench.stability.plot import plot_lobes  # noqa: E402
@@ -51,7 +51,7 @@ RESULTS = Path(__file__).parent / "results"
 
 def main() -> None:
     np.seterr(invalid="ignore")   # inf / inf where both say "stable in the whole range"
-    bench = Structure.sdof(0.03993, 922.0, 0.011)
+    bench = benchmark_structure()
     depths = np.linspace(0.0, 10e-3, 100)
     print("1. Benchmark: critical depth (mm) of the lowest lobe")
     sp50 = np.linspace(5000.0, 25000.0, 50)

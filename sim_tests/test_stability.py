@@ -262,3 +262,17 @@ def test_chain_from_band_modes_needs_their_out_of_band_terms():
 def test_cli_predictor_lobes_need_a_posture(cli, tmp_path):
     code, _, err = cli("lobes", "--modal", str(tmp_path / "p.npz"))
     assert code == 2 and "needs --posture" in err
+
+
+def test_the_default_scan_grids_span_the_spindle_ranges_and_start_at_zero_depth():
+    """One definition of the lobes scan (the CLI and the demo read it): the benchmark's 5-25 krpm,
+    a robot spindle's 5-20 krpm, depths from 0 to 10 mm."""
+    from rmbench.stability import benchmark_structure, depth_grid, speed_grid
+
+    assert speed_grid("benchmark")[[0, -1]].tolist() == [5000.0, 25000.0] and len(speed_grid()) == 200
+    assert speed_grid("robot", 40)[[0, -1]].tolist() == [5000.0, 20000.0]
+    d = depth_grid()
+    assert d[0] == 0.0 and d[-1] == pytest.approx(10e-3) and np.all(np.diff(d) > 0)
+    s = benchmark_structure()
+    for name in ("A", "B", "C"):
+        np.testing.assert_array_equal(getattr(s, name), getattr(BENCH, name))

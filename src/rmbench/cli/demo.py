@@ -196,13 +196,13 @@ def _demo_rcsa(out: Path, ds, page) -> None:
 def _demo_lobes(out: Path, fit, page) -> None:
     """Stability lobes at (1800, 200, 0) from the campaign's fitted modes against the exact modes."""
     from rmbench.robot import Posture, Robot
-    from rmbench.stability import ALUMINIUM_6061, Structure, lobes, lowest_envelope
+    from rmbench.stability import ALUMINIUM_6061, Structure, depth_grid, lobes, lowest_envelope, speed_grid
     from rmbench.stability.plot import plot_lobes
 
     print("\nstability lobes at (1800, 200, 0), aluminium 6061 slot, 2 teeth (FDM, both bands, lowest "
           "envelope): from the campaign's fitted modes and from the exact modes")
     op = Robot.load("irb6660", tool="dummy").at(Posture.from_mm_deg(1800, 200, 0))
-    speeds, depths = np.linspace(5000, 20000, 40), np.linspace(0, 10e-3, 100)
+    speeds, depths = speed_grid("robot", 40), depth_grid()
     env = {}
     for name, make in (("fitted", lambda b: Structure.from_modal(fit, 1, band=b)),
                        ("exact", lambda b: Structure.from_mode_table(op.modes(b)))):

@@ -66,9 +66,9 @@ def _cutting(text, default):
     return Cutting(k_t * 1e6, k_n * 1e6, teeth, immersion, parts[4] == "down")
 
 
-def _grid(text, default):
+def _grid(text, default: np.ndarray) -> np.ndarray:
     if text is None:
-        return np.linspace(*default[:2], int(default[2]))
+        return default
     try:
         a, b, n = (float(v) for v in text.split(","))
     except ValueError:
@@ -151,24 +151,25 @@ def _predicted(args, bands) -> dict:
 
 
 def cmd_lobes(args) -> int:
-    from rmbench.stability import ALUMINIUM_6061, BENCHMARK, Structure, lobes, lowest_envelope
+    from rmbench.stability import (ALUMINIUM_6061, BENCHMARK, DEPTH_MAX, benchmark_structure, depth_grid, lobes,
+                                   lowest_envelope, speed_grid)
 
     if args.steps < 2:
         raise InputError(f"--steps must be at least 2, got {args.steps}")
     if args.benchmark:
-        structures, what = {"benchmark": Structure.sdof(0.03993, 922.0, 0.011)}, "benchmark (1 DOF, 922 Hz)"
+        structures, what = {"benchmark": benchmark_structure()}, "benchmark (1 DOF, 922 Hz)"
         cutting = _cutting(args.cutting, BENCHMARK)
-        speeds = _grid(args.speeds, (5000, 25000, 200))
+        speeds = _grid(args.speeds, speed_grid("benchmark"))
     else:
         structures, what = _structures(args)
         if not structures:
             raise InputError("the data have no mode in the requested band")
         cutting = _cutting(args.cutting, ALUMINIUM_6061)
-        speeds = _grid(args.speeds, (5000, 20000, 200))
-    depth_max = 1e-3 * (args.depth_max if args.depth_max is not None else 10.0)
+        speeds = _grid(args.speeds, speed_grid("robot"))
+    depth_max = 1e-3 * args.depth_max if args.depth_max is not None else DEPTH_MAX
     if not depth_max > 0 or args.depths < 2:
         raise InputError("--depth-max must be positive and --depths at least 2")
-    depths = np.linspace(0, depth_max, args.depths)
+    depths = depth_grid(depth_max, args.depths)
     every = args.every if args.every is not None else (1 if args.benchmark else 5)
     if every < 1:
         raise InputError(f"--every must be at least 1, got {every}")
