@@ -276,3 +276,23 @@ def test_the_default_scan_grids_span_the_spindle_ranges_and_start_at_zero_depth(
     s = benchmark_structure()
     for name in ("A", "B", "C"):
         np.testing.assert_array_equal(getattr(s, name), getattr(BENCH, name))
+
+
+def test_the_vectorised_zero_order_limit_agrees_with_the_lobes_at_one_speed(irb):
+    """The path stage's zoa_limit (many tool tips at once, one speed) is zoa_lobes's lowest lobe
+    there, to 0.1 % (both interpolate between the lines of a 4000-line grid)."""
+    from rmbench.stability import zoa_limit, zoa_lobes
+
+    tables = [irb.at(Posture.from_mm_deg(x, y, t)).modes("low") for x, y, t in ((1400, -200, -30), (1800, 200, 40))]
+    k = max(len(t.poles) for t in tables)
+    poles = np.full((2, k), np.nan, complex)
+    res = np.full((2, k, 2, 2), np.nan, complex)
+    for i, t in enumerate(tables):
+        poles[i, :len(t.poles)] = t.poles
+        res[i, :len(t.poles)] = t.phi_r[:, :2, None] * t.phi_l[:, None, :2]
+    f = np.abs(poles[np.isfinite(poles)]) / (2 * np.pi)
+    freq = np.geomspace(0.2 * f.min(), 1.6 * f.max(), 4000)
+    for speed in (9000.0, 15000.0):
+        got = zoa_limit(poles, res, ALUMINIUM_6061, speed, freq)
+        ref = [zoa_lobes(Structure.from_mode_table(t), ALUMINIUM_6061, np.array([speed]))[0] for t in tables]
+        np.testing.assert_allclose(got, ref, rtol=1e-3)

@@ -21,7 +21,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from rmbench.cli import campaign, control, demo, gap, lobes, modal, model, predict, rcsa, report, tracker
+    from rmbench.cli import campaign, control, demo, gap, lobes, modal, model, path, predict, rcsa, report, tracker
 
     parser = _Parser(prog="rmbench", description="Virtual test bench for robotic machining dynamics.")
     parser.add_argument("--version", action="version", version=f"rmbench {__version__}")
@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     tracker.register(sub)
     control.register(sub)
     gap.register(sub)
+    path.register(sub)
     report.register(sub)
     demo.register(sub)
     return parser

@@ -21,7 +21,8 @@ from rmbench.errors import InputError
 from rmbench.robot.modes import PARAMS
 from rmbench.impact.sensors import COORDS
 
-__all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "posture_positions", "mac"]
+__all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "posture_positions", "mac",
+           "exact_modes_dataset"]
 
 DATASET_VERSION = 1
 
@@ -314,6 +315,41 @@ def _annotate(ds: xr.Dataset, cfg, toml: str, robot) -> None:
         receptance_from="accelerance (high band), displacement (low band)", upstream="",
         software=_versions())
 
+
+def exact_modes_dataset(robot, postures, bands=("low", "high")) -> xr.Dataset:
+    """The robot's exact modes at postures, tracked over them, as a modal dataset (DATA.md's
+    ``modal`` layout, as :func:`rmbench.modal.fit_campaign` writes): what a posture predictor
+    trains on when the simulator's truth is wanted without a campaign (the modes of the bare tool,
+    no sensor on it; :meth:`rmbench.robot.model.OperatingPoint.modes`).
+
+    Parameters
+    ----------
+    robot : rmbench.robot.Robot
+    postures : sequence of Posture
+    bands : sequence of str
+
+    Returns
+    -------
+    xarray.Dataset
+        ``modal`` (posture, mode, param) with ``mode_band``; coordinates x, y (m), theta (rad).
+    """
+    postures = list(postures)
+    tables = {(b, "modes"): [] for b in bands}
+    for p in postures:
+        op = robot.at(p)
+        for b in bands:
+            tables[(b, "modes")].append(op.modes(b))
+    for b in bands:                   # _tracked_modes tracks both sets; the bare one is this one
+        tables[(b, "modes_bare")] = tables[(b, "modes")]
+    modal, mode_band = _tracked_modes(tables, postures, list(bands), len(postures))
+    return xr.Dataset(
+        {"modal": (("posture", "mode", "param"), modal["modes"])},
+        coords={"posture": np.arange(len(postures)), "x": ("posture", np.array([p.x for p in postures])),
+                "y": ("posture", np.array([p.y for p in postures])),
+                "theta": ("posture", np.array([p.theta for p in postures])),
+                "mode": np.arange(modal["modes"].shape[1]), "mode_band": ("mode", np.asarray(mode_band, str)),
+                "param": list(PARAMS)},
+        attrs={"kind": "exact_modes", "robot": robot.name, "tool": str(robot.tool)})
 
 def save(ds: xr.Dataset, path: str | Path) -> Path:
     """Write a dataset atomically (a temporary file renamed into place)."""

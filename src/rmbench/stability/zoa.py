@@ -18,7 +18,7 @@ import numpy as np
 from rmbench.stability.cutting import Cutting
 from rmbench.stability.structure import Structure
 
-__all__ = ["zoa_lobes"]
+__all__ = ["zoa_lobes", "zoa_limit"]
 
 
 def zoa_lobes(structure: Structure, cutting: Cutting, speeds_rpm: np.ndarray, *, a_max: float = np.inf,
@@ -60,3 +60,71 @@ def zoa_lobes(structure: Structure, cutting: Cutting, speeds_rpm: np.ndarray, *,
 def _f_min(structure: Structure) -> float:
     w = np.abs(np.linalg.eigvals(structure.A))
     return float(w[w > 0].min() / (2 * np.pi))
+
+
+def zoa_limit(poles, residues, cutting: Cutting, speed_rpm: float, freq, *, chunk: int = 256) -> np.ndarray:
+    """Critical depth of the lowest zero-order lobe at one spindle speed, for many tool tips at once.
+
+    The same method as :func:`zoa_lobes`, vectorised over structures for a path's thousands of
+    postures: each tool tip is given by its modes (padded with NaN to a common count), the
+    receptance is summed over them on a common frequency grid, the 2x2 eigenvalues are taken in
+    closed form, and each lobe ``ωT = 2 arccot κ + 2kπ`` is crossed where ``(ωT − 2 arccot κ)/2π``
+    passes an integer between two lines of the grid (the depth interpolated there).
+
+    Parameters
+    ----------
+    poles : ndarray, shape (n, n_modes), complex, rad/s
+        Per tool tip, its poles (Im > 0); NaN for a padding slot.
+    residues : ndarray, shape (n, n_modes, 2, 2), complex
+        Residue of each mode at the tip in (x, y): ``H(s) = Σ R/(s − λ) + c.c.`` (m/N·rad/s; from
+        eigenvector components ``R = φR φLᵀ``, as :meth:`Structure.from_modes`).
+    cutting : Cutting
+    speed_rpm : float
+        Spindle speed, rev/min.
+    freq : ndarray, shape (n_freq,), Hz
+        The grid the chatter frequency is searched on (from below the lowest mode to above the
+        highest; a few thousand lines, log-spaced).
+
+    Returns
+    -------
+    ndarray, shape (n,), m
+        inf where no lobe crosses the speed (stable at any depth by this method).
+    """
+    poles = np.asarray(poles, complex)
+    residues = np.asarray(residues, complex)
+    freq = np.asarray(freq, float)
+    h0 = cutting.average_directional()
+    tooth = 60.0 / (cutting.teeth * float(speed_rpm))
+    omega = 2 * np.pi * freq
+    out = np.full(len(poles), np.inf)
+    for a0 in range(0, len(poles), chunk):
+        sl = slice(a0, a0 + chunk)
+        lam_m = poles[sl]
+        good = np.isfinite(lam_m)
+        lam_m = np.where(good, lam_m, -1.0 + 1.0j)
+        res = np.where(good[..., None, None], np.nan_to_num(residues[sl]), 0.0)
+        s = 1j * omega
+        w1 = 1.0 / (s[None, :, None] - lam_m[:, None, :])
+        w2 = 1.0 / (s[None, :, None] - lam_m.conj()[:, None, :])
+        phi = np.einsum("pfm,pmij->pfij", w1, res) + np.einsum("pfm,pmij->pfij", w2, res.conj())
+        g = h0[None, None] @ phi
+        tr = g[..., 0, 0] + g[..., 1, 1]
+        det = g[..., 0, 0] * g[..., 1, 1] - g[..., 0, 1] * g[..., 1, 0]
+        root = np.sqrt(tr * tr / 4 - det)
+        for mu in (tr / 2 + root, tr / 2 - root):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lam = -1.0 / mu
+                kappa = lam.imag / lam.real
+                depth = lam.real * (1 + kappa ** 2) / 2
+                psi = np.arctan2(1.0, kappa)
+            ok = (lam.real > 0) & np.isfinite(depth)
+            u = (omega[None] * tooth - 2 * psi) / (2 * np.pi)
+            k0, k1 = np.floor(u[:, :-1]), np.floor(u[:, 1:])
+            cross = ok[:, :-1] & ok[:, 1:] & (k0 != k1) & (np.maximum(k0, k1) >= 0)
+            # the integer crossed, and the fraction of the step where u reaches it
+            k = np.maximum(k0, k1)
+            du = u[:, 1:] - u[:, :-1]
+            t = np.where(cross & (du != 0), (k - u[:, :-1]) / np.where(du != 0, du, 1.0), 0.0)
+            val = np.where(cross, depth[:, :-1] + t * (depth[:, 1:] - depth[:, :-1]), np.inf)
+            out[sl] = np.minimum(out[sl], val.min(axis=1))
+    return out

@@ -1,0 +1,206 @@
+"""Specification of the path stage's first steps: tool paths read and validated, the robot's
+reach over (cutter location, θ), and the redundant-angle schedule that keeps the most margin."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from rmbench.errors import InputError
+from rmbench.io.toolpath import read_cl_csv, read_gcode, write_cl_csv
+from rmbench.path import example, fixed_schedule, plan_schedule, pointwise_schedule, reach_grid
+
+
+# -- tool paths in ------------------------------------------------------------------------------
+def test_the_bundled_pocket_gives_over_a_thousand_cutter_locations_inside_the_posture_grid():
+    tp = example("pocket").resampled(5e-3)
+    assert len(tp) > 1000
+    # the seed's grid spans x 1.3-1.9 m, y ±0.3 m
+    assert tp.xy[:, 0].min() >= 1.3 and tp.xy[:, 0].max() <= 1.9 and np.abs(tp.xy[:, 1]).max() <= 0.3
+    # only the approach is not cut; no step longer than the spacing
+    assert not tp.cutting[0] and tp.cutting[1:].all()
+    assert np.diff(tp.arc_length()).max() <= 5e-3 + 1e-12
+
+
+def test_the_gcode_feed_and_speed_are_read_in_si_units(tmp_path):
+    f = tmp_path / "p.ngc"
+    f.write_text("G21 G90 (mm, absolute)\nS12000 M3\nG0 X1500 Y0 Z5\nG1 Z-1 F600\nG1 X1600 F3000 ; cut\n")
+    tp = read_gcode(f)
+    assert tp.xy.tolist() == [[1.5, 0.0], [1.6, 0.0]]
+    # 3000 mm/min is 0.05 m/s; a Z-only block adds no cutter location
+    assert tp.feed[-1] == pytest.approx(0.05) and tp.rpm[-1] == 12000 and tp.cutting.tolist() == [False, True]
+
+
+@pytest.mark.parametrize("block, word", [("G2 X1600 Y100 I50 J0", "G2"), ("G20", "G20"), ("G91", "G91"),
+                                         ("G1 X1600 T3", "T3")])
+def test_an_unsupported_gcode_word_is_a_one_line_error_naming_it_and_its_line(tmp_path, block, word):
+    f = tmp_path / "p.ngc"
+    f.write_text(f"G21 G90\nG0 X1500 Y0\n{block}\nG1 X1700\n")
+    with pytest.raises(InputError, match=rf"p\.ngc:3: unsupported G-code word {word}") as err:
+        read_gcode(f)
+    assert "\n" not in str(err.value)
+
+
+def test_a_cutter_location_csv_round_trips_and_names_a_bad_value_by_line(tmp_path):
+    tp = example("contour")
+    back = read_cl_csv(write_cl_csv(tp, tmp_path / "c.csv"))
+    np.testing.assert_allclose(back.xy, tp.xy, atol=1e-9)
+    np.testing.assert_allclose(back.feed, tp.feed)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x_mm,y_mm\n1500,0\n1510,zero\n")
+    with pytest.raises(InputError, match=r"bad\.csv:3: y_mm must be a number"):
+        read_cl_csv(bad)
+    bad.write_text("x_mm,y_mm,speed\n1500,0,1\n")
+    with pytest.raises(InputError, match="unknown column 'speed'"):
+        read_cl_csv(bad)
+
+
+# -- reach --------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def contour_reach(irb):
+    tp = example("contour").resampled(20e-3)
+    return tp, reach_grid(irb, tp, np.radians([-60.0, 0.0, 60.0]))
+
+
+def test_every_contour_location_is_reached_on_one_branch_per_angle(contour_reach):
+    tp, reach = contour_reach
+    assert reach.ok.all() and len(reach.unreachable()) == 0
+    # warm-started along the path: neighbouring locations 20 mm apart move no joint by more than a
+    # few degrees (a branch flip moves the wrist by ~180°)
+    assert np.degrees(np.nanmax(np.abs(np.diff(reach.q, axis=0)))) < 5.0
+
+
+def test_a_location_beyond_the_arms_reach_is_named_unreachable(irb):
+    from rmbench.io.toolpath import ToolPath
+
+    tp = ToolPath(np.array([[1.6, 0.0], [4.0, 0.0]]), np.zeros(2), np.full(2, np.nan), np.full(2, np.nan),
+                  np.array([False, True]), np.array([1, 2]))
+    reach = reach_grid(irb, tp, [0.0])
+    assert reach.unreachable().tolist() == [1] and np.isnan(reach.q[1]).all()
+
+
+# -- the schedule -------------------------------------------------------------------------------
+def _brute_bottleneck(margin, max_step):
+    n, m = margin.shape
+    best = -np.inf
+    for path in itertools.product(range(m), repeat=n):
+        if all(abs(path[i] - path[i - 1]) <= max_step for i in range(1, n)):
+            best = max(best, min(margin[i, path[i]] for i in range(n)))
+    return best
+
+
+def test_the_plan_reaches_the_largest_smallest_margin_any_allowed_schedule_has():
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        n, m = int(rng.integers(2, 6)), int(rng.integers(2, 5))
+        margin = rng.normal(size=(n, m))
+        step = int(rng.integers(0, 3))
+        plan = plan_schedule(margin, np.linspace(-1, 1, m), max_step=step)
+        assert plan.min_margin == pytest.approx(_brute_bottleneck(margin, step), abs=1e-12)
+        assert np.all(np.abs(np.diff(plan.index)) <= step)
+
+
+def test_the_plan_never_beats_the_pointwise_best_and_never_loses_to_a_fixed_angle():
+    rng = np.random.default_rng(4)
+    margin = rng.normal(size=(200, 9)).cumsum(axis=0)
+    theta = np.linspace(-1, 1, 9)
+    plan = plan_schedule(margin, theta, max_step=1)
+    assert plan.min_margin <= pointwise_schedule(margin, theta).min_margin
+    assert all(plan.min_margin >= fixed_schedule(margin, theta, t).min_margin for t in theta)
+
+
+def test_a_joint_step_beyond_the_limit_is_never_planned_and_unusable_poses_are_avoided():
+    """Two angles whose joint commands lie a branch flip apart cannot be switched between; a pose
+    marked unusable (-inf) is never chosen where a usable schedule exists."""
+    n = 6
+    margin = np.array([[1.0, 2.0]] * n)
+    margin[3, 1] = -np.inf
+    q = np.zeros((n, 2, 1))
+    q[:, 1, 0] = np.pi          # the second angle's branch is half a turn away
+    plan = plan_schedule(margin, np.array([0.0, 0.5]), q=q, max_step=1, max_dq=0.1)
+    # switching would be the best pointwise but is a flip: the plan keeps the first angle throughout
+    assert plan.feasible and plan.index.tolist() == [0] * n
+    unusable = plan_schedule(np.full((3, 1), -np.inf), np.array([0.0]))
+    assert not unusable.feasible
+
+
+def test_the_plan_does_not_wander_where_the_bottleneck_lies_elsewhere():
+    """Flat margin but for one tight location: the θ steps cost, so the schedule sits at the angle
+    the tight location needs rather than moving to it and back."""
+    margin = np.ones((20, 5))
+    margin[10] = [0.1, 0.1, 0.1, 0.1, 0.5]
+    plan = plan_schedule(margin, np.linspace(-1, 1, 5), max_step=1)
+    assert plan.min_margin == pytest.approx(0.5) and plan.index.tolist() == [4] * 20
+
+
+# -- planned end to end -------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def small_predictor(irb, tmp_path_factory):
+    """A single-task GP predictor on the exact modes of 12 postures around the contour (the
+    simulator's truth, no campaign): what the planner reads, small enough for a test."""
+    from rmbench.impact.dataset import exact_modes_dataset
+    from rmbench.predict import PosturePredictor
+    from rmbench.robot import Posture
+
+    grid = [Posture.from_mm_deg(x, y, t) for x in (1350, 1850) for y in (-250, 250) for t in (-40, 0, 40)]
+    pred = PosturePredictor("stgp").fit(exact_modes_dataset(irb, grid))
+    return pred.save(tmp_path_factory.mktemp("pred") / "pred.npz")
+
+
+def test_the_planned_schedule_keeps_at_least_the_fixed_angles_smallest_depth_within_the_joint_rates(
+        irb, small_predictor):
+    from rmbench.path import PlanSettings, plan_path
+    from rmbench.predict import PosturePredictor
+
+    settings = PlanSettings(theta=tuple(np.radians([-40.0, -20.0, 0.0, 20.0, 40.0])), spacing=20e-3,
+                            eval_spacing=40e-3)
+    plan = plan_path(irb, PosturePredictor.load(small_predictor), example("contour"), speed_rpm=15000,
+                     depth=3e-3, settings=settings)
+    assert plan.planned.feasible
+    assert plan.planned.min_margin >= plan.fixed.min_margin and plan.gain >= 1.0
+    assert plan.planned.min_margin <= plan.pointwise.min_margin
+    # every joint's move between neighbouring locations within 60°/s at the path's 3000 mm/min feed
+    dt = 20e-3 / 0.05
+    assert np.abs(np.diff(plan.joint_trajectory(), axis=0)).max() <= np.radians(60.0) * dt + 1e-12
+    # critical depths of a few millimetres, as the seed's robot has at this speed
+    assert 1e-3 < plan.planned.min_margin < 20e-3
+
+
+def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path, capsys):
+    import json
+
+    from rmbench.cli import main
+
+    code = main(["path", "plan", "contour", "--predictor", str(small_predictor), "--speed", "15000",
+                 "--depth", "3", "--theta-range=-40,40", "--theta-step", "20", "--spacing", "20",
+                 "--out", str(tmp_path / "plan"), "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["min_alim_gain"] >= 1.0 and not out["unreachable"]
+    rows = (tmp_path / "plan" / "plan.csv").read_text().splitlines()
+    assert rows[0].startswith("s_mm,x_mm,y_mm,theta_deg,q1_deg") and len(rows) == out["cl_points"] + 1
+    assert json.loads((tmp_path / "plan" / "plan.json").read_text())["cl_points"] == out["cl_points"]
+
+
+def test_an_unreachable_cutter_location_is_named_with_its_line_and_reach(irb, small_predictor, tmp_path):
+    from rmbench.path import plan_path
+    from rmbench.predict import PosturePredictor
+
+    f = tmp_path / "far.csv"
+    f.write_text("x_mm,y_mm\n1500,0\n1600,0\n3900,0\n")
+    with pytest.raises(InputError, match=r"unreachable at every angle, the first at line 4: \(3900.0, 0.0\) mm, "
+                                         r"3900 mm from the base axis"):
+        plan_path(irb, PosturePredictor.load(small_predictor), read_cl_csv(f), speed_rpm=15000)
+
+
+def test_the_exact_modes_dataset_is_a_modal_dataset_a_predictor_reads(irb):
+    """Tracked exact modes at postures, in DATA.md's modal layout: the same mode keeps its number
+    from posture to posture (frequencies move by a few per cent between neighbours, not by a mode)."""
+    from rmbench.impact.dataset import exact_modes_dataset
+    from rmbench.predict import training_set
+    from rmbench.robot import Posture
+
+    ds = exact_modes_dataset(irb, [Posture.from_mm_deg(1500, y, 0) for y in (-100, 0, 100)])
+    ts = training_set(ds)
+    f = ds.modal.sel(param="f_n").values
+    assert ts.X.shape == (3, 3) and set(ds.mode_band.values) == {"low", "high"}
+    assert np.nanmax(np.abs(f[1:] / f[:-1] - 1)) < 0.05

@@ -1,0 +1,97 @@
+"""``rmbench path plan``: the redundant angle along a tool path, chosen to keep the most margin to chatter."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from rmbench.cli._common import command_group, print_json
+from rmbench.errors import InputError
+
+__all__ = ["register"]
+
+
+def register(sub) -> None:
+    g = command_group(sub, "path", "machining along a tool path: the redundant angle that keeps the most margin to chatter")
+    p = g.add_parser("plan", help="choose θ along a tool path from a trained posture predictor")
+    p.add_argument("toolpath", help="cutter-location CSV or G-code file, or a bundled example: pocket, contour")
+    p.add_argument("--predictor", required=True, help="posture predictor (.npz from 'rmbench predict train')")
+    p.add_argument("--speed", type=float, required=True, metavar="RPM", help="spindle speed, rev/min")
+    p.add_argument("--depth", type=float, default=None, metavar="MM", help="axial depth of cut, mm (marks the locations at risk)")
+    p.add_argument("--robot", default="irb6660", help="the robot that mills: bundled name or MJCF path (default irb6660)")
+    p.add_argument("--tool", default=None, help="its tool (default: the robot's own; the predictor's tool is the one that mills)")
+    p.add_argument("--theta-range", default="-60,60", metavar="A,B", help="candidate redundant angles, degrees (default -60,60; write --theta-range=-40,40)")
+    p.add_argument("--theta-step", type=float, default=5.0, metavar="DEG", help="angle grid step, degrees (default 5)")
+    p.add_argument("--fixed-theta", type=float, default=0.0, metavar="DEG", help="the fixed-angle comparison, degrees (default 0)")
+    p.add_argument("--spacing", type=float, default=5.0, metavar="MM", help="cutter-location spacing, mm (default 5)")
+    p.add_argument("--max-joint-rate", type=float, default=60.0, metavar="DEG_S",
+                   help="largest joint speed while cutting, deg/s (default 60)")
+    p.add_argument("--out", default=None, help="directory for plan.csv, fixed.csv and plan.json")
+    p.add_argument("--json", action="store_true", help="print the plan's summary as JSON")
+    p.set_defaults(func=cmd_plan)
+
+
+def _theta(args):
+    import numpy as np
+
+    try:
+        a, b = (float(v) for v in args.theta_range.split(","))
+    except ValueError:
+        raise InputError(f"--theta-range must be A,B in degrees, got {args.theta_range!r}") from None
+    if not (b > a and args.theta_step > 0):
+        raise InputError("--theta-range needs A < B and --theta-step > 0")
+    return np.radians(np.arange(a, b + 1e-9, args.theta_step))
+
+
+def cmd_plan(args) -> int:
+    import numpy as np
+
+    from rmbench.io.strict_json import strict_dumps
+    from rmbench.io.toolpath import read_toolpath
+    from rmbench.path import EXAMPLES, PlanSettings, example, plan_path
+    from rmbench.predict import PosturePredictor
+    from rmbench.robot import Robot
+
+    if args.depth is not None and not args.depth > 0:
+        raise InputError(f"--depth must be > 0 mm, got {args.depth!r}")
+    if not args.spacing > 0 or not args.max_joint_rate > 0:
+        raise InputError("--spacing and --max-joint-rate must be > 0")
+    tp = example(args.toolpath) if args.toolpath in EXAMPLES else read_toolpath(args.toolpath)
+    if not Path(args.predictor).is_file():
+        raise InputError(f"predictor not found: {args.predictor}")
+    predictor = PosturePredictor.load(args.predictor)
+    robot = Robot.load(args.robot, tool=args.tool)
+    settings = PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
+                            spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)))
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+    say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
+    plan = plan_path(robot, predictor, tp, speed_rpm=args.speed,
+                     depth=None if args.depth is None else 1e-3 * args.depth, settings=settings, progress=say)
+    summary = plan.summary()
+    if out is not None:
+        plan.to_csv(out / "plan.csv")
+        plan.to_csv(out / "fixed.csv", plan.fixed)
+        tmp = out / "plan.json.part"
+        tmp.write_text(strict_dumps(summary) + "\n")
+        tmp.replace(out / "plan.json")
+        summary["files"] = [str(out / f) for f in ("plan.csv", "fixed.csv", "plan.json")]
+    if args.json:
+        print_json(summary)
+        return 0
+    a = summary["min_alim_mm"]
+    print(f"{summary['cl_points']} cutter locations at {args.speed:g} rev/min; smallest critical depth "
+          f"planned {a['planned']:.3f} mm, fixed θ = {args.fixed_theta:g}° {a['fixed']:.3f} mm "
+          f"(gain {summary['min_alim_gain']:.2f}x), pointwise best {a['pointwise']:.3f} mm")
+    lo, hi = summary["theta_range_deg"]
+    print(f"planned θ between {lo:g}° and {hi:g}°; {'feasible' if summary['feasible']['planned'] else 'NOT feasible'} "
+          f"within {args.max_joint_rate:g} deg/s per joint")
+    if "at_risk" in summary:
+        print(f"locations below the {args.depth:g} mm depth: planned {summary['at_risk']['planned']}, "
+              f"fixed {summary['at_risk']['fixed']}")
+    if summary["outside_hull"]:
+        print(f"warning: {summary['outside_hull']} planned poses lie outside the predictor's training postures")
+    if out is not None:
+        print(f"wrote {out}: plan.csv, fixed.csv, plan.json")
+    return 0

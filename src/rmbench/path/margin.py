@@ -1,0 +1,157 @@
+"""The critical depth over the (cutter location, θ) grid: from a posture predictor, or exact.
+
+At every pose of the grid the tool tip's modes come from a trained posture predictor
+(:class:`rmbench.predict.PosturePredictor`: the tool it was trained with; a veering cluster's modes
+from its learnt residues) or from the simulator's exact linearisation (the reference a plan is
+judged against). Per band, the zero-order method gives the critical depth at the spindle speed,
+vectorised over the poses (:func:`rmbench.stability.zoa_limit`); the pose's limit is the lowest
+band's. The zero-order method is the one fast enough for thousands of poses; the bench checks it
+against the full discretisation at sampled poses.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from rmbench.errors import InputError
+from rmbench.stability.cutting import Cutting
+from rmbench.stability.zoa import zoa_limit
+
+__all__ = ["DepthGrid", "predicted_depths", "exact_depths", "tip_modes"]
+
+_PARAMS = ("f_n", "zeta", "phiR_1X_re", "phiR_1X_im", "phiR_1Y_re", "phiR_1Y_im",
+           "phiL_1X_re", "phiL_1X_im", "phiL_1Y_re", "phiL_1Y_im")
+
+
+@dataclass(frozen=True)
+class DepthGrid:
+    """Critical depth per pose.
+
+    Attributes
+    ----------
+    a_lim : ndarray, shape (n, m), m
+        The lowest band's critical depth at the spindle speed (inf: stable at any depth; NaN where
+        the pose is not evaluated).
+    by_band : dict of str to ndarray (n, m)
+    outside_hull : ndarray of bool, shape (n, m)
+        Poses outside the predictor's training postures (False for exact depths).
+    speed_rpm : float
+    """
+
+    a_lim: np.ndarray
+    by_band: dict
+    outside_hull: np.ndarray
+    speed_rpm: float
+
+
+def tip_modes(pred, band: str) -> tuple[np.ndarray, np.ndarray]:
+    """Poles (n, n_modes) and tip residues (n, n_modes, 2, 2) of one band of a prediction (or a
+    modal fit), NaN where a mode is not predicted; a veering cluster's modes from its residues."""
+    modal = pred["modal"]
+    sel = np.flatnonzero(pred["mode_band"].values == band)
+    if not len(sel):
+        raise InputError(f"the predictor has no mode in the {band!r} band")
+    v = {p: modal.sel(param=p).values[:, sel] for p in _PARAMS}
+    w, z = 2 * np.pi * v["f_n"], v["zeta"]
+    with np.errstate(invalid="ignore"):
+        poles = w * (-z + 1j * np.sqrt(1 - z ** 2))
+    phi_r = np.stack([v["phiR_1X_re"] + 1j * v["phiR_1X_im"], v["phiR_1Y_re"] + 1j * v["phiR_1Y_im"]], axis=-1)
+    phi_l = np.stack([v["phiL_1X_re"] + 1j * v["phiL_1X_im"], v["phiL_1Y_re"] + 1j * v["phiL_1Y_im"]], axis=-1)
+    res = phi_r[..., :, None] * phi_l[..., None, :]
+    if "cluster_pole" in pred:
+        cp = pred["cluster_pole"].values[:, sel]
+        cr = pred["cluster_residue"].transpose("posture", "mode", "out", "inp").values[:, sel, :2, :2]
+        take = np.isfinite(cp)
+        poles = np.where(take, cp, poles)
+        res = np.where(take[..., None, None], cr, res)
+    bad = ~np.isfinite(poles) | ~np.all(np.isfinite(res), axis=(-2, -1)) | ~(poles.imag > 0) | ~(poles.real < 0)
+    poles = np.where(bad, np.nan, poles)
+    return poles, np.where(bad[..., None, None], np.nan, res)
+
+
+def _freq(poles: np.ndarray, n_freq: int) -> np.ndarray:
+    f = np.abs(poles[np.isfinite(poles)]) / (2 * np.pi)
+    if not len(f):
+        raise InputError("no mode to compute a critical depth from")
+    return np.geomspace(0.2 * f.min(), 1.6 * f.max(), n_freq)
+
+
+def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, bands=("low", "high"),
+                     n_freq: int = 3000, chunk: int = 4096) -> DepthGrid:
+    """Critical depth at every (location, θ) from a posture predictor.
+
+    Parameters
+    ----------
+    predictor : rmbench.predict.PosturePredictor
+    xy : ndarray, shape (n, 2), m
+        Cutter locations (postures' x, y).
+    theta : ndarray, shape (m,), rad
+    cutting : Cutting
+    speed_rpm : float
+    bands : sequence of str
+    n_freq : int
+        Lines of the chatter-frequency search per band.
+    """
+    from rmbench.predict import ExtrapolationWarning
+
+    xy, theta = np.asarray(xy, float), np.asarray(theta, float)
+    n, m = len(xy), len(theta)
+    X = np.column_stack([np.repeat(xy, m, axis=0), np.tile(theta, n)])
+    poles = {b: [] for b in bands}
+    res = {b: [] for b in bands}
+    outside = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExtrapolationWarning)   # reported through outside_hull
+        for a in range(0, len(X), chunk):
+            pred = predictor.predict(X[a:a + chunk])
+            outside.append(pred["outside_hull"].values)
+            for b in bands:
+                p, r = tip_modes(pred, b)
+                poles[b].append(p)
+                res[b].append(r)
+    by_band = {}
+    for b in bands:
+        p, r = np.concatenate(poles[b]), np.concatenate(res[b])
+        by_band[b] = zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)).reshape(n, m)
+    a_lim = np.minimum.reduce([by_band[b] for b in bands])
+    return DepthGrid(a_lim, by_band, np.concatenate(outside).reshape(n, m), float(speed_rpm))
+
+
+def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=None, bands=("low", "high"),
+                 n_freq: int = 3000, progress=None) -> DepthGrid:
+    """Critical depth at every (location, θ) from the robot's exact modes as a band sees them
+    (the reference; ``reach``'s joint commands where given, else the robot's inverse kinematics).
+    Poses ``reach`` marks unusable are NaN."""
+    from rmbench.robot.posture import Posture
+
+    xy, theta = np.asarray(xy, float), np.asarray(theta, float)
+    n, m = len(xy), len(theta)
+    tables = {b: [] for b in bands}
+    where = []
+    for i in range(n):
+        for j in range(m):
+            if reach is not None and not reach.ok[i, j]:
+                continue
+            op = robot.at(reach.q[i, j] if reach is not None else Posture(*xy[i], theta[j]))
+            for b in bands:
+                tables[b].append(op.modes(b))
+            where.append(i * m + j)
+        if progress is not None:
+            progress(i)
+    by_band = {}
+    for b in bands:
+        k = max((len(t.poles) for t in tables[b]), default=0)
+        p = np.full((len(where), k), np.nan, complex)
+        r = np.full((len(where), k, 2, 2), np.nan, complex)
+        for row, t in enumerate(tables[b]):
+            p[row, :len(t.poles)] = t.poles
+            r[row, :len(t.poles)] = t.phi_r[:, :2, None] * t.phi_l[:, None, :2]
+        flat = np.full(n * m, np.nan)
+        if len(where):
+            flat[where] = zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq))
+        by_band[b] = flat.reshape(n, m)
+    a_lim = np.minimum.reduce([by_band[b] for b in bands])
+    return DepthGrid(a_lim, by_band, np.zeros((n, m), bool), float(speed_rpm))

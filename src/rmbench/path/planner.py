@@ -1,0 +1,236 @@
+"""A tool path planned end to end: reach, critical depths from a predictor, the θ schedule.
+
+::
+
+    from rmbench.path import example, plan_path
+    plan = plan_path(robot, predictor, example("pocket"), speed_rpm=15000, depth=3e-3)
+    plan.planned.min_margin, plan.fixed.min_margin, plan.gain   # critical depths, m; ratio
+    plan.to_csv("plan.csv")
+
+The critical depth is evaluated every ``eval_spacing`` of arc length and interpolated linearly
+between (the predictor's length scales are hundreds of millimetres; the cutter locations a few
+apart), so a 2,000-location pocket costs a few hundred predictions per angle.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rmbench.errors import InputError
+from rmbench.io.toolpath import ToolPath
+from rmbench.path.margin import DepthGrid, predicted_depths
+from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise_schedule
+from rmbench.path.reach import Reach, reach_grid
+from rmbench.stability.cutting import ALUMINIUM_6061, Cutting
+
+__all__ = ["PathPlan", "plan_path", "PlanSettings"]
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """How a path is planned.
+
+    Attributes
+    ----------
+    theta : ndarray, shape (m,), rad
+        Candidate redundant angles.
+    fixed_theta : float
+        The fixed-θ schedule's angle, rad (the comparison).
+    spacing : float
+        Cutter-location spacing along cutting moves, m.
+    eval_spacing : float
+        Arc length between critical-depth evaluations, m.
+    max_joint_rate : float
+        Largest joint speed while cutting, rad/s (with the feed it bounds each joint's move between
+        neighbouring locations).
+    default_feed : float
+        Feed where the path gives none, m/s.
+    """
+
+    theta: np.ndarray = tuple(np.radians(np.arange(-60.0, 61.0, 5.0)))
+    fixed_theta: float = 0.0
+    spacing: float = 5e-3
+    eval_spacing: float = 20e-3
+    max_joint_rate: float = np.radians(60.0)
+    default_feed: float = 0.05
+
+    def __post_init__(self):
+        th = np.asarray(self.theta, float)
+        if th.ndim != 1 or len(th) < 1 or not np.all(np.isfinite(th)) or np.any(np.diff(th) <= 0):
+            raise InputError("the candidate angles must be finite and increasing")
+        for name in ("spacing", "eval_spacing", "max_joint_rate", "default_feed"):
+            if not getattr(self, name) > 0:
+                raise InputError(f"{name} must be > 0, got {getattr(self, name)!r}")
+
+
+@dataclass(frozen=True)
+class PathPlan:
+    """A planned path and its comparisons.
+
+    Attributes
+    ----------
+    toolpath : ToolPath
+        The resampled cutter locations.
+    reach : Reach
+    depths : DepthGrid
+        Predicted critical depths at every location and angle (interpolated between evaluations).
+    planned, fixed, pointwise : Schedule
+    depth : float
+        The axial depth to be cut, m (None: not given).
+    speed_rpm : float
+    seconds : dict
+    """
+
+    toolpath: ToolPath
+    reach: Reach
+    depths: DepthGrid
+    planned: Schedule
+    fixed: Schedule
+    pointwise: Schedule
+    depth: float | None
+    speed_rpm: float
+    seconds: dict
+
+    @property
+    def gain(self) -> float:
+        """The planned schedule's smallest critical depth over the fixed-θ schedule's."""
+        f = self.fixed.min_margin
+        return float(self.planned.min_margin / f) if f > 0 else float("inf")
+
+    def at_risk(self, schedule: Schedule | None = None) -> np.ndarray:
+        """Indices of the locations whose critical depth along ``schedule`` (default: the plan)
+        lies below the depth cut."""
+        s = self.planned if schedule is None else schedule
+        return np.flatnonzero(s.margin < self.depth) if self.depth is not None else np.zeros(0, int)
+
+    def joint_trajectory(self, schedule: Schedule | None = None) -> np.ndarray:
+        """Joint commands along ``schedule`` (default: the plan), rad, shape (n, n_joint)."""
+        s = self.planned if schedule is None else schedule
+        return self.reach.q[np.arange(len(s.index)), s.index]
+
+    def summary(self) -> dict:
+        """The plan's figures as plain data (mm and degrees, as the command line prints them)."""
+        out = {"cl_points": len(self.toolpath), "speed_rpm": self.speed_rpm,
+               "depth_mm": None if self.depth is None else 1e3 * self.depth,
+               "unreachable": [int(i) for i in self.reach.unreachable()],
+               "outside_hull": int(np.sum(self.depths.outside_hull[np.arange(len(self.planned.index)),
+                                                                   self.planned.index])),
+               "min_alim_mm": {k: 1e3 * s.min_margin for k, s in
+                               (("planned", self.planned), ("fixed", self.fixed), ("pointwise", self.pointwise))},
+               "feasible": {k: s.feasible for k, s in
+                            (("planned", self.planned), ("fixed", self.fixed), ("pointwise", self.pointwise))},
+               "min_alim_gain": self.gain,
+               "theta_range_deg": [float(np.degrees(self.planned.theta.min())),
+                                   float(np.degrees(self.planned.theta.max()))],
+               "seconds": self.seconds}
+        if self.depth is not None:
+            out["at_risk"] = {"planned": len(self.at_risk()), "fixed": len(self.at_risk(self.fixed))}
+        return out
+
+    def to_csv(self, path, schedule: Schedule | None = None) -> Path:
+        """The schedule and joint trajectory: arc length, location, θ, joints (deg), critical depth (mm)."""
+        s = self.planned if schedule is None else schedule
+        q = np.degrees(self.joint_trajectory(s))
+        arc = self.toolpath.arc_length()
+        joints = [f"q{k + 1}_deg" for k in range(q.shape[1])]
+        rows = [",".join(["s_mm", "x_mm", "y_mm", "theta_deg"] + joints + ["a_lim_mm", "cutting"])]
+        for i in range(len(s.index)):
+            rows.append(",".join([f"{1e3 * arc[i]:.3f}", f"{1e3 * self.toolpath.xy[i, 0]:.3f}",
+                                  f"{1e3 * self.toolpath.xy[i, 1]:.3f}", f"{np.degrees(s.theta[i]):.3f}"]
+                                 + [f"{v:.5f}" for v in q[i]]
+                                 + [f"{1e3 * s.margin[i]:.5f}" if np.isfinite(s.margin[i]) else "",
+                                    str(int(self.toolpath.cutting[i]))]))
+        path = Path(path)
+        tmp = path.with_name(path.name + ".part")
+        tmp.write_text("\n".join(rows) + "\n")
+        tmp.replace(path)
+        return path
+
+
+def _check_reach(tp: ToolPath, reach: Reach) -> None:
+    bad = reach.unreachable()
+    if len(bad):
+        i = int(bad[0])
+        r = float(np.hypot(*tp.xy[i]))
+        raise InputError(f"{len(bad)} cutter location(s) unreachable at every angle, the first at line "
+                         f"{int(tp.line[i])}: ({1e3 * tp.xy[i, 0]:.1f}, {1e3 * tp.xy[i, 1]:.1f}) mm, "
+                         f"{1e3 * r:.0f} mm from the base axis")
+
+
+def _evaluated(toolpath: ToolPath, eval_spacing: float) -> np.ndarray:
+    """Locations at which the critical depth is evaluated: the first, the last, and one every
+    ``eval_spacing`` of arc length."""
+    arc = toolpath.arc_length()
+    marks = np.arange(0.0, arc[-1] + eval_spacing, eval_spacing)
+    idx = np.unique(np.concatenate([[0, len(arc) - 1], np.searchsorted(arc, marks).clip(0, len(arc) - 1)]))
+    return idx
+
+
+def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: float | None = None,
+              cutting: Cutting = ALUMINIUM_6061, settings: PlanSettings = PlanSettings(),
+              progress=None) -> PathPlan:
+    """Plan θ(s) along a tool path with the critical depth a posture predictor gives.
+
+    Parameters
+    ----------
+    robot : rmbench.robot.Robot
+        The robot that mills (its inverse kinematics and joint limits).
+    predictor : rmbench.predict.PosturePredictor
+        Trained on this robot with the tool that mills.
+    toolpath : ToolPath
+    speed_rpm : float
+        Spindle speed, rev/min.
+    depth : float, optional
+        Axial depth to be cut, m (marks the locations at risk).
+    cutting : Cutting
+    settings : PlanSettings
+
+    Raises
+    ------
+    InputError
+        A cutter location no candidate angle reaches (named, with the reach), a speed or depth out
+        of range.
+    """
+    if not speed_rpm > 0:
+        raise InputError(f"the spindle speed must be > 0 rev/min, got {speed_rpm!r}")
+    if depth is not None and not depth > 0:
+        raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
+    say = progress or (lambda msg: None)
+    t = {"start": time.perf_counter()}
+    theta = np.asarray(settings.theta, float)
+    # the programmed points first: an unreachable one is named before thousands of locations
+    # between are tried
+    _check_reach(toolpath, reach_grid(robot, toolpath, theta))
+    tp = toolpath.resampled(settings.spacing)
+    reach = reach_grid(robot, tp, theta)
+    _check_reach(tp, reach)
+    t["reach"] = time.perf_counter()
+    say(f"{len(tp)} cutter locations reached at {len(theta)} angles")
+    at = _evaluated(tp, settings.eval_spacing)
+    coarse = predicted_depths(predictor, tp.xy[at], theta, cutting, speed_rpm)
+    arc = tp.arc_length()
+
+    def spread(a):
+        return np.column_stack([np.interp(arc, arc[at], a[:, j]) for j in range(a.shape[1])])
+
+    depths = DepthGrid(spread(coarse.a_lim), {b: spread(v) for b, v in coarse.by_band.items()},
+                       spread(coarse.outside_hull.astype(float)) > 0, coarse.speed_rpm)
+    t["depths"] = time.perf_counter()
+    say(f"critical depths predicted at {len(at)} locations x {len(theta)} angles")
+    margin = np.where(reach.ok, depths.a_lim, -np.inf)
+    feed = np.where(np.isfinite(tp.feed), tp.feed, settings.default_feed)
+    steps = np.diff(arc)
+    dt = np.min(steps / feed[1:]) if len(steps) else 1.0
+    max_dq = settings.max_joint_rate * max(dt, 1e-6)
+    planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq)
+    fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
+    pointwise = pointwise_schedule(margin, theta)
+    t["plan"] = time.perf_counter()
+    keys = list(t)
+    seconds = {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i} | {
+        "total": round(t[keys[-1]] - t[keys[0]], 3)}
+    return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(speed_rpm), seconds)
