@@ -43,6 +43,7 @@ bench: $(STAMP)
 	cd bench && ../$(BIN)/python calibrate_design.py | tee results/calibrate_design.txt
 	$(BIN)/python bench/gap_tracker.py | tee bench/results/gap_tracker.txt
 	$(BIN)/python bench/predict.py | tee bench/results/predict.txt
+	$(BIN)/python bench/path.py | tee bench/results/path.txt
 	$(BIN)/python bench/rcsa.py | tee bench/results/rcsa.txt
 	$(BIN)/python bench/lobes.py | tee bench/results/lobes.txt
 	$(BIN)/python bench/any_robot.py | tee bench/results/any_robot.txt

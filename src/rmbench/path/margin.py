@@ -20,7 +20,8 @@ from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
 from rmbench.stability.zoa import zoa_limit
 
-__all__ = ["DepthGrid", "predicted_depths", "exact_depths", "tip_modes"]
+__all__ = ["DepthGrid", "TipModes", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths",
+           "tip_modes"]
 
 _PARAMS = ("f_n", "zeta", "phiR_1X_re", "phiR_1X_im", "phiR_1Y_re", "phiR_1Y_im",
            "phiL_1X_re", "phiL_1X_im", "phiL_1Y_re", "phiL_1Y_im")
@@ -79,9 +80,43 @@ def _freq(poles: np.ndarray, n_freq: int) -> np.ndarray:
     return np.geomspace(0.2 * f.min(), 1.6 * f.max(), n_freq)
 
 
-def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, bands=("low", "high"),
-                     n_freq: int = 3000, chunk: int = 4096) -> DepthGrid:
-    """Critical depth at every (location, θ) from a posture predictor.
+@dataclass(frozen=True)
+class TipModes:
+    """Tool-tip modes over the (location, θ) grid, per band: what the critical depth at any speed
+    is computed from.
+
+    Attributes
+    ----------
+    shape : (int, int)
+        (n locations, m angles).
+    poles : dict of str to ndarray (n_poses, n_modes), complex, rad/s
+    residues : dict of str to ndarray (n_poses, n_modes, 2, 2), complex
+    where : ndarray of int, shape (n_poses,)
+        Flat grid index of each pose evaluated (the others are NaN in a :class:`DepthGrid`).
+    outside_hull : ndarray of bool, shape (n, m)
+    """
+
+    shape: tuple
+    poles: dict
+    residues: dict
+    where: np.ndarray
+    outside_hull: np.ndarray
+
+    def depths(self, cutting: Cutting, speed_rpm: float, *, n_freq: int = 3000) -> DepthGrid:
+        """The critical depth of every pose at one spindle speed (rev/min)."""
+        n, m = self.shape
+        by_band = {}
+        for b, p in self.poles.items():
+            flat = np.full(n * m, np.nan)
+            if len(self.where):
+                flat[self.where] = zoa_limit(p, self.residues[b], cutting, speed_rpm, _freq(p, n_freq))
+            by_band[b] = flat.reshape(n, m)
+        a_lim = np.minimum.reduce(list(by_band.values()))
+        return DepthGrid(a_lim, by_band, self.outside_hull, float(speed_rpm))
+
+
+def predicted_modes(predictor, xy, theta, *, bands=("low", "high"), chunk: int = 4096) -> TipModes:
+    """Tool-tip modes at every (location, θ) from a posture predictor.
 
     Parameters
     ----------
@@ -89,11 +124,7 @@ def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *
     xy : ndarray, shape (n, 2), m
         Cutter locations (postures' x, y).
     theta : ndarray, shape (m,), rad
-    cutting : Cutting
-    speed_rpm : float
     bands : sequence of str
-    n_freq : int
-        Lines of the chatter-frequency search per band.
     """
     from rmbench.predict import ExtrapolationWarning
 
@@ -112,19 +143,15 @@ def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *
                 p, r = tip_modes(pred, b)
                 poles[b].append(p)
                 res[b].append(r)
-    by_band = {}
-    for b in bands:
-        p, r = np.concatenate(poles[b]), np.concatenate(res[b])
-        by_band[b] = zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)).reshape(n, m)
-    a_lim = np.minimum.reduce([by_band[b] for b in bands])
-    return DepthGrid(a_lim, by_band, np.concatenate(outside).reshape(n, m), float(speed_rpm))
+    return TipModes((n, m), {b: np.concatenate(poles[b]) for b in bands},
+                    {b: np.concatenate(res[b]) for b in bands}, np.arange(n * m),
+                    np.concatenate(outside).reshape(n, m))
 
 
-def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=None, bands=("low", "high"),
-                 n_freq: int = 3000, progress=None) -> DepthGrid:
-    """Critical depth at every (location, θ) from the robot's exact modes as a band sees them
-    (the reference; ``reach``'s joint commands where given, else the robot's inverse kinematics).
-    Poses ``reach`` marks unusable are NaN."""
+def exact_modes(robot, xy, theta, *, reach=None, bands=("low", "high"), progress=None) -> TipModes:
+    """The robot's exact tool-tip modes at every (location, θ) as a band sees them (the
+    reference); ``reach``'s joint commands where given (poses it marks unusable are left out),
+    else the robot's inverse kinematics."""
     from rmbench.robot.posture import Posture
 
     xy, theta = np.asarray(xy, float), np.asarray(theta, float)
@@ -141,17 +168,25 @@ def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=
             where.append(i * m + j)
         if progress is not None:
             progress(i)
-    by_band = {}
+    poles, res = {}, {}
     for b in bands:
         k = max((len(t.poles) for t in tables[b]), default=0)
-        p = np.full((len(where), k), np.nan, complex)
-        r = np.full((len(where), k, 2, 2), np.nan, complex)
+        poles[b] = np.full((len(where), k), np.nan, complex)
+        res[b] = np.full((len(where), k, 2, 2), np.nan, complex)
         for row, t in enumerate(tables[b]):
-            p[row, :len(t.poles)] = t.poles
-            r[row, :len(t.poles)] = t.phi_r[:, :2, None] * t.phi_l[:, None, :2]
-        flat = np.full(n * m, np.nan)
-        if len(where):
-            flat[where] = zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq))
-        by_band[b] = flat.reshape(n, m)
-    a_lim = np.minimum.reduce([by_band[b] for b in bands])
-    return DepthGrid(a_lim, by_band, np.zeros((n, m), bool), float(speed_rpm))
+            poles[b][row, :len(t.poles)] = t.poles
+            res[b][row, :len(t.poles)] = t.phi_r[:, :2, None] * t.phi_l[:, None, :2]
+    return TipModes((n, m), poles, res, np.array(where, int), np.zeros((n, m), bool))
+
+
+def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, bands=("low", "high"),
+                     n_freq: int = 3000) -> DepthGrid:
+    """Critical depth at every (location, θ) from a posture predictor (:func:`predicted_modes`)."""
+    return predicted_modes(predictor, xy, theta, bands=bands).depths(cutting, speed_rpm, n_freq=n_freq)
+
+
+def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=None, bands=("low", "high"),
+                 n_freq: int = 3000, progress=None) -> DepthGrid:
+    """Critical depth at every (location, θ) from the robot's exact modes (:func:`exact_modes`)."""
+    return exact_modes(robot, xy, theta, reach=reach, bands=bands, progress=progress).depths(
+        cutting, speed_rpm, n_freq=n_freq)
