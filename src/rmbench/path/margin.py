@@ -21,7 +21,7 @@ from rmbench.stability.cutting import Cutting
 from rmbench.stability.zoa import zoa_limit
 
 __all__ = ["DepthGrid", "TipModes", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths",
-           "tip_modes"]
+           "tip_modes", "depth_band"]
 
 _PARAMS = ("f_n", "zeta", "phiR_1X_re", "phiR_1X_im", "phiR_1Y_re", "phiR_1Y_im",
            "phiL_1X_re", "phiL_1X_im", "phiL_1Y_re", "phiL_1Y_im")
@@ -190,3 +190,65 @@ def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=
     """Critical depth at every (location, θ) from the robot's exact modes (:func:`exact_modes`)."""
     return exact_modes(robot, xy, theta, reach=reach, bands=bands, progress=progress).depths(
         cutting, speed_rpm, n_freq=n_freq)
+
+
+def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draws: int = 64, level: float = 0.95,
+               sd_scale: float = 1.0, bands=("low", "high"), n_freq: int = 3000, seed: int = 0) -> tuple:
+    """The critical depth along a schedule with its band, sampled from the predictor's variance.
+
+    Each draw perturbs every predicted parameter a tool tip's modes are built from (natural
+    frequency, damping, the tip components of both eigenvectors) by an independent normal of the
+    predictor's standard deviation times ``sd_scale`` (``modal_std``: the latent function's; a veering
+    cluster's residues are kept at their mean), and recomputes the critical depth.
+
+    Parameters
+    ----------
+    xy : ndarray, shape (n, 2), m
+    theta : ndarray, shape (n,), rad
+        One angle per location (a schedule).
+    draws : int
+    level : float
+        Central probability of the band.
+    sd_scale : float
+        Factor on the predictor's standard deviations (a calibration of them, e.g. by
+        cross-validation).
+
+    Returns
+    -------
+    a_lim : ndarray, shape (n,), m
+        From the predicted means.
+    lower, upper : ndarray, shape (n,), m
+        The band's limits (percentiles of the draws).
+    """
+    from rmbench.predict import ExtrapolationWarning
+
+    xy, theta = np.asarray(xy, float), np.asarray(theta, float)
+    X = np.column_stack([xy, theta])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExtrapolationWarning)
+        pred = predictor.predict(X)
+    mean = pred["modal"].values
+    sd = np.nan_to_num(pred["modal_std"].values) * sd_scale
+    idx = [list(pred["param"].values).index(p) for p in _PARAMS]
+    rng = np.random.default_rng(seed)
+
+    def limit(values):
+        values = values.copy()
+        values[..., idx[1]] = np.clip(values[..., idx[1]], 1e-4, 0.9)   # damping stays a ratio in (0, 1)
+        one = pred.copy()
+        one["modal"] = (("posture", "mode", "param"), values)
+        per = []
+        for b in bands:
+            p, r = tip_modes(one, b)
+            per.append(zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)))
+        return np.minimum.reduce(per)
+
+    a0 = limit(mean)
+    samples = []
+    for _ in range(draws):
+        v = mean.copy()
+        v[..., idx] += sd[..., idx] * rng.standard_normal(v[..., idx].shape)
+        samples.append(limit(v))
+    samples = np.array(samples)
+    tail = 100 * (1 - level) / 2
+    return a0, np.percentile(samples, tail, axis=0), np.percentile(samples, 100 - tail, axis=0)
