@@ -221,3 +221,13 @@ def test_the_depth_band_widens_with_the_predictors_standard_deviations(small_pre
     _, lo2, hi2 = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=32, sd_scale=0.02)
     assert np.all(lo1 < a0) and np.all(a0 < hi1)
     np.testing.assert_allclose((hi2 - lo2) / (hi1 - lo1), 2.0, rtol=0.15)
+
+
+def test_a_prediction_without_standard_deviations_has_the_same_means(small_predictor):
+    from rmbench.predict import PosturePredictor
+
+    pred = PosturePredictor.load(small_predictor)
+    X = [[1.5, 0.0, 0.0], [1.7, 0.1, 0.3]]
+    full, fast = pred.predict(X), pred.predict(X, std=False)
+    np.testing.assert_array_equal(fast.modal.values, full.modal.values)
+    assert np.isnan(fast.modal_std.values).any() and not np.isnan(full.modal_std.values[np.isfinite(full.modal.values)]).any()

@@ -137,7 +137,7 @@ def predicted_modes(predictor, xy, theta, *, bands=("low", "high"), chunk: int =
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)   # reported through outside_hull
         for a in range(0, len(X), chunk):
-            pred = predictor.predict(X[a:a + chunk])
+            pred = predictor.predict(X[a:a + chunk], std=False)
             outside.append(pred["outside_hull"].values)
             for b in bands:
                 p, r = tip_modes(pred, b)
