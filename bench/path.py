@@ -84,7 +84,8 @@ def main() -> None:
     def spread(a):
         return np.column_stack([np.interp(arc, arc[at], a[:, j]) for j in range(a.shape[1])])
 
-    max_dq = settings.max_joint_rate * settings.spacing / settings.default_feed
+    feed = np.where(np.isfinite(tp.feed), tp.feed, settings.default_feed)
+    max_dq = settings.max_joint_rate * np.diff(arc) / feed[1:]
     rows, errs = [], []
     for sp in speeds:
         ex = ex_modes.depths(ALUMINIUM_6061, sp).a_lim

@@ -160,8 +160,9 @@ def test_the_planned_schedule_keeps_at_least_the_fixed_angles_smallest_depth_wit
     assert plan.planned.min_margin >= plan.fixed.min_margin and plan.gain >= 1.0
     assert plan.planned.min_margin <= plan.pointwise.min_margin
     # every joint's move between neighbouring locations within 60°/s at the path's 3000 mm/min feed
-    dt = 20e-3 / 0.05
-    assert np.abs(np.diff(plan.joint_trajectory(), axis=0)).max() <= np.radians(60.0) * dt + 1e-12
+    dt = np.diff(plan.toolpath.arc_length()) / 0.05
+    moves = np.abs(np.diff(plan.joint_trajectory(), axis=0)).max(axis=1)
+    assert np.all(moves <= np.radians(60.0) * dt + 1e-12)
     # critical depths of a few millimetres, as the seed's robot has at this speed
     assert 1e-3 < plan.planned.min_margin < 20e-3
 
@@ -231,3 +232,12 @@ def test_a_prediction_without_standard_deviations_has_the_same_means(small_predi
     full, fast = pred.predict(X), pred.predict(X, std=False)
     np.testing.assert_array_equal(fast.modal.values, full.modal.values)
     assert np.isnan(fast.modal_std.values).any() and not np.isnan(full.modal_std.values[np.isfinite(full.modal.values)]).any()
+
+
+def test_a_repeated_cutter_location_does_not_freeze_the_schedule():
+    """A move of zero length allows no joint motion, and needs none: the moves around it keep
+    their own limits (one limit per move, not the tightest for all)."""
+    margin = np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+    q = np.array([[[0.0], [0.05]], [[0.0], [0.05]], [[0.0], [0.05]], [[0.05], [0.1]]])
+    plan = plan_schedule(margin, np.array([0.0, 0.1]), q=q, max_step=1, max_dq=[0.0, 0.1, 0.1])
+    assert plan.feasible and plan.index.tolist() == [0, 0, 0, 1] and plan.min_margin == 1.0

@@ -55,15 +55,25 @@ class Schedule:
         return float(np.min(self.margin))
 
 
-def _allowed(q, s: int, max_step: int, max_dq: float | None, m: int) -> np.ndarray:
-    """Moves from location ``s - 1`` (rows j) to ``s`` (columns k), shape (m, m)."""
+def _allowed(q, s: int, max_step: int, max_dq, m: int) -> np.ndarray:
+    """Moves from location ``s - 1`` (rows j) to ``s`` (columns k), shape (m, m); ``max_dq`` per
+    move (shape (n - 1,))."""
     j, k = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
     ok = np.abs(k - j) <= max_step
     if q is not None and max_dq is not None:
         with np.errstate(invalid="ignore"):
             dq = np.nanmax(np.abs(q[s][None, :, :] - q[s - 1][:, None, :]), axis=2)
-        ok &= np.isfinite(dq) & (dq <= max_dq)
+        ok &= np.isfinite(dq) & (dq <= max_dq[s - 1])
     return ok
+
+
+def _per_move(max_dq, n: int):
+    if max_dq is None:
+        return None
+    out = np.broadcast_to(np.asarray(max_dq, float), (max(n - 1, 0),))
+    if np.any(~(out >= 0)):
+        raise InputError("the largest joint move must be >= 0 rad")
+    return out
 
 
 def _check(margin, theta, q) -> tuple[np.ndarray, np.ndarray]:
@@ -78,7 +88,7 @@ def _check(margin, theta, q) -> tuple[np.ndarray, np.ndarray]:
     return margin, theta
 
 
-def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq: float | None = None,
+def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None,
                   step_cost: float = 1e-3) -> Schedule:
     """The maximin schedule of the module docstring.
 
@@ -91,8 +101,9 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq: float | N
         Joint commands per pose, for the joint-step limit.
     max_step : int
         Largest θ move between neighbouring locations, in grid steps.
-    max_dq : float, optional
-        Largest joint move between neighbouring locations, rad (needs ``q``).
+    max_dq : float or array_like of shape (n - 1,), optional
+        Largest joint move between neighbouring locations, rad, one for all moves or one per move
+        (the joint rate times each move's time; needs ``q``).
     step_cost : float
         Cost of one θ grid step in the second pass, in units of the margin's spread (a tie-breaker).
 
@@ -104,6 +115,7 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq: float | N
     margin, theta = _check(margin, theta, q)
     q = None if q is None else np.asarray(q, float)
     n, m = margin.shape
+    max_dq = _per_move(max_dq, n)
     allowed = [None] + [_allowed(q, s, max_step, max_dq, m) for s in range(1, n)]
     # pass 1: the bottleneck value
     v = margin[0].copy()
@@ -139,15 +151,16 @@ def _fallback(margin, theta, q, max_step, max_dq) -> Schedule:
     return Schedule(s.index, s.theta, s.margin, False, "planned")
 
 
-def fixed_schedule(margin, theta, value: float, *, q=None, max_dq: float | None = None) -> Schedule:
+def fixed_schedule(margin, theta, value: float, *, q=None, max_dq=None) -> Schedule:
     """θ held at the grid angle nearest ``value`` (rad) throughout."""
     margin, theta = _check(margin, theta, q)
     j = int(np.argmin(np.abs(theta - value)))
     n = margin.shape[0]
     idx = np.full(n, j)
     feasible = bool(np.all(np.isfinite(margin[:, j])))
+    max_dq = _per_move(max_dq, n)
     if feasible and q is not None and max_dq is not None and n > 1:
-        feasible = bool(np.nanmax(np.abs(np.diff(np.asarray(q, float)[:, j], axis=0))) <= max_dq)
+        feasible = bool(np.all(np.max(np.abs(np.diff(np.asarray(q, float)[:, j], axis=0)), axis=1) <= max_dq))
     return Schedule(idx, theta[idx], margin[:, j], feasible, "fixed")
 
 

@@ -223,9 +223,9 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: 
     say(f"critical depths predicted at {len(at)} locations x {len(theta)} angles")
     margin = np.where(reach.ok, depths.a_lim, -np.inf)
     feed = np.where(np.isfinite(tp.feed), tp.feed, settings.default_feed)
-    steps = np.diff(arc)
-    dt = np.min(steps / feed[1:]) if len(steps) else 1.0
-    max_dq = settings.max_joint_rate * max(dt, 1e-6)
+    # each move's time at its feed (a rapid's at the cutting feed: slower than it will be, so
+    # its joint moves are judged leniently; nothing is cut along it)
+    max_dq = settings.max_joint_rate * np.diff(arc) / feed[1:]
     planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq)
     fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
     pointwise = pointwise_schedule(margin, theta)
