@@ -174,12 +174,14 @@ def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path
 
     code = main(["path", "plan", "contour", "--predictor", str(small_predictor), "--speed", "15000",
                  "--depth", "3", "--theta-range=-40,40", "--theta-step", "20", "--spacing", "20",
-                 "--out", str(tmp_path / "plan"), "--json"])
+                 "--out", str(tmp_path / "plan"), "--report", str(tmp_path / "plan.html"), "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["min_alim_gain"] >= 1.0 and not out["unreachable"]
     rows = (tmp_path / "plan" / "plan.csv").read_text().splitlines()
     assert rows[0].startswith("s_mm,x_mm,y_mm,theta_deg,q1_deg") and len(rows) == out["cl_points"] + 1
     assert json.loads((tmp_path / "plan" / "plan.json").read_text())["cl_points"] == out["cl_points"]
+    html = (tmp_path / "plan.html").read_text()
+    assert "Redundant angle along the path" in html and "Critical depth along the path" in html
 
 
 def test_an_unreachable_cutter_location_is_named_with_its_line_and_reach(irb, small_predictor, tmp_path):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from rmbench.cli._common import command_group, print_json
+from rmbench.cli._common import add_report_option, command_group, print_json, report_path
 from rmbench.errors import InputError
 
 __all__ = ["register"]
@@ -28,6 +28,7 @@ def register(sub) -> None:
                    help="largest joint speed while cutting, deg/s (default 60)")
     p.add_argument("--out", default=None, help="directory for plan.csv, fixed.csv and plan.json")
     p.add_argument("--json", action="store_true", help="print the plan's summary as JSON")
+    add_report_option(p, "the path coloured by its critical depth, θ and the depth along it")
     p.set_defaults(func=cmd_plan)
 
 
@@ -52,6 +53,7 @@ def cmd_plan(args) -> int:
     from rmbench.predict import PosturePredictor
     from rmbench.robot import Robot
 
+    report = report_path(args)
     if args.depth is not None and not args.depth > 0:
         raise InputError(f"--depth must be > 0 mm, got {args.depth!r}")
     if not args.spacing > 0 or not args.max_joint_rate > 0:
@@ -77,6 +79,15 @@ def cmd_plan(args) -> int:
         tmp.write_text(strict_dumps(summary) + "\n")
         tmp.replace(out / "plan.json")
         summary["files"] = [str(out / f) for f in ("plan.csv", "fixed.csv", "plan.json")]
+    if report is not None:
+        from rmbench.report import Page
+        from rmbench.report.path import path_sections
+
+        page = Page(f"Tool path plan of {args.toolpath}", {"predictor": args.predictor, "robot": args.robot,
+                                                          "speed (rev/min)": args.speed})
+        path_sections(page, plan)
+        page.write(report)
+        summary["report"] = str(report)
     if args.json:
         print_json(summary)
         return 0
@@ -94,4 +105,6 @@ def cmd_plan(args) -> int:
         print(f"warning: {summary['outside_hull']} planned poses lie outside the predictor's training postures")
     if out is not None:
         print(f"wrote {out}: plan.csv, fixed.csv, plan.json")
+    if report is not None:
+        print(f"wrote {report}")
     return 0

@@ -1,0 +1,54 @@
+"""Report sections of a planned tool path: the path coloured by its critical depth, θ and the
+critical depth along it for the planned, fixed-θ and pointwise-best schedules."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rmbench.report.page import Page
+
+__all__ = ["path_sections"]
+
+_COLORS = {"planned": "#1f77b4", "fixed": "#d62728", "pointwise": "#7f7f7f"}
+
+
+def _mm(a) -> list:
+    a = np.asarray(a, float)
+    return np.where(np.isfinite(a), 1e3 * a, np.nan)
+
+
+def path_sections(page: Page, plan) -> None:
+    """The sections of one :class:`rmbench.path.PathPlan` (nothing is recomputed)."""
+    tp = plan.toolpath
+    s_mm = 1e3 * tp.arc_length()
+    schedules = {"planned": plan.planned, "fixed": plan.fixed, "pointwise": plan.pointwise}
+    sec = page.section("Tool path and its critical depth",
+                       f"{len(tp)} cutter locations at {plan.speed_rpm:g} rev/min, coloured by the critical depth "
+                       "along the planned schedule (mm); crosses: locations whose depth lies below the depth cut.")
+    traces = [{"type": "scatter", "mode": "markers", "x": 1e3 * tp.xy[:, 0], "y": 1e3 * tp.xy[:, 1],
+               "name": "planned", "marker": {"size": 4, "color": _mm(plan.planned.margin), "colorscale": "Viridis",
+                                            "colorbar": {"title": {"text": "a_lim (mm)"}}}}]
+    risk = plan.at_risk()
+    if len(risk):
+        traces.append({"type": "scatter", "mode": "markers", "x": 1e3 * tp.xy[risk, 0], "y": 1e3 * tp.xy[risk, 1],
+                       "name": "at risk", "marker": {"symbol": "x", "color": "#d62728", "size": 7}})
+    sec.figure({"data": traces, "layout": {"height": 480, "xaxis": {"title": {"text": "x (mm)"}},
+                                           "yaxis": {"title": {"text": "y (mm)"}, "scaleanchor": "x"}}})
+    sec = page.section("Redundant angle along the path", "θ per cutter location for each schedule.")
+    sec.figure({"data": [{"type": "scatter", "mode": "lines", "x": s_mm, "y": np.degrees(s.theta), "name": k,
+                          "line": {"color": _COLORS[k], "width": 1.5}} for k, s in schedules.items()],
+                "layout": {"height": 360, "xaxis": {"title": {"text": "arc length (mm)"}},
+                           "yaxis": {"title": {"text": "θ (deg)"}}}})
+    traces = [{"type": "scatter", "mode": "lines", "x": s_mm, "y": _mm(s.margin), "name": k,
+               "line": {"color": _COLORS[k], "width": 1.5}} for k, s in schedules.items()]
+    if plan.depth is not None:
+        traces.append({"type": "scatter", "mode": "lines", "x": [s_mm[0], s_mm[-1]], "y": [1e3 * plan.depth] * 2,
+                       "name": "depth cut", "line": {"color": "#000", "dash": "dash"}})
+    sec = page.section("Critical depth along the path", "The predicted critical depth along each schedule.")
+    sec.figure({"data": traces, "layout": {"height": 380, "xaxis": {"title": {"text": "arc length (mm)"}},
+                                           "yaxis": {"title": {"text": "critical depth (mm)"}, "rangemode": "tozero"}}})
+    rows = [[k, 1e3 * s.min_margin, float(np.degrees(s.theta.min())), float(np.degrees(s.theta.max())),
+             "yes" if s.feasible else "no", len(plan.at_risk(s)) if plan.depth is not None else ""]
+            for k, s in schedules.items()]
+    sec.table(["schedule", "smallest critical depth (mm)", "θ min (deg)", "θ max (deg)", "within joint rates",
+               "locations at risk"], rows)
