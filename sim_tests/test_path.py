@@ -243,3 +243,22 @@ def test_a_repeated_cutter_location_does_not_freeze_the_schedule():
     q = np.array([[[0.0], [0.05]], [[0.0], [0.05]], [[0.0], [0.05]], [[0.05], [0.1]]])
     plan = plan_schedule(margin, np.array([0.0, 0.1]), q=q, max_step=1, max_dq=[0.0, 0.1, 0.1])
     assert plan.feasible and plan.index.tolist() == [0, 0, 0, 1] and plan.min_margin == 1.0
+
+
+def test_poses_beyond_the_training_postures_are_counted_with_their_distance(irb, small_predictor):
+    """The 12 training postures span x 1.35-1.85 m: a contour out to 1.8 m stays inside, one
+    shifted 0.2 m further out leaves the hull, and the plan says by how much."""
+    from rmbench.io.toolpath import ToolPath
+    from rmbench.path import PlanSettings, plan_path
+    from rmbench.predict import PosturePredictor
+
+    pred = PosturePredictor.load(small_predictor)
+    settings = PlanSettings(theta=(0.0,), spacing=50e-3, eval_spacing=50e-3)
+    inside = ToolPath(np.array([[1.5, 0.0], [1.6, 0.0]]), np.zeros(2), np.full(2, np.nan), np.full(2, np.nan),
+                      np.array([False, True]), np.array([1, 2]))
+    outside = ToolPath(np.array([[1.8, 0.0], [2.0, 0.0]]), inside.z, inside.feed, inside.rpm, inside.cutting,
+                       inside.line)
+    s_in = plan_path(irb, pred, inside, speed_rpm=15000, settings=settings).summary()
+    s_out = plan_path(irb, pred, outside, speed_rpm=15000, settings=settings).summary()
+    assert s_in["outside_hull"] == 0 and s_in["hull_distance_max"] == 0.0
+    assert s_out["outside_hull"] >= 1 and s_out["hull_distance_max"] > 0.2

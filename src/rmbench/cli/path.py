@@ -102,7 +102,9 @@ def cmd_plan(args) -> int:
         print(f"locations below the {args.depth:g} mm depth: planned {summary['at_risk']['planned']}, "
               f"fixed {summary['at_risk']['fixed']}")
     if summary["outside_hull"]:
-        print(f"warning: {summary['outside_hull']} planned poses lie outside the predictor's training postures")
+        print(f"warning: {summary['outside_hull']} planned poses lie outside the predictor's training postures, up "
+              f"to {summary['hull_distance_max']:.2f} of their standard deviations beyond their hull: the "
+              "predictor extrapolates there", file=sys.stderr)
     if out is not None:
         print(f"wrote {out}: plan.csv, fixed.csv, plan.json")
     if report is not None:

@@ -83,6 +83,9 @@ class PathPlan:
         The axial depth to be cut, m (None: not given).
     speed_rpm : float
     seconds : dict
+    hull_distance : ndarray, shape (n,), or None
+        How far each planned pose lies outside the predictor's training postures (their standard
+        deviations; :meth:`rmbench.predict.PosturePredictor.hull_distance`).
     """
 
     toolpath: ToolPath
@@ -94,6 +97,7 @@ class PathPlan:
     depth: float | None
     speed_rpm: float
     seconds: dict
+    hull_distance: np.ndarray | None = None
 
     @property
     def gain(self) -> float:
@@ -119,6 +123,7 @@ class PathPlan:
                "unreachable": [int(i) for i in self.reach.unreachable()],
                "outside_hull": int(np.sum(self.depths.outside_hull[np.arange(len(self.planned.index)),
                                                                    self.planned.index])),
+               "hull_distance_max": None if self.hull_distance is None else float(np.max(self.hull_distance)),
                "min_alim_mm": {k: 1e3 * s.min_margin for k, s in
                                (("planned", self.planned), ("fixed", self.fixed), ("pointwise", self.pointwise))},
                "feasible": {k: s.feasible for k, s in
@@ -233,4 +238,5 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: 
     keys = list(t)
     seconds = {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i} | {
         "total": round(t[keys[-1]] - t[keys[0]], 3)}
-    return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(speed_rpm), seconds)
+    hull = predictor.hull_distance(np.column_stack([tp.xy, planned.theta]))
+    return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(speed_rpm), seconds, hull)

@@ -260,10 +260,18 @@ class PosturePredictor:
 
     def outside_hull(self, X) -> np.ndarray:
         """Whether each posture (x, y, θ row) lies outside the training postures' convex hull."""
+        return self.hull_distance(X) > 1e-9
+
+    def hull_distance(self, X) -> np.ndarray:
+        """How far each posture (x, y, θ row) lies outside the training postures' convex hull, in
+        the training postures' standard deviations per coordinate (0 inside; the largest distance
+        beyond a facet's plane, which is the distance to the hull where the nearest point is on a
+        facet and less than it near an edge or corner); inf where the training postures span no
+        volume."""
         Z = (np.atleast_2d(np.asarray(X, float)) - self._x_mean) / self._x_scale
         if self._facets is None:
-            return np.ones(len(Z), bool)
-        return (Z @ self._facets[:, :-1].T + self._facets[:, -1]).max(axis=1) > 1e-9
+            return np.full(len(Z), np.inf)
+        return np.maximum((Z @ self._facets[:, :-1].T + self._facets[:, -1]).max(axis=1), 0.0)
 
     def predict(self, X, *, std: bool = True) -> xr.Dataset:
         """Parameters and their standard deviations at postures ``X`` (n, 3): x, y (m), θ (rad).
