@@ -51,7 +51,7 @@ class PlanSettings:
         Feed where the path gives none, m/s.
     """
 
-    theta: np.ndarray = tuple(np.radians(np.arange(-60.0, 61.0, 5.0)))
+    theta: tuple = tuple(np.radians(np.arange(-60.0, 61.0, 5.0)))
     fixed_theta: float = 0.0
     spacing: float = 5e-3
     eval_spacing: float = 20e-3
