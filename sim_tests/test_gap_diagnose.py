@@ -131,10 +131,22 @@ def test_data_whose_bands_miss_the_models_are_refused(stiffer_j3):
             diagnose("irb6660", ds, tool="dummy", workers=0)
 
 
-def test_cli_json_and_one_line_errors(capsys, stiffer_j3, tmp_path):
+def test_cli_json_and_one_line_errors(capsys, stiffer_j3, diagnosis, monkeypatch, tmp_path):
+    """The command passes the data, tool and workers to the stage and prints its diagnosis as strict
+    JSON with the saved variant's path (the diagnosis itself: the fixture's, computed once above)."""
+    import rmbench.gap
+
+    seen = {}
+
+    def recorded(robot, data, **kw):
+        seen.update(robot=robot, data=str(data), tool=kw["tool"], workers=kw["workers"])
+        return diagnosis
+
+    monkeypatch.setattr(rmbench.gap, "diagnose", recorded)
     code = main(["gap", "diagnose", "--data", str(stiffer_j3), "--tool", "dummy", "--workers", "0",
                  "--json", "--out", str(tmp_path / "d")])
     out = json.loads(capsys.readouterr().out)
+    assert seen == {"robot": "irb6660", "data": str(stiffer_j3), "tool": "dummy", "workers": 0}
     assert code == 0 and out["verdict"] == "explained"
     assert set(out["effects"][0]) >= {"name", "location", "params", "heldout_before", "heldout_after",
                                       "shrink", "confidence"}

@@ -134,6 +134,16 @@ def test_the_plan_does_not_wander_where_the_bottleneck_lies_elsewhere():
 
 
 # -- planned end to end -------------------------------------------------------------------------
+def _square():
+    """The contour's corners only (a 400 mm square on the seed's plane, 3000 mm/min): 80 cutter
+    locations at 20 mm instead of the contour's 305, the same ground."""
+    from rmbench.io.toolpath import ToolPath
+
+    xy = np.array([[1.4, -0.2], [1.8, -0.2], [1.8, 0.2], [1.4, 0.2], [1.4, -0.2]])
+    return ToolPath(xy, np.full(5, -2e-3), np.full(5, 0.05), np.full(5, 15000.0), np.array([False] + [True] * 4),
+                    np.arange(1, 6))
+
+
 @pytest.fixture(scope="module")
 def small_predictor(irb, tmp_path_factory):
     """A single-task GP predictor on the exact modes of 12 postures around the contour (the
@@ -154,7 +164,7 @@ def test_the_planned_schedule_keeps_at_least_the_fixed_angles_smallest_depth_wit
 
     settings = PlanSettings(theta=tuple(np.radians([-40.0, -20.0, 0.0, 20.0, 40.0])), spacing=20e-3,
                             eval_spacing=40e-3)
-    plan = plan_path(irb, PosturePredictor.load(small_predictor), example("contour"), speed_rpm=15000,
+    plan = plan_path(irb, PosturePredictor.load(small_predictor), _square(), speed_rpm=15000,
                      depth=3e-3, settings=settings)
     assert plan.planned.feasible
     assert plan.planned.min_margin >= plan.fixed.min_margin and plan.gain >= 1.0
@@ -172,7 +182,8 @@ def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path
 
     from rmbench.cli import main
 
-    code = main(["path", "plan", "contour", "--predictor", str(small_predictor), "--speed", "15000",
+    code = main(["path", "plan", str(write_cl_csv(_square(), tmp_path / "square.csv")), "--predictor",
+                 str(small_predictor), "--speed", "15000",
                  "--depth", "3", "--theta-range=-40,40", "--theta-step", "20", "--spacing", "20",
                  "--out", str(tmp_path / "plan"), "--report", str(tmp_path / "plan.html"), "--json"])
     out = json.loads(capsys.readouterr().out)
