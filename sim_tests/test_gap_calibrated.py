@@ -1,0 +1,56 @@
+"""Specification of the FRF gap diagnosis on top of a calibration (``gap diagnose --calibrate``): the
+ordinary spread calibrated first, the structural effect named on top of it (a file of its own so
+that its campaign and diagnosis build beside test_gap_diagnose.py's, on another test worker)."""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from rmbench.gap import diagnose
+from rmbench.robot import Robot
+from rmbench.robot.variant import make_variant
+
+from test_gap_diagnose import _campaign
+
+
+@pytest.fixture(scope="module")
+def spread_and_contact(tmp_path_factory):
+    """Data of an IRB6660 whose j2 and j5 gearboxes differ from the data sheet (ordinary spread)
+    and whose tool sits 2.5 times stiffer in its holder (a structural effect the gearboxes cannot
+    stand in for: it moves the high band's tool modes)."""
+    tmp = tmp_path_factory.mktemp("gapcal")
+    robot = Robot.load("irb6660", tool="dummy")
+    (tmp / "real.xml").write_text(make_variant(robot, ["j2_flex.stiffness*=0.8", "j5_flex.stiffness*=1.25",
+                                                       "tool_contact_*.stiffness*=2.5"]))
+    return _campaign(tmp, str(tmp / "real.xml"), "irb6660")
+
+
+@pytest.fixture(scope="module")
+def calibrated_diagnosis(spread_and_contact):
+    from rmbench.gap import DiagnosisSettings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return diagnose("irb6660", spread_and_contact, tool="dummy", workers=0,
+                        settings=DiagnosisSettings(calibrate=("joints",)))
+
+
+def test_with_calibration_the_structural_effect_is_named_on_top_of_the_calibrated_gearboxes(calibrated_diagnosis):
+    dg = calibrated_diagnosis
+    assert dg.verdict == "explained"
+    assert dg.effects[0].name == "tool_contact_stiffness@tool_contact"
+    # the data's noise is the sensors' only (linear method): the factor comes back within 5 %
+    assert np.exp(dg.effects[0].params["ln_translation"]) == pytest.approx(2.5, rel=0.05)
+    by = {p["name"]: p for p in dg.calibration["params"]}
+    # the gearboxes come out of the calibration, not out of the effect search
+    assert by["j2_flex.stiffness"]["value"] / by["j2_flex.stiffness"]["nominal"] == pytest.approx(0.8, abs=0.05)
+    assert not any(e.kind == "joint_stiffness" for e in dg.effects)
+
+
+def test_calibration_enters_the_json_beside_the_effects(calibrated_diagnosis):
+    out = json.loads(json.dumps(calibrated_diagnosis.to_json()))
+    assert out["calibration"]["groups"] == ["joints"]
+    assert {"params", "heldout_errors", "chi2_per_residual"} <= set(out["calibration"])
+    assert out["verdict"] == "explained" and out["effects"]
