@@ -133,21 +133,34 @@ def test_invariants_vary_smoothly_through_a_veering_where_the_modes_swap():
     assert cubic_misfit(np.column_stack([shape.real, shape.imag])).max() > 0.5
 
 
-def test_the_predictor_follows_the_receptance_through_a_veering_with_clusters():
+@pytest.fixture(scope="module")
+def stgp():
+    """Single-task-GP predictors of the two veering datasets, fitted once per (slope, clusters):
+    ``stgp(slope, clusters)``; slope 0.6 is the mild veering, 0.4 the tight one."""
+    fitted = {}
+
+    def get(slope: float = 0.6, clusters: str = "auto") -> PosturePredictor:
+        if (slope, clusters) not in fitted:
+            fitted[slope, clusters] = PosturePredictor("stgp", clusters=clusters).fit(
+                _dataset(_grid(), slope=slope))
+        return fitted[slope, clusters]
+
+    return get
+
+
+def test_the_predictor_follows_the_receptance_through_a_veering_with_clusters(stgp):
     """Trained on the seed's grid (x = 1.3, 1.5, 1.7, 1.9 m), predicted at x = 1.6 m, where the
     modes have swapped half way: from the cluster's invariants the 4 x 4 receptance is within 2 % of
     the exact one (the invariants are low-order polynomials in x); from each mode's own learnt
     parameters it is off by far more (their shapes turn between the grid lines)."""
-    ds = _dataset(_grid())
     X = np.array([[1.6, 0.0, 0.0], [1.62, 0.15, 0.3]])
     freq = np.linspace(12, 30, 145)
     H_ex = _exact_frf(X[:, 0], freq)
     err = {}
     for opt in ("auto", "none"):
-        pred = PosturePredictor("stgp", clusters=opt).fit(ds)
-        H = predicted_frf(pred.predict(X), freq)
+        H = predicted_frf(stgp(0.6, opt).predict(X), freq)
         err[opt] = np.abs(H - H_ex).max() / np.abs(H_ex).max()
-    assert [c.modes for c in PosturePredictor("stgp").fit(ds).clusters_] == [(0, 1)]
+    assert [c.modes for c in stgp(0.6).clusters_] == [(0, 1)]
     assert err["auto"] < 0.02
     assert err["none"] > 5 * err["auto"]
 
@@ -204,21 +217,19 @@ def test_pole_std_is_the_first_order_effect_of_the_coefficients():
         np.testing.assert_allclose(std[0, :, 1], dz[0], rtol=1e-3, atol=1e-15)
 
 
-def test_tight_veerings_take_their_frequencies_from_the_cluster_poles():
+def test_tight_veerings_take_their_frequencies_from_the_cluster_poles(stgp):
     """The two modes meet within 0.22 of their bandwidths' sum on the grid (tight): between the grid
     lines their frequencies and damping ratios come from the learnt polynomial's roots, within
     0.2 % and 2 %, while each mode learnt alone turns with the swap and errs several times more."""
-    ds = _dataset(_grid(), slope=0.4)
     X = np.array([[1.6, 0.0, 0.0], [1.62, 0.15, 0.3], [1.56, -0.1, -0.4]])
     f, z, _, _ = _modes(X[:, 0], slope=0.4)
     err = {}
     for opt in ("auto", "none"):
-        pred = PosturePredictor("stgp", clusters=opt).fit(ds)
-        out = pred.predict(X)
+        out = stgp(0.4, opt).predict(X)
         err[opt] = (np.abs(out.modal.sel(param="f_n").values / f - 1).max(),
                     np.abs(out.modal.sel(param="zeta").values / z - 1).max())
-    assert [c.modes for c in PosturePredictor("stgp").fit(ds).pole_clusters_] == [(0, 1)]
-    assert PosturePredictor("stgp").fit(_dataset(_grid())).pole_clusters_ == ()     # 0.36: mild
+    assert [c.modes for c in stgp(0.4).pole_clusters_] == [(0, 1)]
+    assert stgp(0.6).pole_clusters_ == ()     # 0.36: mild
     assert err["auto"][0] < 0.002 and err["auto"][1] < 0.02
     assert err["none"][0] > 3 * err["auto"][0]
 
@@ -240,10 +251,9 @@ def test_residues_solved_with_given_poles_keep_them_and_fall_back_to_the_roots_w
     np.testing.assert_allclose(lam2, moved, rtol=1e-15)
 
 
-def test_the_predicted_receptance_puts_a_tight_veering_where_its_modal_table_does():
+def test_the_predicted_receptance_puts_a_tight_veering_where_its_modal_table_does(stgp):
     # the FRF's cluster poles and the reported f_n, ζ of a tight veering come from one polynomial
-    ds = _dataset(_grid(), slope=0.4)
     X = np.array([[1.6, 0.0, 0.0], [1.62, 0.15, 0.3]])
-    out = PosturePredictor("stgp").fit(ds).predict(X)
+    out = stgp(0.4).predict(X)
     lam = poles_of(out.modal.sel(param="f_n").values, out.modal.sel(param="zeta").values)
     np.testing.assert_allclose(out["cluster_pole"].values, lam, rtol=1e-12)

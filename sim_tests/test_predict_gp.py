@@ -13,7 +13,7 @@ from _posture_grid import smooth as _smooth
 from rmbench.errors import InputError
 from rmbench.predict import (MTGP, STGP, ExtrapolationWarning, GroupedMTGP, PosturePredictor,
                              TrainingSet, cross_validate, predicted_frf, seed_groups)
-from rmbench.predict.posterior import KronPosterior, rbf
+from rmbench.predict.posterior import KronPosterior, loo_residuals, rbf
 from rmbench.robot.modes import PARAMS
 
 
@@ -449,3 +449,40 @@ def test_a_band_rebuilt_alone_adds_its_out_of_band_terms():
     terms = residual_frf(ds.residual.values[3, 0], freq, 40.0)
     np.testing.assert_allclose(predicted_frf(ds, freq, 3, band="low"), modes_only + terms, rtol=1e-12)
     np.testing.assert_array_equal(predicted_frf(ds, freq, 3), modes_only)
+
+
+@pytest.mark.parametrize("m", [1, 3])
+def test_leave_one_out_residuals_are_those_of_the_model_without_that_posture(m):
+    """The block formula gives, to round-off, the residual and predictive standard deviation of
+    the same hyperparameters conditioned on every other posture (all tasks there left out)."""
+    rng = np.random.default_rng(m)
+    n = 10
+    X, Y = rng.normal(size=(n, 3)), rng.normal(size=(n, m))
+    ls, B = np.array([1.0, 2.0, 0.7]), rng.normal(size=(m, m))
+    Kc, noise, mean = B @ B.T + 0.1 * np.eye(m), rng.uniform(0.05, 0.3, m), rng.normal(size=m)
+    r, sd = loo_residuals(X, Y, ls, Kc, noise, mean)
+    Kt = rbf(X, X, ls)
+    for i in range(n):
+        rest = np.delete(np.arange(n), i)
+        C = np.kron(Kt[np.ix_(rest, rest)], Kc) + np.kron(np.eye(n - 1), np.diag(noise))
+        k = np.kron(Kt[i, rest][None], Kc)
+        mu = k @ np.linalg.solve(C, (Y[rest] - mean).ravel()) + mean
+        var = np.diag(Kc + np.diag(noise) - k @ np.linalg.solve(C, k.T))
+        np.testing.assert_allclose(r[i], Y[i] - mu, rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(sd[i], np.sqrt(var), rtol=1e-8)
+
+
+def test_calibrated_standard_deviations_are_the_latent_ones_times_the_leave_one_out_factor(tmp_path):
+    """``calibrated=True`` multiplies each learnt column's standard deviation by its factor (the
+    RMS of its standardised leave-one-out residuals), which a saved predictor keeps."""
+    ds = _modal_dataset(1)
+    pred = PosturePredictor("stgp", vectors="dataset").fit(ds)
+    X = np.array([[1.62, 0.07, 0.1], [1.45, -0.2, -0.3]])
+    scale = pred.std_scale()
+    assert np.all(np.isfinite(scale.values)) and np.all(scale.values > 0)
+    raw, cal = pred.predict(X).modal_std, pred.predict(X, calibrated=True).modal_std
+    for p in ("f_n", "zeta"):
+        np.testing.assert_allclose(cal.sel(param=p).values, raw.sel(param=p).values * scale.sel(param=p).values,
+                                   rtol=1e-12)
+    again = PosturePredictor.load(pred.save(tmp_path / "p.npz"))
+    np.testing.assert_array_equal(again.std_scale().values, scale.values)

@@ -12,7 +12,7 @@ import pytest
 import xarray as xr
 
 from rmbench.impact import open_campaign, parse_config, run_campaign
-from rmbench.report.browser import find_chromium
+from rmbench.report.browser import Browser, find_chromium
 from rmbench.report.page import Page, script_json
 
 SMALL = """
@@ -34,17 +34,18 @@ def _missing(why: str):
     pytest.skip(why)
 
 
-def _browser():
-    """Chromium and Playwright, or a skip that says what is missing (CI installs both)."""
+@pytest.fixture(scope="module")
+def browser():
+    """One Chromium for the module's pages (through Playwright), or a skip that says what is
+    missing (CI installs both)."""
     if find_chromium() is None:
         _missing("Chromium not found: install Debian's chromium package (.ci/run does) to render reports")
     try:
         import playwright.sync_api  # noqa: F401
     except ImportError:
         _missing("playwright not installed: pip install -e '.[test]'")
-    from rmbench.report.browser import render
-
-    return render
+    with Browser() as b:
+        yield b
 
 
 @pytest.fixture(scope="module")
@@ -140,9 +141,8 @@ def reports(files, predictor, control_files, tracker_gap):
 
 @pytest.mark.parametrize("kind", ["campaign", "modal", "predictor", "controller", "control_runs", "tracker_gap", "lobes",
                                   "rcsa_tool", "rcsa_part", "invalidation"])
-def test_each_report_renders_with_a_clean_console_and_every_plot_drawn(reports, kind, tmp_path):
-    render = _browser()
-    r = render(reports[kind], screenshot=tmp_path / f"{kind}.png")
+def test_each_report_renders_with_a_clean_console_and_every_plot_drawn(browser, reports, kind, tmp_path):
+    r = browser.render(reports[kind], screenshot=tmp_path / f"{kind}.png")
     assert r.console_errors == ()
     assert r.dialogs == ()
     assert r.undrawn == ()
@@ -156,13 +156,12 @@ def test_each_report_renders_with_a_clean_console_and_every_plot_drawn(reports, 
     ["modal", "plot", "{campaign}", "--index", "1", "--report", "{out}"],
     ["predict", "cv", "{modal}", "--model", "knn", "--report", "{out}"],
 ], ids=["campaign-plot", "modal-fit", "modal-plot", "predict-cv"])
-def test_commands_that_plot_also_write_a_report(cli, files, argv, tmp_path):
+def test_commands_that_plot_also_write_a_report(browser, cli, files, argv, tmp_path):
     """--report takes the place of the PNG: a whole page with every plot drawn."""
     out = tmp_path / "r.html"
     code, _, err = cli(*[a.format(campaign=files["campaign"], modal=files["modal"], out=out) for a in argv])
     assert code == 0, err
-    render = _browser()
-    r = render(out)
+    r = browser.render(out)
     assert r.n_plots >= 2 and r.console_errors == () and r.undrawn == ()
 
 
@@ -172,28 +171,19 @@ def test_a_report_needs_no_network(reports):
     assert not re.search(r"""<(script|link|img)[^>]+(src|href)\s*=\s*["']?(https?:)?//""", html)
 
 
-def test_the_page_decodes_the_files_magnitudes_exactly(reports, files):
+def test_the_page_decodes_the_files_magnitudes_exactly(browser, reports, files):
     """The FRF matrix travels as 0.01 dB integers, differenced along frequency and gzipped: what
     the page decodes is the campaign's |H| in dB to that quantum (0.005 dB)."""
-    _browser()
-    from playwright.sync_api import sync_playwright
-
     ds = open_campaign(files["campaign"])
-    with sync_playwright() as pw:
-        b = pw.chromium.launch(executable_path=find_chromium(), headless=True, args=["--no-sandbox"])
-        page = b.new_page()
-        page.goto(reports["campaign"].resolve().as_uri())
-        page.wait_for_function("window.rmReady === true")
-        got = page.evaluate("""rm.prepare(JSON.parse(document.querySelector('script[id$="-data"]').textContent))
+    got = browser.evaluate(reports["campaign"], """rm.prepare(JSON.parse(document.querySelector('script[id$="-data"]').textContent))
                                .then(function (d) { return {mag: Array.from(d.mag), F: d.n_freq}; })""")
-        b.close()
     F = got["F"]
     mag = np.array(got["mag"], float).reshape(ds.sizes["posture"], 4, 4, F) / 100
     want = 20 * np.log10(np.abs(ds.H.sel(out=["1X", "1Y", "1aX", "1aY"], inp=["1X", "1Y", "1aX", "1aY"]).values))
     np.testing.assert_allclose(mag, np.moveaxis(want, 1, -1), atol=0.0051)
 
 
-def test_user_strings_cannot_inject_markup(files, tmp_path):
+def test_user_strings_cannot_inject_markup(browser, files, tmp_path):
     """A file name and config carrying markup show as text: no element, no script, no dialog."""
     ds = xr.load_dataset(files["campaign"])
     ds.attrs["config"] = '</script><script>alert("config")</script>'
@@ -210,12 +200,11 @@ def test_user_strings_cannot_inject_markup(files, tmp_path):
     assert "<img src=x" not in html
     assert '<script>alert("config")' not in html
     assert "&lt;img src=x onerror=alert(1)&gt;" in html           # shown, escaped
-    render = _browser()
-    r = render(out)
+    r = browser.render(out)
     assert r.dialogs == () and r.console_errors == ()
 
 
-def test_a_failed_posture_shows_as_a_gap_not_an_error(files, tmp_path):
+def test_a_failed_posture_shows_as_a_gap_not_an_error(browser, files, tmp_path):
     """A posture the robot could not hold has no FRF (NaN): the report still draws, the posture
     table says why, and the stabilisation diagram moves to a measured posture."""
     from rmbench.impact.dataset import save
@@ -237,17 +226,15 @@ def test_a_failed_posture_shows_as_a_gap_not_an_error(files, tmp_path):
     out = write_report(tmp_path / "m.nc", tmp_path / "m.html")
     html = out.read_text()
     assert "FRF matrix" in html and "unreachable" in html
-    render = _browser()
-    r = render(out)
+    r = browser.render(out)
     assert r.console_errors == () and r.undrawn == ()
 
 
-def test_a_page_without_plots_opens(tmp_path):
+def test_a_page_without_plots_opens(browser, tmp_path):
     page = Page("text only")
     page.section("s").text("nothing to plot").figure({"data": [], "layout": {}})
     path = page.write(tmp_path / "t.html")
-    render = _browser()
-    r = render(path, timeout_s=20)
+    r = browser.render(path, timeout_s=20)
     assert r.n_plots == 0 and r.console_errors == ()
 
 

@@ -193,13 +193,16 @@ def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=
 
 
 def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draws: int = 64, level: float = 0.95,
-               sd_scale: float = 1.0, bands=("low", "high"), n_freq: int = 3000, seed: int = 0) -> tuple:
+               sd_scale: float = 1.0, calibrated: bool = True, bands=("low", "high"), n_freq: int = 3000,
+               seed: int = 0) -> tuple:
     """The critical depth along a schedule with its band, sampled from the predictor's variance.
 
     Each draw perturbs every predicted parameter a tool tip's modes are built from (natural
     frequency, damping, the tip components of both eigenvectors) by an independent normal of the
-    predictor's standard deviation times ``sd_scale`` (``modal_std``: the latent function's; a veering
-    cluster's residues are kept at their mean), and recomputes the critical depth.
+    predictor's standard deviation times ``sd_scale`` (``modal_std``: the latent function's,
+    calibrated by leave-one-posture-out unless ``calibrated`` is False), and recomputes the critical
+    depth. A tight veering's modes, whose poles and residues the predictor takes from the cluster,
+    move from there by as much as the perturbed parameters move each mode alone.
 
     Parameters
     ----------
@@ -210,8 +213,10 @@ def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draw
     level : float
         Central probability of the band.
     sd_scale : float
-        Factor on the predictor's standard deviations (a calibration of them, e.g. by
-        cross-validation).
+        A further factor on the predictor's standard deviations.
+    calibrated : bool
+        Use the standard deviations calibrated on the training postures' leave-one-out errors
+        (:meth:`rmbench.predict.PosturePredictor.std_scale`).
 
     Returns
     -------
@@ -226,29 +231,41 @@ def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draw
     X = np.column_stack([xy, theta])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)
-        pred = predictor.predict(X)
+        pred = predictor.predict(X, calibrated=calibrated)
     mean = pred["modal"].values
     sd = np.nan_to_num(pred["modal_std"].values) * sd_scale
     idx = [list(pred["param"].values).index(p) for p in _PARAMS]
     rng = np.random.default_rng(seed)
 
-    def limit(values):
+    plain = pred.drop_vars(["cluster_pole", "cluster_residue"], errors="ignore")
+
+    def modes(values):
+        """Per band, the tip's poles and residues of these parameter values, every mode alone."""
         values = values.copy()
         values[..., idx[1]] = np.clip(values[..., idx[1]], 1e-4, 0.9)   # damping stays a ratio in (0, 1)
-        one = pred.copy()
+        one = plain.copy()
         one["modal"] = (("posture", "mode", "param"), values)
+        return {b: tip_modes(one, b) for b in bands}
+
+    # a draw moves each mode's pole and residues by what its perturbed parameters move them; a tight
+    # veering's modes start from the cluster's (the mean), so its learnt spread is sampled too
+    centre, alone = {b: tip_modes(pred, b) for b in bands}, modes(mean)
+
+    def limit(moved):
         per = []
         for b in bands:
-            p, r = tip_modes(one, b)
+            p = centre[b][0] + (moved[b][0] - alone[b][0])
+            fixed = (centre[b][0] != alone[b][0])[..., None, None]
+            r = np.where(fixed, centre[b][1], moved[b][1])
             per.append(zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)))
         return np.minimum.reduce(per)
 
-    a0 = limit(mean)
+    a0 = limit(alone)
     samples = []
     for _ in range(draws):
         v = mean.copy()
         v[..., idx] += sd[..., idx] * rng.standard_normal(v[..., idx].shape)
-        samples.append(limit(v))
+        samples.append(limit(modes(v)))
     samples = np.array(samples)
     tail = 100 * (1 - level) / 2
     return a0, np.percentile(samples, tail, axis=0), np.percentile(samples, 100 - tail, axis=0)

@@ -40,7 +40,7 @@ import numpy as np
 
 from rmbench.errors import InputError, RmbenchError
 from rmbench.predict.data import constant_tasks
-from rmbench.predict.posterior import KronPosterior
+from rmbench.predict.posterior import KronPosterior, loo_residuals
 
 __all__ = ["MTGP", "STGP", "fit_icm", "icm_nll", "single_nll"]
 
@@ -86,6 +86,10 @@ class MTGP:
         Training postures left out because some task was NaN there.
     retries_ : int
         Fits retried with jitter on the covariance's diagonal; ``jitter_added_`` the largest added.
+    loo_scale_ : ndarray, shape (m,)
+        Root mean square of the leave-one-posture-out residuals in units of their predicted
+        standard deviations (:func:`~rmbench.predict.posterior.loo_residuals`): the factor that
+        calibrates the predicted standard deviations (1 where a task is constant or unlearnt).
     """
 
     def __init__(self, rank: int | None = None, iterations: int = 100, seed: int = 0):
@@ -117,6 +121,7 @@ class MTGP:
         self.varying_ = np.flatnonzero(~constant_tasks(Y)) if len(Y) else np.arange(0)
         self.constant_ = Y[0].copy() if len(Y) else np.full(self.n_tasks_, np.nan)
         self.posterior_ = None
+        self.loo_scale_ = np.ones(self.n_tasks_)
         Y = Y[:, self.varying_]
         n, m = Y.shape
         if m == 0:
@@ -133,9 +138,16 @@ class MTGP:
         ls, Kc, noise, mean = (fitted[k][b] for k in ("lengthscales", "Kc", "noise", "mean"))
         self.retries_, self.jitter_added_ = fitted["retries"], fitted["jitter_added"]
         self.posterior_ = KronPosterior.build(Xs, Ys, ls, Kc, noise, mean)
+        r, sd = loo_residuals(Xs, Ys, ls, Kc, noise, mean)
+        self.loo_scale_ = np.ones(self.n_tasks_)
+        self.loo_scale_[self.varying_] = np.sqrt(np.mean((r / sd) ** 2, axis=0))
         self.lengthscales_ = ls * self.x_scale_
         self.task_covariance_ = Kc * np.outer(self.y_scale_, self.y_scale_)
         self.noise_ = np.sqrt(noise) * self.y_scale_
+
+    def std_scale(self) -> np.ndarray:
+        """Per task, the factor that calibrates the predicted standard deviations (``loo_scale_``)."""
+        return np.asarray(getattr(self, "loo_scale_", np.ones(self.n_tasks_)), float)
 
     def predict(self, X, return_std: bool = False):
         """Mean, shape (n, m), and with ``return_std`` the latent standard deviation."""

@@ -116,6 +116,14 @@ class GroupedMTGP:
         self.dropped_ = max(m.dropped_ for m in self.models_)
         return self
 
+    def std_scale(self) -> np.ndarray:
+        """Per task, the leave-one-posture-out factor that calibrates the predicted standard
+        deviations (:attr:`MTGP.loo_scale_` of the task's model), shape (n_tasks,)."""
+        out = np.ones(self.n_tasks_)
+        for g, model in zip(self.groups, self.models_):
+            out[g] = model.std_scale()
+        return out
+
     def predict(self, X, return_std: bool = False):
         """Mean, shape (n, n_tasks), and with ``return_std`` the latent standard deviation."""
         if self._stack is None:

@@ -258,6 +258,17 @@ class PosturePredictor:
         except QhullError:              # flat training set (one θ, say): every query is outside
             self._facets = None
 
+    def std_scale(self) -> xr.DataArray:
+        """The leave-one-posture-out factor on each learnt parameter's standard deviation
+        (``predict(..., calibrated=True)``), dims (mode, param); 1 for a constant parameter or a
+        learner without standard deviations. Above 1: the GP's own variance is overconfident. With
+        ``vectors = "gauge"`` the eigenvector components' factors are those of their gauge."""
+        n_modes, n_p = len(self.modes_), len(self.params_)
+        out = np.ones(len(self.tasks_))
+        out[self.live_] = _scale_of(self.learner_, len(self.live_))
+        return xr.DataArray(out[:n_modes * n_p].reshape(n_modes, n_p), dims=("mode", "param"),
+                            coords={"mode": self.modes_, "param": list(self.params_)})
+
     def outside_hull(self, X) -> np.ndarray:
         """Whether each posture (x, y, θ row) lies outside the training postures' convex hull."""
         return self.hull_distance(X) > 1e-9
@@ -273,11 +284,14 @@ class PosturePredictor:
             return np.full(len(Z), np.inf)
         return np.maximum((Z @ self._facets[:, :-1].T + self._facets[:, -1]).max(axis=1), 0.0)
 
-    def predict(self, X, *, std: bool = True) -> xr.Dataset:
+    def predict(self, X, *, std: bool = True, calibrated: bool = False) -> xr.Dataset:
         """Parameters and their standard deviations at postures ``X`` (n, 3): x, y (m), θ (rad).
 
         With ``std`` False the learnt standard deviations are not computed (NaN in ``modal_std``): about
         a fifth of the time, for callers that use the means alone (a path's thousands of poses).
+        ``modal_std`` is the GPs' latent standard deviation; with ``calibrated`` each learnt column's
+        is multiplied by its leave-one-posture-out factor (:meth:`std_scale`), so that the training
+        postures' held-out errors have unit variance in its units.
         Warns (:class:`ExtrapolationWarning`) for postures outside the training hull.
         """
         X = np.atleast_2d(np.asarray(X, float))
@@ -285,6 +299,8 @@ class PosturePredictor:
             raise InputError(f"postures must be finite (x, y, θ) rows, got shape {X.shape}")
         if std:
             mu_live, sd_live = self.learner_.predict(X, return_std=True)
+            if calibrated:
+                sd_live = sd_live * _scale_of(self.learner_, sd_live.shape[1])
         else:
             mu_live = self.learner_.predict(X)
             sd_live = np.full(np.shape(mu_live), np.nan)
@@ -310,6 +326,8 @@ class PosturePredictor:
         tight = np.full((n, n_modes), np.nan, complex)       # the tight veerings' poles
         for cl, learner in zip(self.pole_clusters_, self.pole_learners_):
             mu_c, sd_c = (np.asarray(v, float) for v in learner.predict(X, return_std=True))
+            if calibrated:
+                sd_c = sd_c * _scale_of(learner, sd_c.shape[1])
             lam, lam_sd = cluster_poles(cl, mu_c, sd_c)
             tight[:, list(cl.modes)] = lam
             idx, w = list(cl.modes), np.abs(lam)
@@ -458,7 +476,7 @@ class PosturePredictor:
 
 
 _STATE_SCALARS = ("n_tasks_", "dropped_")
-_STATE_ARRAYS = ("varying_", "constant_", "x_mean_", "x_scale_", "y_mean_", "y_scale_")
+_STATE_ARRAYS = ("varying_", "constant_", "x_mean_", "x_scale_", "y_mean_", "y_scale_", "loo_scale_")
 
 
 def _state(m: MTGP) -> dict:
@@ -480,9 +498,17 @@ def _from_state(a: dict) -> MTGP:
             setattr(m, k, np.asarray(a[k]))
     # a group left unlearnt (its mode found at too few postures) has no varying tasks
     m.varying_ = np.asarray(getattr(m, "varying_", ()), int)
+    if not hasattr(m, "loo_scale_"):       # a file saved before the scales were kept: uncalibrated
+        m.loo_scale_ = np.ones(m.n_tasks_)
     post = {k[5:]: v for k, v in a.items() if k.startswith("post/")}
     m.posterior_ = KronPosterior.from_arrays(post) if post else None
     return m
+
+
+def _scale_of(learner, n_columns: int) -> np.ndarray:
+    """A learner's leave-one-posture-out factors on its standard deviations (ones for a learner
+    without them), shape (n_columns,)."""
+    return np.asarray(learner.std_scale(), float) if hasattr(learner, "std_scale") else np.ones(n_columns)
 
 
 def _entry_learner(model: str, n_columns: int):

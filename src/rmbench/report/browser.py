@@ -13,7 +13,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Rendered", "find_chromium", "render"]
+__all__ = ["Browser", "Rendered", "find_chromium", "render"]
 
 
 @dataclass(frozen=True)
@@ -57,26 +57,45 @@ def find_chromium() -> str | None:
     return None
 
 
-def render(path, *, screenshot=None, timeout_s: float = 60.0, width: int = 1400) -> Rendered:
-    """Open ``path`` in headless Chromium and wait until all its plots drew.
+class Browser:
+    """One headless Chromium that opens many reports: ``with Browser() as b: b.render(path)``.
 
-    Parameters
-    ----------
-    path : path-like
-        An HTML report.
-    screenshot : path-like, optional
-        Image of the whole page (PNG, or JPEG when the name ends in .jpg).
+    Starting Chromium costs about a second; a page rendered through an open browser gets a fresh
+    page (its own console and dialogs) but not a fresh process.
     """
-    from playwright.sync_api import sync_playwright
 
-    exe = find_chromium()
-    if exe is None:
-        raise RuntimeError("no Chromium found (install Debian's chromium package)")
-    errors, dialogs = [], []
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=exe, headless=True, args=["--no-sandbox"])
+    def __init__(self):
+        self._pw = self._browser = None
+
+    def __enter__(self) -> "Browser":
+        from playwright.sync_api import sync_playwright
+
+        exe = find_chromium()
+        if exe is None:
+            raise RuntimeError("no Chromium found (install Debian's chromium package)")
+        self._pw = sync_playwright().start()
         try:
-            page = browser.new_page(viewport={"width": width, "height": 900})
+            self._browser = self._pw.chromium.launch(executable_path=exe, headless=True, args=["--no-sandbox"])
+        except BaseException:
+            self._pw.stop()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            if self._browser is not None:
+                self._browser.close()
+        finally:
+            self._pw.stop()
+            self._pw = self._browser = None
+
+    def render(self, path, *, screenshot=None, timeout_s: float = 60.0, width: int = 1400) -> Rendered:
+        """Open ``path`` in a new page and wait until all its plots drew (see :func:`render`)."""
+        if self._browser is None:
+            raise RuntimeError("Browser.render outside its with-block")
+        errors, dialogs = [], []
+        page = self._browser.new_page(viewport={"width": width, "height": 900})
+        try:
             page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
             page.on("pageerror", lambda e: errors.append(str(e)))
 
@@ -97,5 +116,34 @@ def render(path, *, screenshot=None, timeout_s: float = 60.0, width: int = 1400)
                 jpeg = Path(screenshot).suffix.lower() in (".jpg", ".jpeg")
                 page.screenshot(path=str(screenshot), full_page=True, **({"quality": 60} if jpeg else {}))
         finally:
-            browser.close()
-    return Rendered(seconds, first, tuple(errors), tuple(dialogs), tuple(undrawn), int(n))
+            page.close()
+        return Rendered(seconds, first, tuple(errors), tuple(dialogs), tuple(undrawn), int(n))
+
+
+    def evaluate(self, path, script: str, *, timeout_s: float = 60.0):
+        """Open ``path``, wait for its first plots, and return what ``script`` (a JavaScript
+        expression; a promise is awaited) evaluates to."""
+        if self._browser is None:
+            raise RuntimeError("Browser.evaluate outside its with-block")
+        page = self._browser.new_page()
+        try:
+            page.goto(Path(path).resolve().as_uri(), timeout=timeout_s * 1e3)
+            page.wait_for_function("window.rmReady === true", timeout=timeout_s * 1e3)
+            return page.evaluate(script)
+        finally:
+            page.close()
+
+
+def render(path, *, screenshot=None, timeout_s: float = 60.0, width: int = 1400) -> Rendered:
+    """Open ``path`` in headless Chromium (started for this page alone) and wait until all its
+    plots drew.
+
+    Parameters
+    ----------
+    path : path-like
+        An HTML report.
+    screenshot : path-like, optional
+        Image of the whole page (PNG, or JPEG when the name ends in .jpg).
+    """
+    with Browser() as b:
+        return b.render(path, screenshot=screenshot, timeout_s=timeout_s, width=width)
