@@ -165,6 +165,26 @@ def test_a_measured_mode_the_model_lacks_costs_the_unpaired_penalty(bench):
     assert e[4 * len(meas)] == UNPAIRED
 
 
+def test_the_peak_test_reads_normalised_gaps_not_the_pairing_penalties(bench):
+    """A measured mode with no model partner (a mode the modal fit split off, say) weighs in χ²,
+    but the largest residual the peak test compares with noise is the largest real gap: here
+    the 1 % frequency offsets, well below the 10σ penalty."""
+    from rmbench.calibrate.residual import penalties
+    from rmbench.gap.frf.search import peak_residual
+
+    model = bench.modes(Change(), 0, "low")
+    meas = _as_measured(model, f_scale=1.01)
+    extra = MeasuredModes(f_n=np.append(meas.f_n, 33.0), zeta=np.append(meas.zeta, 0.02),
+                          f_std=np.zeros(len(meas) + 1), zeta_std=np.zeros(len(meas) + 1),
+                          residue=np.concatenate([meas.residue, meas.residue[:1]]),
+                          residue_std=np.zeros(len(meas) + 1))
+    e, _ = mode_residuals(extra, model)
+    assert list(np.flatnonzero(penalties(e))) == [4 * len(meas)]
+    gaps = np.abs(e[:4 * len(meas)])
+    assert peak_residual(e) == gaps.max() < UNPAIRED
+    assert e @ e == pytest.approx(gaps @ gaps + UNPAIRED ** 2)
+
+
 def test_modes_without_shapes_pair_by_frequency(bench):
     model = bench.modes(Change(), 0, "low")
     n = len(model)

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["overlap", "FLOORS", "UNPAIRED", "Pairing", "pair", "mode_residuals", "n_slots", "SLOT_NAMES",
+__all__ = ["overlap", "FLOORS", "UNPAIRED", "Pairing", "pair", "mode_residuals", "n_slots", "SLOT_NAMES", "penalties",
            "FrfTarget", "frf_target", "frf_residuals", "FRF_FLOOR", "FRF_SEGMENTS", "hammer_leak"]
 
 FLOORS = {"f": 1e-3, "zeta": 0.03, "scale": 0.03, "shape": 0.02}
@@ -167,6 +167,22 @@ def mode_residuals(meas, model, pairing: Pairing | None = None) -> tuple[np.ndar
 
 def _finite(x):
     return np.where(np.isfinite(x), x, 0.0)
+
+
+def penalties(e: np.ndarray) -> np.ndarray:
+    """Which slots of a residual vector carry the pairing's penalty rather than a normalised gap,
+    shape (n,) of bool.
+
+    A measured mode without a model partner scores exactly ``UNPAIRED`` and ``k`` surplus model
+    modes exactly ``UNPAIRED √k`` (:func:`mode_residuals`), values a gap divided by its
+    uncertainty takes with probability zero. They weigh in χ² and in a fit; a test that reads
+    the residuals as normal deviates (the largest of them against the Bonferroni bound) must
+    leave them out: a mode the modal fit merged with its neighbour or missed is not a 10σ gap,
+    and a real one shows in the FRF segments around it too.
+    """
+    e = np.abs(np.asarray(e, float))
+    k = np.rint((e / UNPAIRED) ** 2)
+    return (k >= 1) & (e == UNPAIRED * np.sqrt(k))
 
 
 FRF_FLOOR = 0.03          # relative: what an FRF measurement's calibration and a model can agree to

@@ -73,6 +73,12 @@ def tip_modes(pred, band: str) -> tuple[np.ndarray, np.ndarray]:
     return poles, np.where(bad[..., None, None], np.nan, res)
 
 
+# lines of the log-spaced grid the chatter frequency is searched on: against 3000 lines the critical
+# depths of 4440 pocket poses differ by at most 0.03 % at 18000 rev/min (0.08 % at 30000), a
+# hundredth of a predictor's error, at a quarter of the time
+N_FREQ = 800
+
+
 def _freq(poles: np.ndarray, n_freq: int) -> np.ndarray:
     f = np.abs(poles[np.isfinite(poles)]) / (2 * np.pi)
     if not len(f):
@@ -102,7 +108,7 @@ class TipModes:
     where: np.ndarray
     outside_hull: np.ndarray
 
-    def depths(self, cutting: Cutting, speed_rpm: float, *, n_freq: int = 3000) -> DepthGrid:
+    def depths(self, cutting: Cutting, speed_rpm: float, *, n_freq: int = N_FREQ) -> DepthGrid:
         """The critical depth of every pose at one spindle speed (rev/min)."""
         n, m = self.shape
         by_band = {}
@@ -180,20 +186,20 @@ def exact_modes(robot, xy, theta, *, reach=None, bands=("low", "high"), progress
 
 
 def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, bands=("low", "high"),
-                     n_freq: int = 3000) -> DepthGrid:
+                     n_freq: int = N_FREQ) -> DepthGrid:
     """Critical depth at every (location, θ) from a posture predictor (:func:`predicted_modes`)."""
     return predicted_modes(predictor, xy, theta, bands=bands).depths(cutting, speed_rpm, n_freq=n_freq)
 
 
 def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=None, bands=("low", "high"),
-                 n_freq: int = 3000, progress=None) -> DepthGrid:
+                 n_freq: int = N_FREQ, progress=None) -> DepthGrid:
     """Critical depth at every (location, θ) from the robot's exact modes (:func:`exact_modes`)."""
     return exact_modes(robot, xy, theta, reach=reach, bands=bands, progress=progress).depths(
         cutting, speed_rpm, n_freq=n_freq)
 
 
 def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draws: int = 64, level: float = 0.95,
-               sd_scale: float = 1.0, calibrated: bool = True, bands=("low", "high"), n_freq: int = 3000,
+               sd_scale: float = 1.0, calibrated: bool = True, bands=("low", "high"), n_freq: int = N_FREQ,
                seed: int = 0) -> tuple:
     """The critical depth along a schedule with its band, sampled from the predictor's variance.
 

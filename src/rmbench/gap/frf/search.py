@@ -32,7 +32,7 @@ from scipy.optimize import least_squares, lsq_linear
 
 from rmbench.errors import RmbenchError
 from rmbench.gap.frf.effects import Change, Effect
-from rmbench.calibrate.residual import FRF_SEGMENTS, frf_residuals, mode_residuals
+from rmbench.calibrate.residual import FRF_SEGMENTS, frf_residuals, mode_residuals, penalties
 from rmbench.gap.selection import significant
 from rmbench.threads import worker_init
 
@@ -338,7 +338,11 @@ def per_posture_chi2(objective: Objective, e: np.ndarray) -> tuple:
 
 
 def peak_residual(e: np.ndarray) -> float:
-    return float(np.max(np.abs(e))) if len(e) else 0.0
+    """The largest normalised gap of a residual vector, the pairing's penalties left out
+    (:func:`rmbench.calibrate.residual.penalties`): what the peak test compares with noise."""
+    e = np.asarray(e, float)
+    gaps = np.abs(e[~penalties(e)])
+    return float(gaps.max()) if len(gaps) else 0.0
 
 
 class Refiner:
