@@ -159,6 +159,16 @@ def pole_features(cluster: ModeCluster, poles: np.ndarray) -> np.ndarray:
     return out
 
 
+def _monic_roots(c: np.ndarray) -> np.ndarray:
+    """Roots of ``z^n + c_1 z^(n−1) + … + c_n`` per row of ``c`` (k, n): the eigenvalues of each
+    companion matrix, all at once (what ``np.roots`` does for one), shape (k, n)."""
+    k, n = c.shape
+    comp = np.zeros((k, n, n), complex)
+    comp[:, 0, :] = -c
+    comp[:, np.arange(1, n), np.arange(n - 1)] = 1.0
+    return np.linalg.eigvals(comp) if k else np.zeros((0, n), complex)
+
+
 def cluster_poles(cluster: ModeCluster, features: np.ndarray,
                   features_std: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
     """The poles from (learnt) polynomial coefficients, and to first order their frequencies' and
@@ -184,29 +194,32 @@ def cluster_poles(cluster: ModeCluster, features: np.ndarray,
     c = features[:, 0:2 * n:2] + 1j * features[:, 1:2 * n:2]
     poles = np.full((len(c), n), np.nan, complex)
     std = None if features_std is None else np.full((len(c), n, 2), np.nan)
-    for p in range(len(c)):
-        if not np.all(np.isfinite(c[p])):
-            continue
-        poly = np.concatenate([[1.0], c[p]])
-        z = np.roots(poly)
-        lam = cluster.center + cluster.radius * z
-        if np.any(lam.imag <= 0):
-            continue
-        order = np.argsort(lam.imag)
-        z, lam = z[order], lam[order]
-        poles[p] = lam
-        if std is None:
-            continue
-        s = np.asarray(features_std, float)[p, :2 * n]
-        dz = -cluster.radius * z[:, None] ** np.arange(n - 1, -1, -1) / np.polyval(np.polyder(poly), z)[:, None]
-        w = np.abs(lam)
-        for part, sd in ((1.0, s[0::2]), (1j, s[1::2])):      # δa_j real, then imaginary
-            d_lam = part * dz                                  # (n modes, n coefficients)
-            d_w = np.real(np.conj(lam)[:, None] * d_lam) / w[:, None]
-            d_zeta = (-d_lam.real - (-lam.real / w)[:, None] * d_w) / w[:, None]
-            std[p, :, 0] = np.nan_to_num(std[p, :, 0]) + ((d_w / (2 * np.pi)) ** 2 * sd ** 2).sum(axis=1)
-            std[p, :, 1] = np.nan_to_num(std[p, :, 1]) + (d_zeta ** 2 * sd ** 2).sum(axis=1)
-        std[p] = np.sqrt(std[p])
+    rows = np.flatnonzero(np.all(np.isfinite(c), axis=1))
+    if not len(rows):
+        return poles, std
+    z = _monic_roots(c[rows])
+    lam = cluster.center + cluster.radius * z
+    order = np.argsort(lam.imag, axis=1)
+    z, lam = np.take_along_axis(z, order, 1), np.take_along_axis(lam, order, 1)
+    up = np.all(lam.imag > 0, axis=1)
+    rows, z, lam = rows[up], z[up], lam[up]
+    poles[rows] = lam
+    if std is None:
+        return poles, std
+    s = np.asarray(features_std, float)[rows, :2 * n]
+    powers = z[..., None] ** np.arange(n - 1, -1, -1)                      # z_r^(n−j), j = 1 … n
+    a = np.concatenate([np.ones((len(rows), 1)), c[rows]], axis=1)[:, :n]   # a_0 = 1, a_1 … a_(n−1)
+    slope = (powers * ((n - np.arange(n)) * a)[:, None, :]).sum(-1)        # p′(z_r)
+    dz = -cluster.radius * powers / slope[..., None]                        # (postures, modes, coefficients)
+    w = np.abs(lam)
+    var = np.zeros((len(rows), n, 2))
+    for part, sd in ((1.0, s[:, 0::2]), (1j, s[:, 1::2])):                 # δa_j real, then imaginary
+        d_lam = part * dz
+        d_w = np.real(np.conj(lam)[..., None] * d_lam) / w[..., None]
+        d_zeta = (-d_lam.real - (-lam.real / w)[..., None] * d_w) / w[..., None]
+        var[..., 0] += ((d_w / (2 * np.pi)) ** 2 * sd[:, None, :] ** 2).sum(-1)
+        var[..., 1] += (d_zeta ** 2 * sd[:, None, :] ** 2).sum(-1)
+    std[rows] = np.sqrt(var)
     return poles, std
 
 
@@ -263,22 +276,21 @@ def cluster_residues(cluster: ModeCluster, features: np.ndarray,
             raise InputError(f"poles must have shape ({P}, {n}), got {given.shape}")
     poles, residues = np.full((P, n), np.nan, complex), np.full((P, n, 4, 4), np.nan, complex)
     c = features[:, 0::2] + 1j * features[:, 1::2]
-    for p in range(P):
-        if not np.all(np.isfinite(c[p])):
-            continue
-        z = np.roots(np.concatenate([[1.0], c[p, :n]]))
-        lam = cluster.center + cluster.radius * z
-        if np.any(lam.imag <= 0):
-            continue
-        order = np.argsort(lam.imag)
-        z, lam = z[order], lam[order]
-        if given is not None:
-            known = np.isfinite(given[p])
-            lam = np.where(known, given[p], lam)
-            z = np.where(known, (given[p] - cluster.center) / cluster.radius, z)
-        V = z[None, :] ** np.arange(n)[:, None]                        # (k, r)
-        poles[p] = lam
-        residues[p] = np.linalg.solve(V, c[p, n:].reshape(n, 16)).reshape(n, 4, 4)
+    rows = np.flatnonzero(np.all(np.isfinite(c), axis=1))
+    z = _monic_roots(c[rows, :n])
+    lam = cluster.center + cluster.radius * z
+    order = np.argsort(lam.imag, axis=1)
+    z, lam = np.take_along_axis(z, order, 1), np.take_along_axis(lam, order, 1)
+    up = np.all(lam.imag > 0, axis=1)
+    rows, z, lam = rows[up], z[up], lam[up]
+    if given is not None:
+        known = np.isfinite(given[rows])
+        lam = np.where(known, given[rows], lam)
+        z = np.where(known, (given[rows] - cluster.center) / cluster.radius, z)
+    V = z[:, None, :] ** np.arange(n)[None, :, None]                   # (postures, k, r)
+    poles[rows] = lam
+    if len(rows):
+        residues[rows] = np.linalg.solve(V, c[rows, n:].reshape(len(rows), n, 16)).reshape(len(rows), n, 4, 4)
     return poles, residues
 
 
