@@ -177,6 +177,35 @@ def test_the_planned_schedule_keeps_at_least_the_fixed_angles_smallest_depth_wit
     assert 1e-3 < plan.planned.min_margin < 20e-3
 
 
+def test_virtual_milling_along_the_plan_chatters_above_its_predicted_depth_and_not_below(irb, small_predictor):
+    """At 9000 rev/min the impact bands' modes set the limit (the tool on its holder, outside them,
+    only above ~12 krpm), so the simulator's cut at the planned pose follows the plan's critical
+    depth: stable 30 % below it, chatter 30 % above (margins over this 12-posture predictor's few
+    per cent and the zero-order method's, in slot milling)."""
+    from rmbench.path import PlanSettings, mill_schedule, plan_path
+    from rmbench.predict import PosturePredictor
+
+    settings = PlanSettings(theta=tuple(np.radians([-40.0, 0.0, 40.0])), spacing=40e-3, eval_spacing=80e-3)
+    plan = plan_path(irb, PosturePredictor.load(small_predictor), _square(), speed_rpm=9000, settings=settings)
+    a = plan.planned.margin[5]
+    below = mill_schedule(irb, plan, depth=0.7 * a, locations=[5])
+    above = mill_schedule(irb, plan, depth=1.3 * a, locations=[5])
+    assert below.predicted[0] == a and below.decided.all() and above.decided.all()
+    assert not below.chatter[0] and above.chatter[0]
+    assert below.agreement == above.agreement == 1.0
+    # the exact model's zero-order depth at the pose, beside the prediction
+    assert below.exact[0] == pytest.approx(a, rel=0.1)
+
+
+@pytest.mark.parametrize("kw, message", [({"schedule": "best", "depth": 1e-3}, "unknown schedule"),
+                                         ({"depth": 0.0}, "depth of cut must be > 0")])
+def test_milling_a_schedule_refuses_an_unknown_schedule_or_depth(irb, kw, message):
+    from rmbench.path import mill_schedule
+
+    with pytest.raises(InputError, match=message):
+        mill_schedule(irb, None, **kw)
+
+
 def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path, capsys):
     import json
 
@@ -185,9 +214,13 @@ def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path
     code = main(["path", "plan", str(write_cl_csv(_square(), tmp_path / "square.csv")), "--predictor",
                  str(small_predictor), "--speed", "15000",
                  "--depth", "3", "--theta-range=-40,40", "--theta-step", "20", "--spacing", "20",
-                 "--out", str(tmp_path / "plan"), "--report", str(tmp_path / "plan.html"), "--json"])
+                 "--mill", "1", "--out", str(tmp_path / "plan"), "--report", str(tmp_path / "plan.html"), "--json"])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["min_alim_gain"] >= 1.0 and not out["unreachable"]
+    # one location of each schedule milled at the 3 mm depth, scored or counted inside the band
+    for sched in ("planned", "fixed"):
+        m = out["milling"][sched]
+        assert m["cuts"] == 1 and m["decided"] + m["inside_band"] == 1 and m["depth_mm"] == pytest.approx(3.0)
     rows = (tmp_path / "plan" / "plan.csv").read_text().splitlines()
     assert rows[0].startswith("s_mm,x_mm,y_mm,theta_deg,q1_deg") and len(rows) == out["cl_points"] + 1
     assert json.loads((tmp_path / "plan" / "plan.json").read_text())["cl_points"] == out["cl_points"]

@@ -26,6 +26,9 @@ def register(sub) -> None:
     p.add_argument("--spacing", type=float, default=5.0, metavar="MM", help="cutter-location spacing, mm (default 5)")
     p.add_argument("--max-joint-rate", type=float, default=60.0, metavar="DEG_S",
                    help="largest joint speed while cutting, deg/s (default 60)")
+    p.add_argument("--mill", type=int, default=0, metavar="N",
+                   help="check the plan by virtual milling at --depth at N locations of the planned and of the "
+                        "fixed-angle schedule (a few seconds a cut)")
     p.add_argument("--out", default=None, help="directory for plan.csv, fixed.csv and plan.json")
     p.add_argument("--json", action="store_true", help="print the plan's summary as JSON")
     add_report_option(p, "the path coloured by its critical depth, θ and the depth along it")
@@ -56,6 +59,8 @@ def cmd_plan(args) -> int:
     report = report_path(args)
     if args.depth is not None and not args.depth > 0:
         raise InputError(f"--depth must be > 0 mm, got {args.depth!r}")
+    if args.mill < 0 or (args.mill and args.depth is None):
+        raise InputError("--mill N needs N >= 0 and a --depth to cut")
     if not args.spacing > 0 or not args.max_joint_rate > 0:
         raise InputError("--spacing and --max-joint-rate must be > 0")
     tp = example(args.toolpath) if args.toolpath in EXAMPLES else read_toolpath(args.toolpath)
@@ -72,6 +77,14 @@ def cmd_plan(args) -> int:
     plan = plan_path(robot, predictor, tp, speed_rpm=args.speed,
                      depth=None if args.depth is None else 1e-3 * args.depth, settings=settings, progress=say)
     summary = plan.summary()
+    if args.mill:
+        from rmbench.path import mill_schedule
+
+        summary["milling"] = {}
+        for sched in ("planned", "fixed"):
+            say(f"milling {args.mill} locations of the {sched} schedule at {args.depth:g} mm")
+            cuts = mill_schedule(robot, plan, depth=1e-3 * args.depth, schedule=sched, n=args.mill)
+            summary["milling"][sched] = cuts.summary()
     if out is not None:
         plan.to_csv(out / "plan.csv")
         plan.to_csv(out / "fixed.csv", plan.fixed)
@@ -101,6 +114,10 @@ def cmd_plan(args) -> int:
     if "at_risk" in summary:
         print(f"locations below the {args.depth:g} mm depth: planned {summary['at_risk']['planned']}, "
               f"fixed {summary['at_risk']['fixed']}")
+    for sched, m in summary.get("milling", {}).items():
+        agree = "no cut clear of the ±10 % band" if m["agreement"] is None else f"{100 * m['agreement']:.0f} % as planned"
+        print(f"milled {sched}: {m['chatter']} of {m['cuts']} cuts chatter ({m['expected_chatter']} expected); "
+              f"{m['decided']} clear of the predicted depth's ±10 %: {agree}; {m['inside_band']} inside it")
     if summary["outside_hull"]:
         print(f"warning: {summary['outside_hull']} planned poses lie outside the predictor's training postures, up "
               f"to {summary['hull_distance_max']:.2f} of their standard deviations beyond their hull: the "

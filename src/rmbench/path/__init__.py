@@ -15,6 +15,11 @@ or all of it at once, with critical depths from a trained posture predictor
 
     plan = plan_path(robot, predictor, example("pocket"), speed_rpm=15000, depth=3e-3)
 
+and checked by milling in the simulator at locations along it (:func:`mill_schedule`)::
+
+    cuts = mill_schedule(robot, plan, depth=3e-3, n=40)
+    cuts.agreement        # share of cuts clear of the predicted limit that chatter as planned
+
 The chain each posture of a path needs, seed 000's whole method composed from the stages below
 it: predicted reference-tool dynamics (:mod:`rmbench.predict`) → the target tool put on by RCSA
 (:mod:`rmbench.rcsa`) → its modes fitted (:mod:`rmbench.modal`) → stability lobes
@@ -32,12 +37,14 @@ from rmbench.path.chain import ChainResult, predicted_lobes, predicted_tool_stru
 from rmbench.path.margin import (DepthGrid, TipModes, depth_band, exact_depths, exact_modes, predicted_depths,
                                  predicted_modes)
 from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise_schedule
+from rmbench.path.milling import PathMilling, mill_schedule, sample_locations
 from rmbench.path.planner import PathPlan, PlanSettings, plan_path
 from rmbench.path.reach import Reach, reach_grid
 
 __all__ = ["ChainResult", "tool_structures", "predicted_tool_structures", "predicted_lobes", "EXAMPLES",
            "example", "Reach", "reach_grid", "Schedule", "plan_schedule", "fixed_schedule", "pointwise_schedule",
-           "DepthGrid", "TipModes", "depth_band", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths", "PathPlan", "PlanSettings", "plan_path"]
+           "DepthGrid", "TipModes", "depth_band", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths", "PathPlan", "PlanSettings", "plan_path",
+           "PathMilling", "mill_schedule", "sample_locations"]
 
 #: the bundled tool paths, on the seed's workpiece plane
 EXAMPLES = {"pocket": "pocket.ngc", "contour": "contour.csv"}

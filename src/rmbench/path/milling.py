@@ -1,0 +1,160 @@
+"""Virtual milling along a planned path: does the cut chatter where the plan says it will?
+
+At locations sampled along a schedule the robot is posed as planned (its joint commands) and the
+simulator mills there at the depth to be cut (:func:`rmbench.stability.milling.mill`: every mode
+of the MuJoCo model, the regenerative force in the time domain). Each cut holds its posture: in
+the few hundred milliseconds a verdict takes the arm moves a few millimetres, where its modes
+change over hundreds.
+
+A location is *decided* when the depth lies more than ``band`` (10 %) from the plan's predicted
+critical depth there: the plan then says "stable" or "chatter", and the cut agrees or not. The
+locations inside the band are counted, not scored. The exact model's critical depth at each pose
+(zero-order method, the impact bands' modes) comes alongside, to tell a prediction's error from
+the zero-order method's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rmbench.errors import InputError
+from rmbench.path.margin import N_FREQ, _freq
+from rmbench.stability.cutting import Cutting
+from rmbench.stability.milling import mill
+from rmbench.stability.zoa import zoa_limit
+
+__all__ = ["PathMilling", "mill_schedule", "sample_locations"]
+
+
+@dataclass(frozen=True)
+class PathMilling:
+    """Cuts milled along one schedule of a plan.
+
+    Attributes
+    ----------
+    schedule : str
+        ``planned``, ``fixed`` or ``pointwise``.
+    index : ndarray of int, shape (k,)
+        Cutter locations milled.
+    theta : ndarray, shape (k,), rad
+    depth : float
+        Axial depth cut, m.
+    speed_rpm : float
+    predicted : ndarray, shape (k,), m
+        The plan's critical depth at each pose.
+    exact : ndarray, shape (k,), m
+        The exact model's (zero-order method, the bands' modes).
+    chatter : ndarray of bool, shape (k,)
+    kind : tuple of str
+        The milling verdict per cut (``stable``, ``hopf``, ``flip``, ``runaway``).
+    band : float
+        Relative half-width around the predicted depth inside which a cut is not scored.
+    """
+
+    schedule: str
+    index: np.ndarray
+    theta: np.ndarray
+    depth: float
+    speed_rpm: float
+    predicted: np.ndarray
+    exact: np.ndarray
+    chatter: np.ndarray
+    kind: tuple
+    band: float = 0.1
+
+    @property
+    def decided(self) -> np.ndarray:
+        """Cuts whose depth lies outside ±``band`` of the predicted critical depth, shape (k,)."""
+        return np.abs(self.depth / self.predicted - 1) > self.band
+
+    @property
+    def expected(self) -> np.ndarray:
+        """Whether the plan expects chatter (depth above its critical depth), shape (k,)."""
+        return self.depth > self.predicted
+
+    @property
+    def agreement(self) -> float | None:
+        """Share of decided cuts whose verdict is the plan's (None: none decided)."""
+        d = self.decided
+        return float(np.mean(self.chatter[d] == self.expected[d])) if d.any() else None
+
+    def summary(self) -> dict:
+        d = self.decided
+        return {"schedule": self.schedule, "cuts": len(self.index), "depth_mm": 1e3 * self.depth,
+                "speed_rpm": self.speed_rpm, "decided": int(d.sum()), "inside_band": int((~d).sum()),
+                "agreement": self.agreement, "chatter": int(self.chatter.sum()),
+                "expected_chatter": int(self.expected.sum()),
+                "exact_agreement": (float(np.mean(self.chatter[d] == (self.depth > self.exact[d])))
+                                    if d.any() else None)}
+
+
+def sample_locations(n_locations: int, n: int) -> np.ndarray:
+    """``n`` cutter locations evenly spaced along a path of ``n_locations`` (its ends included)."""
+    if n < 1:
+        raise InputError(f"at least one location must be milled, got {n}")
+    return np.unique(np.linspace(0, n_locations - 1, min(n, n_locations)).round().astype(int))
+
+
+def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands) -> float:
+    """The exact model's critical depth at a pose, the lowest of its bands', m."""
+    per = []
+    for b in bands:
+        t = op.modes(b)
+        poles = np.asarray(t.poles)[None]
+        res = (t.phi_r[:, :2, None] * t.phi_l[:, None, :2])[None]
+        per.append(float(zoa_limit(poles, res, cutting, speed_rpm, _freq(poles, N_FREQ))[0]))
+    return min(per)
+
+
+def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutting: Cutting | None = None,
+                  locations=None, n: int = 40, periods: int = 90, band: float = 0.1,
+                  bands=("low", "high"), progress=None) -> PathMilling:
+    """Mill at sampled locations of one of a plan's schedules.
+
+    Parameters
+    ----------
+    robot : rmbench.robot.Robot
+        The robot (and tool) the plan was made for, or a "real" one to check the plan against.
+    plan : PathPlan
+    depth : float
+        Axial depth of cut, m.
+    schedule : str
+        ``planned``, ``fixed`` or ``pointwise``.
+    cutting : Cutting, optional
+        Default: aluminium 6061 slot, as the planner's.
+    locations : array_like of int, optional
+        Cutter locations to mill (default: ``n`` evenly spaced, :func:`sample_locations`).
+    periods : int
+        Tooth periods per cut (:func:`rmbench.stability.milling.mill`).
+    band : float
+        Cuts within this relative distance of the predicted critical depth are not scored.
+    progress : callable, optional
+        Called with each finished cut's position (0-based).
+    """
+    from rmbench.stability.cutting import ALUMINIUM_6061
+
+    if schedule not in ("planned", "fixed", "pointwise"):
+        raise InputError(f"unknown schedule {schedule!r}; use planned, fixed or pointwise")
+    if not depth > 0:
+        raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
+    cutting = ALUMINIUM_6061 if cutting is None else cutting
+    s = getattr(plan, schedule)
+    idx = (sample_locations(len(s.index), n) if locations is None
+           else np.asarray(locations, int))
+    if np.any((idx < 0) | (idx >= len(s.index))):
+        raise InputError(f"cutter locations must lie in 0-{len(s.index) - 1}")
+    q = plan.reach.q[idx, s.index[idx]]
+    predicted = plan.depths.a_lim[idx, s.index[idx]]
+    exact, chatter, kind = np.empty(len(idx)), np.empty(len(idx), bool), []
+    for k in range(len(idx)):
+        op = robot.at(q[k])
+        exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
+        run = mill(op, cutting, plan.speed_rpm, depth, periods=periods)
+        chatter[k] = run.chatter
+        kind.append(run.kind)
+        if progress is not None:
+            progress(k)
+    return PathMilling(schedule, idx, s.theta[idx], float(depth), plan.speed_rpm, predicted, exact, chatter,
+                       tuple(kind), float(band))
