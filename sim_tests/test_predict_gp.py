@@ -423,8 +423,9 @@ def _with_residuals(ds):
 def test_out_of_band_terms_are_learnt_and_saved_with_the_predictor(tmp_path):
     """The bands' out-of-band terms are learnt beside the modes and come back from a saved file.
     At a training posture the GP reproduces them to 1 % (smooth, noise-free data: it nearly
-    interpolates)."""
-    ds = _with_residuals(_modal_dataset(1))
+    interpolates). Every other posture of the seed's grid: the 192 term columns' GPs are most of
+    the fitting time."""
+    ds = _with_residuals(_modal_dataset(1)).isel(posture=slice(None, None, 2))
     pred = PosturePredictor("mtgp-grouped").fit(ds)
     X = np.column_stack([ds[c].values for c in ("x", "y", "theta")])[[7]]
     out = pred.predict(X)

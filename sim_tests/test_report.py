@@ -22,7 +22,7 @@ method = "linear"
 tool = "dummy"
 [grid]
 kind = "product"
-x_mm = [1600, 1700, 1800]
+x_mm = [1600, 1800]
 y_mm = [-100, 100]
 theta_deg = [0, 20]
 """
