@@ -16,6 +16,11 @@ brings (``end_stop`` in the record: the fraction of samples at a stop).
 Disturbances: the disturbance voice coils ``shaker_<axis>`` (a force history per sample, N; ``d``
 on the robot is minus the coil force), and the spindle turning its eccentric mass at a constant
 speed (position servo ``spindle`` tracking ``2π f t``).
+
+The robot may move: with a :class:`~rmbench.control.trajectory.Trajectory` the arm's position
+servos follow it (commands interpolated per sample). A :class:`~rmbench.control.schedule.Schedule`
+runs all its controllers on the same measurements and blends their outputs with the weights of the
+arm's measured joint angles (the motor-side encoders), every sample.
 """
 
 from __future__ import annotations
@@ -28,10 +33,16 @@ import numpy as np
 
 from rmbench.control.controller import Controller
 from rmbench.control.plant import AXES, axis_directions
+from rmbench.control.schedule import Schedule
+from rmbench.control.trajectory import Trajectory
 from rmbench.errors import InputError, RmbenchError
 from rmbench.robot.simulate import stepping_model
 
 __all__ = ["Hardware", "LoopRecord", "LoopDiverged", "run_loop", "eccentric_force_amplitude"]
+
+BLEND_HZ = 200.0
+"""Rate at which a schedule's blend weights follow the encoders, Hz: the posture moves over seconds,
+and a weight step of 5 ms of motion is far below the loop's resolution."""
 
 
 class LoopDiverged(RmbenchError):
@@ -101,6 +112,8 @@ class LoopRecord:
     end_stop : float
         Fraction of samples with a reaction mass against an end stop.
     wall_s : float
+    q_arm : ndarray, shape (n, n_arm), rad, or None
+        The arm's motor-side joint angles, recorded when the robot follows a trajectory.
     """
 
     t: np.ndarray
@@ -112,6 +125,7 @@ class LoopRecord:
     stroke_used: float
     end_stop: float
     wall_s: float
+    q_arm: np.ndarray | None = None
 
     @property
     def stroke_exceeded(self) -> bool:
@@ -185,17 +199,17 @@ def _proof_masses(m, axes) -> tuple:
     return vc, pm_adr, pm_dof, m.actuator_ctrlrange[vc, 0], m.actuator_ctrlrange[vc, 1], stroke
 
 
-def run_loop(op, controller: Controller | None, duration: float, *, hardware: Hardware | None = None,
+def run_loop(op, controller: Controller | Schedule | None, duration: float, *, hardware: Hardware | None = None,
              shaker: dict | None = None, spindle_hz: float | None = None, record_axes=("tangential", "axial"),
-             seed: int = 0) -> LoopRecord:
+             seed: int = 0, trajectory: Trajectory | None = None) -> LoopRecord:
     """Run the robot for ``duration`` s with the controller in the loop (None: uncontrolled).
 
     Parameters
     ----------
     op : OperatingPoint
         The robot (with a suppressor) at its equilibrium.
-    controller : Controller or None
-        Continuous-time controller, discretised here at ``hardware.fs``.
+    controller : Controller, Schedule or None
+        Continuous-time controller (or a posture schedule of them), discretised here at ``hardware.fs``.
     duration : float
         Simulated time, s.
     shaker : dict, optional
@@ -207,6 +221,9 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
         Axes along which the acceleration is recorded.
     seed : int
         Seed of the sensor noise.
+    trajectory : Trajectory, optional
+        Arm joint commands over time (from ``op``'s posture: its first row must be ``op.q_cmd``);
+        without it the arm holds ``op``'s posture.
     """
     hw = hardware if hardware is not None else Hardware()
     n = int(round(duration * hw.fs))
@@ -234,10 +251,22 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
     k_ax = len(ctrl_axes)
     n_rec = len(record_axes)
     if controller is not None:
-        Ad, Bd, Cd, Dd = controller.discretize(hw.fs)
-        n_k = Ad.shape[0]
-        step_mat = np.block([[Cd, Dd], [Ad, Bd]])  # [u; x+] = step_mat @ [x; y]
+        parts = controller.controllers if isinstance(controller, Schedule) else (controller,)
+        step_mat, n_k, n_parts = _stacked_step(parts, hw.fs, k_ax)  # [u_1 … u_N; x+] = step_mat @ [x; y]
         z = np.zeros(n_k + 2 * k_ax)
+        blend = np.ones(1)
+    arm_act, arm_adr = _arm(m, op.robot.arm_joints)
+    if trajectory is not None:
+        if trajectory.q.shape[1] != len(arm_act):
+            raise InputError(f"the trajectory has {trajectory.q.shape[1]} joints, the robot's arm {len(arm_act)}")
+        if not np.allclose(trajectory.q[0], op.q_cmd, atol=1e-6):
+            raise InputError("the trajectory must start at the operating point's posture (its first row)")
+        q_cmd_t = trajectory.at(np.arange(n) / hw.fs)
+    scheduled = isinstance(controller, Schedule)
+    if scheduled:
+        sched_adr = arm_adr[list(controller.joints)]
+        blend_every = max(1, int(round(hw.fs / BLEND_HZ)))
+    q_arm = np.empty((n, len(arm_adr))) if trajectory is not None else None
     rng = np.random.default_rng(seed)
     noise = rng.normal(0.0, hw.acc_noise, (n, k_ax)) + hw.acc_bias
     res = hw.encoder_resolution
@@ -263,12 +292,17 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
         acc_all[k] = a
         p = qpos[pm_adr]
         pos[k] = p
+        if trajectory is not None:
+            ctrl[arm_act] = q_cmd_t[k]
+            q_arm[k] = qpos[arm_adr]
         if controller is not None:
             z[n_k:n_k + k_ax] = a[n_rec:] + noise[k]
             z[n_k + k_ax:] = np.rint(p * inv_res) * res if res > 0 else p
             out = step_mat @ z
-            u_hist[k + n_delay] = out[:k_ax]
-            z[:n_k] = out[k_ax:]
+            if scheduled and k % blend_every == 0:
+                blend = controller.weights(qpos[sched_adr])
+            u_hist[k + n_delay] = blend @ out[:n_parts * k_ax].reshape(n_parts, k_ax)
+            z[:n_k] = out[n_parts * k_ax:]
             total = base + u_hist[k]
             clipped = np.minimum(np.maximum(total, lo), hi)
             if (clipped != total).any():
@@ -303,4 +337,35 @@ def run_loop(op, controller: Controller | None, duration: float, *, hardware: Ha
     acc = acc_all[:, :n_rec]
     wall = time.perf_counter() - t0
     used = float(np.max(np.abs(pos) / stroke)) if k_ax else 0.0
-    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc, pos, force, sat / n, used, stops / n, wall)
+    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc, pos, force, sat / n, used, stops / n, wall, q_arm)
+
+
+def _stacked_step(parts, fs: float, k_ax: int) -> tuple[np.ndarray, int, int]:
+    """One step matrix for controllers running side by side on the same measurements:
+    ``[u_1; …; u_N; x+] = M @ [x; y]`` with the Tustin forms of each, and the total state count."""
+    disc = [c.discretize(fs) for c in parts]
+    n_k = sum(d[0].shape[0] for d in disc)
+    N = len(disc)
+    M = np.zeros((N * k_ax + n_k, n_k + 2 * k_ax))
+    r = 0
+    for i, (Ad, Bd, Cd, Dd) in enumerate(disc):
+        k = Ad.shape[0]
+        M[i * k_ax:(i + 1) * k_ax, r:r + k] = Cd
+        M[i * k_ax:(i + 1) * k_ax, n_k:] = Dd
+        M[N * k_ax + r:N * k_ax + r + k, r:r + k] = Ad
+        M[N * k_ax + r:N * k_ax + r + k, n_k:] = Bd
+        r += k
+    return M, n_k, N
+
+
+def _arm(m, joints) -> tuple[np.ndarray, np.ndarray]:
+    """The arm's position-servo actuators (in the order of ``joints``) and their joints' qpos addresses."""
+    ids = [_joint(m, j) for j in joints]
+    act = []
+    for j, jid in zip(joints, ids):
+        hits = [a for a in range(m.nu) if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
+                and m.actuator_trnid[a, 0] == jid]
+        if not hits:
+            raise InputError(f"the robot has no servo on arm joint {j!r}")
+        act.append(hits[0])
+    return np.array(act, int), np.array([m.jnt_qposadr[j] for j in ids], int)

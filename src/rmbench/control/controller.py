@@ -19,11 +19,22 @@ from pathlib import Path
 import control as ct
 import numpy as np
 
+from rmbench.control.response import frequency_response
 from rmbench.errors import InputError
 
-__all__ = ["Controller", "CONTROLLER_VERSION"]
+__all__ = ["Controller", "CONTROLLER_VERSION", "write_npz"]
 
 CONTROLLER_VERSION = 1
+
+
+def write_npz(path: str | os.PathLike, arrays: dict, meta: dict) -> Path:
+    """Write ``arrays`` and ``meta`` (as a JSON string) to an ``.npz`` atomically: a temporary name,
+    then a rename, so an interrupted write never leaves half a file under the real name."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp.npz")
+    np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
+    os.replace(tmp, path)
+    return path
 
 
 @dataclass(frozen=True)
@@ -68,9 +79,7 @@ class Controller:
 
     def frf(self, freq) -> np.ndarray:
         """Frequency response, shape (n_freq, n, 2n)."""
-        s = 2j * np.pi * np.asarray(freq, float)
-        eye = np.eye(self.order)
-        return np.array([self.C @ np.linalg.solve(si * eye - self.A, self.B) + self.D for si in s])
+        return frequency_response(self.A, self.B, self.C, self.D, freq)
 
     def discretize(self, fs: float) -> tuple[np.ndarray, ...]:
         """Tustin discretisation at ``fs`` Hz: ``(Ad, Bd, Cd, Dd)``."""
@@ -111,12 +120,8 @@ class Controller:
     # file format -------------------------------------------------------------------------------
     def save(self, path: str | os.PathLike) -> Path:
         """Write the ``.npz`` file atomically (temporary name, then rename)."""
-        path = Path(path)
         meta = dict(self.meta, axes=list(self.axes), rmbench_controller_version=CONTROLLER_VERSION)
-        tmp = path.with_name(f".{path.name}.tmp.npz")
-        np.savez(tmp, A=self.A, B=self.B, C=self.C, D=self.D, meta=np.array(json.dumps(meta)))
-        os.replace(tmp, path)
-        return path
+        return write_npz(path, {"A": self.A, "B": self.B, "C": self.C, "D": self.D}, meta)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Controller":

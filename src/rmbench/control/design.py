@@ -237,6 +237,7 @@ _INADMISSIBLE = {
     10: "SLICOT: singular values of D11 could not be estimated",
     11: "SLICOT: the feedthrough loop is singular",
     12: "SLICOT: no stabilising controller",
+    "unverified": "the synthesis returned controllers whose closed loop does not reach gamma",
 }
 _MIN_POLE_HZ = 1e-5  # weight poles nearer the jω axis break hinfsyn's rank conditions (A3, A4)
 
@@ -278,7 +279,14 @@ def _bisect(P, nmeas, ncon, gamma_max, gamma_tol, margin, weights):
             return None  # 6-12: no admissible controller at this γ
         except SlycotParameterError as err:
             raise DesignError(f"H-infinity synthesis rejected its input: {err}") from None
-        return out[1:5]
+        k = out[1:5]
+        # SB10AD can report success on an ill-conditioned Riccati solution whose controller does not
+        # reach γ at all (seen as a controller amplifying the mode it should damp): such a γ counts
+        # as inadmissible
+        if not _achieves(A, B, C, D, k, ncon, nmeas, g):
+            last["info"] = "unverified"
+            return None
+        return k
 
     if attempt(gamma_max) is None:
         why = _INADMISSIBLE.get(last.get("info"), "no admissible controller")
@@ -299,6 +307,38 @@ def _bisect(P, nmeas, ncon, gamma_max, gamma_tol, margin, weights):
     if k is None:
         g, k = hi, attempt(hi)
     return float(g), tuple(np.asarray(x, float) for x in k)
+
+
+_CHECK_HZ = np.geomspace(0.05, 500.0, 400)
+
+
+def _achieves(A, B, C, D, k, ncon, nmeas, gamma, *, slack: float = 1.05) -> bool:
+    """Whether the controller ``k = (Ak, Bk, Ck, Dk)`` stabilises the generalised plant and keeps
+    its closed-loop gain from ``w`` to ``z`` below ``slack × γ`` on :data:`_CHECK_HZ`."""
+    Ak, Bk, Ck, Dk = (np.asarray(x, float) for x in k)
+    m1, p1 = B.shape[1] - ncon, C.shape[0] - nmeas
+    B1, B2 = B[:, :m1], B[:, m1:]
+    C1, C2 = C[:p1], C[p1:]
+    D11, D12, D21, D22 = D[:p1, :m1], D[:p1, m1:], D[p1:, :m1], D[p1:, m1:]
+    try:
+        E = np.linalg.inv(np.eye(ncon) - Dk @ D22)  # u = E (Ck xk + Dk (C2 x + D21 w))
+    except np.linalg.LinAlgError:
+        return False
+    F = np.linalg.inv(np.eye(nmeas) - D22 @ Dk)
+    Acl = np.block([[A + B2 @ E @ Dk @ C2, B2 @ E @ Ck],
+                    [Bk @ F @ C2, Ak + Bk @ F @ D22 @ Ck]])
+    Bcl = np.vstack([B1 + B2 @ E @ Dk @ D21, Bk @ F @ D21])
+    Ccl = np.hstack([C1 + D12 @ E @ Dk @ C2, D12 @ E @ Ck])
+    Dcl = D11 + D12 @ E @ Dk @ D21
+    if not np.all(np.isfinite(Acl)):
+        return False
+    lam, V = np.linalg.eig(Acl)
+    if np.max(lam.real) >= 0:
+        return False
+    # all lines at once in the closed loop's modal coordinates
+    CV, ViB = Ccl @ V, np.linalg.solve(V, Bcl)
+    T = np.einsum("pn,fn,nm->fpm", CV, 1.0 / (2j * np.pi * _CHECK_HZ[:, None] - lam[None]), ViB) + Dcl
+    return bool(np.max(np.linalg.svd(T, compute_uv=False)) <= slack * gamma)
 
 
 def _real_form(A, B, C):

@@ -18,11 +18,13 @@ import numpy as np
 from scipy import signal
 
 from rmbench.control.closed_loop import Hardware, run_loop
-from rmbench.control.plant import Plant, ReactionMass, reaction_mass, two_mass_plant
+from rmbench.control.plant import Plant, ReactionMass, modal_plant, parse_axes, reaction_mass, two_mass_plant
 from rmbench.errors import InputError
 from rmbench.impact.estimate import SpectralSums, h1
 
-__all__ = ["ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "measure_accelerance", "measured_plant"]
+__all__ = ["ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "measure_accelerance", "measured_plant",
+           "MatrixModes", "fit_modes_matrix", "plant_from_frf_matrix", "measure_accelerance_matrix",
+           "measured_matrix_plant"]
 
 
 @dataclass(frozen=True)
@@ -200,3 +202,175 @@ def measured_plant(op, axis: str = "tangential", *, single_mode: bool = False, *
     """
     freq, H, _ = measure_accelerance(op, axis, **kwargs)
     return plant_from_frf(freq, H, reaction_mass(op.robot.model, axis), axis=axis, single_mode=single_mode)
+
+
+# several axes at once ----------------------------------------------------------------------------
+RESIDUAL_HZ, RESIDUAL_ZETA = 0.2, 0.5
+"""The modes above the band enter as pseudo-modes far below it (Hz, ζ): free masses above 1 Hz."""
+
+
+@dataclass(frozen=True)
+class MatrixModes:
+    """Real normal modes fitted to an n × n accelerance matrix at the suppressor.
+
+    Attributes
+    ----------
+    f_n, zeta : ndarray, shape (n_modes,)
+        Hz and damping ratios, sorted by frequency; the first ``n_residual`` are the pseudo-modes
+        of the modes above the band (:data:`RESIDUAL_HZ`).
+    shapes : ndarray, shape (n, n_modes)
+        Mode shapes along the axes at unit modal mass, 1/√kg.
+    n_residual : int
+    rel_error : float
+        RMS of the fit's error relative to √(|H_ii| |H_jj|) over the band's lines and entries.
+    """
+
+    f_n: np.ndarray
+    zeta: np.ndarray
+    shapes: np.ndarray
+    n_residual: int
+    rel_error: float
+
+
+def _matrix_model(freq, f_n, zeta, V):
+    """Accelerance ``−ω² Σ_r v_r v_rᵀ / (ω_r² − ω² + 2i ζ_r ω_r ω)``, shape (n_freq, n, n)."""
+    w = 2 * np.pi * np.asarray(freq)[:, None]
+    wr = 2 * np.pi * f_n[None]
+    g = -w**2 / (wr**2 - w**2 + 2j * zeta[None] * wr * w)  # (n_freq, n_modes)
+    return np.einsum("fr,ir,jr->fij", g, V, V)
+
+
+def fit_modes_matrix(freq, accelerance, f_min: float = 2.0, f_max: float = 40.0, *, prominence: float = 0.01,
+                     max_modes: int = 8) -> MatrixModes:
+    """Fit real normal modes to a measured n × n accelerance matrix (:func:`fit_modes` for several axes).
+
+    Peaks of the summed direct accelerances (prominence above ``prominence`` of the largest) start
+    one mode each, its shape from the imaginary part of the receptance at the peak
+    (``v vᵀ = −2 ζ ω² Im R(ω_r)`` for a lightly damped mode). Then every frequency, damping and shape
+    is fitted together by least squares, with ``n`` pseudo-modes at :data:`RESIDUAL_HZ` for the
+    modes above the band. Errors are relative to ``√(|H_ii| |H_jj|)``, which does not vanish at a
+    cross entry's anti-resonance.
+
+    Parameters
+    ----------
+    freq : array_like, shape (n_freq,), Hz
+    accelerance : array_like, shape (n_freq, n, n), complex, m/s²/N
+        Row the measured axis, column the excited one; reciprocity is assumed (the model is symmetric).
+    """
+    from scipy.optimize import least_squares
+
+    freq = np.asarray(freq, float)
+    H = np.asarray(accelerance, complex)
+    if H.ndim != 3 or H.shape[1] != H.shape[2] or H.shape[0] != freq.shape[0] or freq.ndim != 1:
+        raise InputError(f"the accelerance matrix must have shape (n_freq, n, n) beside freq (n_freq,); "
+                         f"got {H.shape} and {freq.shape}")
+    n = H.shape[1]
+    _check_frf(freq, H[:, 0, 0], f_min, f_max)
+    if not np.all(np.isfinite(H)):
+        raise InputError("the FRF has NaN or infinite values")
+    sel = (freq >= f_min) & (freq <= f_max)
+    fq, h = freq[sel], H[sel]
+    direct = np.abs(np.diagonal(h, axis1=1, axis2=2))  # (n_freq, n)
+    scale = np.sqrt(direct[:, :, None] * direct[:, None, :])
+    trace = direct.sum(1)
+    peaks, _ = signal.find_peaks(trace, prominence=prominence * trace.max())
+    if len(peaks) == 0:
+        peaks = np.array([int(np.argmax(trace))])
+    peaks = np.sort(peaks[np.argsort(trace[peaks])[::-1][:max_modes]])
+    f0, z0, v0 = [], [], []
+    for i in peaks:
+        w = 2 * np.pi * fq[i]
+        z = 0.03
+        R = -h[i] / w**2
+        lam, U = np.linalg.eigh(-2 * z * w**2 * 0.5 * (R.imag + R.imag.T))
+        f0.append(fq[i])
+        z0.append(z)
+        v0.append(U[:, -1] * np.sqrt(max(lam[-1], 1e-12)))
+    # pseudo-modes: the mass line left at the top of the band, split into n rank-one parts
+    top = 0.5 * (h[-1].real + h[-1].real.T)
+    lam, U = np.linalg.eigh(top)
+    res0 = U * np.sqrt(np.clip(np.abs(lam), 1e-12 * max(abs(lam).max(), 1e-30), None))
+    N = len(peaks)
+
+    def unpack(p):
+        lf, lz = p[:N], p[N:2 * N]
+        V = p[2 * N:2 * N + n * N].reshape(n, N)
+        Vr = p[2 * N + n * N:].reshape(n, n)
+        return np.exp(lf), np.exp(lz), V, Vr
+
+    fr, zr = np.full(n, RESIDUAL_HZ), np.full(n, RESIDUAL_ZETA)
+
+    def resid(p):
+        f, z, V, Vr = unpack(p)
+        model = _matrix_model(fq, np.concatenate([fr, f]), np.concatenate([zr, z]), np.hstack([Vr, V]))
+        e = (model - h) / scale
+        return np.concatenate([e.real.ravel(), e.imag.ravel()])
+
+    p0 = np.concatenate([np.log(f0), np.log(z0), np.array(v0).T.ravel(), res0.ravel()])
+    sol = least_squares(resid, p0, method="lm", max_nfev=200 * len(p0))
+    f, z, V, Vr = unpack(sol.x)
+    order = np.argsort(f)
+    rms = float(np.sqrt(np.mean(sol.fun**2) * 2))
+    return MatrixModes(np.concatenate([fr, f[order]]), np.concatenate([zr, z[order]]),
+                       np.hstack([Vr, V[:, order]]), n, rms)
+
+
+def plant_from_frf_matrix(freq, accelerance, masses, axes, *, f_min: float = 2.0, f_max: float = 40.0) -> Plant:
+    """Multi-axis plant from a measured accelerance matrix and the reaction-mass hardware.
+
+    :func:`fit_modes_matrix`, then :func:`~rmbench.control.plant.modal_plant`; the fit is in
+    ``info["fit"]`` (frequencies, damping, relative error).
+    """
+    axes = parse_axes(axes)
+    fit = fit_modes_matrix(freq, accelerance, f_min, f_max)
+    p = modal_plant(fit.f_n, fit.zeta, fit.shapes, list(masses), axes, source="measured")
+    info = dict(p.info, fit={"f_n": fit.f_n[fit.n_residual:].tolist(), "zeta": fit.zeta[fit.n_residual:].tolist(),
+                             "rel_error": fit.rel_error})
+    return Plant(p.axes, p.A, p.B, p.C, p.D, p.source, p.mode_hz, info)
+
+
+def measure_accelerance_matrix(op, axes=("tangential", "axial"), *, duration: float = 64.0, segment: float = 8.0,
+                               force_rms: float = 10.0, f_max: float = 50.0, hardware: Hardware | None = None,
+                               seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Simulated shaker tests, one axis's disturbance coil at a time, every axis recorded.
+
+    Returns
+    -------
+    freq : ndarray, shape (n_freq,), Hz
+    accelerance : ndarray, shape (n_freq, n, n), complex, m/s²/N (row measured, column excited)
+    coherence : ndarray, shape (n_freq, n, n)
+    """
+    axes = parse_axes(axes)
+    hw = hardware if hardware is not None else Hardware()
+    n = int(round(duration * hw.fs))
+    n_seg = int(round(segment * hw.fs))
+    if n < 3 * n_seg:
+        raise InputError(f"a {duration:g} s test holds fewer than three {segment:g} s segments")
+    win = np.hanning(n_seg)
+    freq = np.fft.rfftfreq(n_seg, 1 / hw.fs)
+    keep = (freq > 0) & (freq <= f_max)
+    H = np.zeros((int(keep.sum()), len(axes), len(axes)), complex)
+    coh = np.zeros(H.shape)
+    sos = signal.butter(4, f_max, fs=hw.fs, output="sos")
+    for j, axis in enumerate(axes):
+        rng = np.random.default_rng([seed, j])
+        f_coil = signal.sosfilt(sos, rng.normal(0.0, 1.0, n))
+        f_coil *= force_rms / np.std(f_coil)
+        rec = run_loop(op, None, duration, hardware=hw, shaker={axis: f_coil}, record_axes=axes,
+                       seed=seed + 7919 * (j + 1))
+        acc = rec.acc + rng.normal(0.0, hw.acc_noise, rec.acc.shape)
+        d = -f_coil
+        sums = SpectralSums(len(freq), len(axes))
+        for s0 in range(n_seg, n - n_seg + 1, n_seg // 2):  # the first segment holds the start-up transient
+            sums.add(np.fft.rfft(win * d[s0:s0 + n_seg]), np.fft.rfft(win[:, None] * acc[s0:s0 + n_seg], axis=0))
+        h, c = h1(sums)
+        H[:, :, j], coh[:, :, j] = h[keep], c[keep]
+    return freq[keep], H, coh
+
+
+def measured_matrix_plant(op, axes=("tangential", "axial"), **kwargs) -> Plant:
+    """The multi-axis plant from simulated shaker tests at ``op`` (:func:`measure_accelerance_matrix`,
+    then :func:`plant_from_frf_matrix`); ``kwargs`` go to the measurement."""
+    axes = parse_axes(axes)
+    freq, H, _ = measure_accelerance_matrix(op, axes, **kwargs)
+    return plant_from_frf_matrix(freq, H, [reaction_mass(op.robot.model, a) for a in axes], axes)

@@ -14,6 +14,8 @@ and ``u_i`` act along the same line, as in METHODS.md §8. Three ways to get one
   shakers' moving masses) attached, so the axes couple through the robot; optionally reduced by
   balanced truncation;
 - :func:`two_mass_plant`: METHODS.md §8's single-axis model (robot mode M, K, B; reaction mass m, k, b);
+- :func:`modal_plant`: its multi-axis form, the robot as real normal modes seen at the suppressor
+  (one participation vector per mode, so the axes couple) carrying one reaction mass per axis;
 - :func:`measured_plant` (in :mod:`rmbench.control.identify`): the robot's mode identified from a
   simulated (or real) shaker FRF measurement, then :func:`two_mass_plant`.
 """
@@ -26,9 +28,10 @@ import control as ct
 import mujoco
 import numpy as np
 
+from rmbench.control.response import frequency_response
 from rmbench.errors import InputError
 
-__all__ = ["AXES", "Plant", "robot_plant", "two_mass_plant", "ReactionMass", "reaction_mass",
+__all__ = ["AXES", "Plant", "robot_plant", "two_mass_plant", "modal_plant", "first_strong_mode", "ReactionMass", "reaction_mass",
            "axis_directions", "parse_axes"]
 
 AXES = ("tangential", "axial", "radial")
@@ -77,9 +80,7 @@ class Plant:
 
     def frf(self, freq) -> np.ndarray:
         """Frequency response, shape (n_freq, 2n, 2n): rows outputs, columns inputs (SI)."""
-        s = 2j * np.pi * np.asarray(freq, float)
-        eye = np.eye(self.order)
-        return np.array([self.C @ np.linalg.solve(si * eye - self.A, self.B) + self.D for si in s])
+        return frequency_response(self.A, self.B, self.C, self.D, freq)
 
     def select(self, axes) -> "Plant":
         """The plant restricted to some of its axes (the other inputs off, outputs unread)."""
@@ -221,6 +222,82 @@ def two_mass_plant(M, K, B, rm: ReactionMass, *, axis: str = "tangential",
     if n == 1:
         info.update(M=float(M[0]), K=float(K[0]), B=float(B[0]))
     return Plant((axis,), A, Bm, C, D, source, (float(f_n[target]),), info)
+
+
+def modal_plant(f_n, zeta, shapes, masses, axes, *, source: str = "modal") -> Plant:
+    """A multi-axis proof-mass plant from the robot's normal modes at the suppressor.
+
+    The robot's receptance at the suppressor is ``X1 = Σ_r v_r v_rᵀ F / (ω_r² + 2 ζ_r ω_r s + s²)``
+    (real mode shapes ``v_r`` along the axes, normalised to unit modal mass, 1/√kg), with
+    ``F`` the net force on the robot along each axis; axis i carries its reaction mass
+    (:class:`ReactionMass`): ``m_i x2_i'' = −k_i (x2_i − x1_i) − b_i (x2_i' − x1_i') + u_i``. With one
+    axis and ``v_r = 1/√M_r`` this is :func:`two_mass_plant`.
+
+    Parameters
+    ----------
+    f_n, zeta : array_like, shape (n_modes,)
+        Natural frequencies (Hz) and damping ratios.
+    shapes : array_like, shape (n_axes, n_modes)
+        Mode shapes along the axes, normalised to unit modal mass (1/√kg).
+    masses : sequence of ReactionMass, length n_axes
+    axes : sequence of str
+
+    Returns
+    -------
+    Plant
+        State ``[q_1 … q_N, x2_1 … x2_n]`` and their rates (modal coordinates, reaction-mass
+        displacements).
+    """
+    f_n, zeta = np.atleast_1d(np.asarray(f_n, float)), np.atleast_1d(np.asarray(zeta, float))
+    V = np.atleast_2d(np.asarray(shapes, float))
+    axes = parse_axes(axes)
+    n, N = len(axes), len(f_n)
+    if zeta.shape != f_n.shape or V.shape != (n, N) or len(masses) != n:
+        raise InputError(f"modal_plant needs {N} damping ratios, shapes ({n}, {N}) and {n} reaction masses; "
+                         f"got {zeta.shape}, {V.shape}, {len(masses)}")
+    if np.any(f_n <= 0) or np.any(zeta < 0) or not np.all(np.isfinite(V)):
+        raise InputError("modal_plant needs positive frequencies, non-negative damping and finite shapes")
+    k = np.array([rm.stiffness for rm in masses])
+    b = np.array([rm.damping for rm in masses])
+    m = np.array([rm.mass for rm in masses])
+    w = 2 * np.pi * f_n
+    # net force on the robot, F = d − u + k (x2 − V q) + b (x2' − V q'), as rows over [q, x2, q', x2']
+    Fz = np.hstack([-k[:, None] * V, np.diag(k), -b[:, None] * V, np.diag(b)])
+    acc_q = np.hstack([-np.diag(w**2), np.zeros((N, n)), -np.diag(2 * zeta * w), np.zeros((N, n))]) + V.T @ Fz
+    acc_x2 = -Fz / m[:, None]  # m x2'' = −(the spring and damper part of F) + u
+    nz = N + n
+    A = np.block([[np.zeros((nz, nz)), np.eye(nz)], [acc_q], [acc_x2]])
+    eye = np.eye(n)
+    Bm = np.vstack([np.zeros((nz, 2 * n)), np.hstack([V.T, -V.T]), np.hstack([np.zeros((n, n)), np.diag(1 / m)])])
+    C_acc = V @ A[nz:nz + N]
+    D_acc = V @ Bm[nz:nz + N]
+    C_pos = np.hstack([-V, eye, np.zeros((n, nz))])
+    C = np.vstack([C_acc, C_pos])
+    D = np.vstack([D_acc, np.zeros((n, 2 * n))])
+    sys = ct.ss(A, Bm, C, D)
+    modes = tuple(_target_mode(sys, i, n) for i in range(n))
+    info = {"f_n": f_n.tolist(), "zeta": zeta.tolist(), "shapes": V.tolist(),
+            "reaction_masses": [{"m": float(a), "k": float(c), "b": float(e)} for a, c, e in zip(m, k, b)]}
+    return Plant(axes, A, Bm, C, D, source, modes, info)
+
+
+def first_strong_mode(plant: Plant, axis: int = 0, *, ratio: float = 0.5, f_min: float = 2.0,
+                      f_max: float = 40.0) -> float:
+    """The lowest resonance of ``|a_i/d_i|`` whose peak reaches ``ratio`` times the largest, Hz.
+
+    The largest accelerance peak (``Plant.mode_hz``) can jump between two comparable peaks from one
+    posture to the next (the arm's tangential mode and a wrist mode, say); a schedule must target
+    one mode throughout, and the lowest strong one is the posture-dependent arm mode.
+    """
+    from scipy.signal import find_peaks
+
+    f = np.geomspace(f_min, f_max, 3000)
+    g = np.abs(plant.frf(f)[:, axis, axis])
+    peaks, _ = find_peaks(g)
+    if len(peaks) == 0:
+        return float(f[int(np.argmax(g))])
+    strong = peaks[g[peaks] >= ratio * g[peaks].max()]
+    return float(f[strong[0]])
 
 
 def _target_mode(sys, i: int, n: int, f_max: float = 40.0) -> float:
