@@ -29,14 +29,31 @@ def register(sub) -> None:
                                                           "(default 12, plus 8 per further axis of a MIMO design)")
     d.add_argument("--set", default=None, metavar="NAME=VALUE,...",
                    help="weights to change, e.g. k_a=60,zeta_w=0.3 (rmbench.control.Weights)")
+    d.add_argument("--schedule", default=None, metavar="GRID.toml",
+                   help="design one controller per posture of this grid (see rmbench.control.grid), blended "
+                        "on the posture; the plants come from --from, else from --robot's linearisation")
+    d.add_argument("--from", dest="campaign", default=None, metavar="CAMPAIGN.nc",
+                   help="with --schedule: the shaker campaign of 'rmbench control measure' (no robot model read)")
     d.add_argument("--out", required=True, help="controller file (.npz)")
     d.add_argument("--json", action="store_true")
     d.set_defaults(func=cmd_design)
+
+    ms = csub.add_parser("measure", help="shaker tests at every posture of a schedule grid (the design's campaign)")
+    _robot(ms)
+    ms.add_argument("--schedule", required=True, metavar="GRID.toml", help="grid file, or a bundled grid's name")
+    ms.add_argument("--seed", type=int, default=0, help="seed of the random forces and sensor noise")
+    ms.add_argument("--out", required=True, metavar="CAMPAIGN.nc")
+    ms.add_argument("--json", action="store_true")
+    ms.set_defaults(func=cmd_measure)
 
     r = csub.add_parser("run", help="run a controller closed loop in MuJoCo (sine sweep or eccentric mass)")
     r.add_argument("controller", help="controller file from 'rmbench control design'")
     _robot(r)
     r.add_argument("--test", choices=("sweep", "eccentric"), default="sweep")
+    r.add_argument("--trajectory", default=None, metavar="TRAJ.csv",
+                   help="move the arm along this joint trajectory (t_s, q1_deg ... columns) under a random force "
+                        "on the first axis's disturbance coil, uncontrolled and controlled (a schedule needs one)")
+    r.add_argument("--force-rms", type=float, default=10.0, help="--trajectory: random force, N rms (default 10)")
     r.add_argument("--axis", default=None, help="sweep: the disturbed axis (default the controller's first)")
     r.add_argument("--amplitude", type=float, default=20.0, help="sweep: sine amplitude, N (default 20)")
     r.add_argument("--freqs", default=None, metavar="F1,F2,...",
@@ -90,6 +107,9 @@ def cmd_design(args) -> int:
     from rmbench.control import Controller
     from rmbench.control.axes import design_axes
 
+    if args.schedule or args.campaign:
+        return _design_schedule(args)
+
     weights = _weights(args.set)
     op = _operating_point(args)
     d = design_axes(op, args.axes, weights, mimo=args.mimo, plant=args.plant, order=args.order,
@@ -109,12 +129,160 @@ def cmd_design(args) -> int:
     return 0
 
 
+def _design_schedule(args) -> int:
+    import time
+
+    from rmbench.control.grid import load_schedule_grid, plants_from_campaign, plants_from_model
+    from rmbench.control.schedule import certify, design_schedule
+
+    if not args.schedule:
+        raise InputError("--from needs --schedule GRID.toml (the grid the campaign was measured on)")
+    grid = load_schedule_grid(args.schedule)
+    robot = load_robot(argparse_robot(args, grid))
+    t0 = time.perf_counter()
+    if args.campaign:
+        from rmbench.impact.dataset import open_campaign
+
+        measured, plants = plants_from_campaign(open_campaign(args.campaign))
+        if measured.joints != grid.joints or measured.axes != grid.axes:
+            raise InputError(f"{args.campaign} was measured on another grid or axes ({dict(measured.joints)}, "
+                             f"{list(measured.axes)}) than {args.schedule}")
+        source = str(args.campaign)
+    else:
+        plants = plants_from_model(robot, grid)
+        source = f"model {args.robot}"
+    idx, g, hold, q_ref = grid.resolve(robot)
+    sch = design_schedule(plants, g, idx, q_ref, hold=hold, weights=_weights(args.set), order=args.order,
+                          mimo=grid.mimo, progress=None if args.json else _dots(len(plants)))
+    cert = certify(sch, plants)
+    seconds = time.perf_counter() - t0
+    sch = type(sch)(sch.axes, sch.joints, sch.grid, sch.controllers, sch.q_ref, sch.hold,
+                    dict(sch.meta, source=source, robot=args.robot, certificate={
+                        "stable": cert.stable, "min_margin": float(cert.margin.min()), "points": len(cert.margin)}))
+    sch.save(args.out)
+    modes = [c.meta["mode_hz"] for c in sch.controllers]
+    summary = {"out": str(args.out), "axes": list(sch.axes), "structure": sch.meta["structure"],
+               "joints": list(grid.joints), "grid_shape": list(sch.shape), "source": source,
+               "mode_hz": modes, "gamma": [c.meta["gamma"] for c in sch.controllers],
+               "certificate": sch.meta["certificate"], "seconds": seconds}
+    if args.json:
+        print_json(summary)
+    else:
+        lo, hi = np.min(modes, axis=0), np.max(modes, axis=0)
+        print(f"\n{sch.meta['structure']} schedule over {' x '.join(str(n) for n in sch.shape)} postures of "
+              f"{', '.join(grid.joints)} from {source}: modes " +
+              ", ".join(f"{a} {lo[i]:.2f}-{hi[i]:.2f} Hz" for i, a in enumerate(sch.axes)) + f" ({seconds:.1f} s)")
+        c = sch.meta["certificate"]
+        print(f"certificate on the design plants ({c['points']} postures, grid and between): "
+              f"{'stable' if c['stable'] else 'UNSTABLE'}, smallest loop margin {c['min_margin']:.3f}")
+        print(f"wrote {args.out}")
+    return 0 if cert.stable else 1
+
+
+def argparse_robot(args, grid):
+    """``args`` with the grid's robot where the command line left the default."""
+    if args.robot == "mh180" and grid.robot != "mh180":
+        args.robot = grid.robot
+    return args
+
+
+def _dots(n):
+    import sys
+
+    def tick(i):
+        sys.stderr.write(f"\rdesigning {i + 1}/{n}")
+        sys.stderr.flush()
+    return tick
+
+
+def cmd_measure(args) -> int:
+    import sys
+
+    from rmbench.control.grid import load_schedule_grid, measure_campaign
+    from rmbench.impact.dataset import save
+
+    grid = load_schedule_grid(args.schedule)
+    robot = load_robot(argparse_robot(args, grid))
+    n = len(grid.postures(robot)[0])
+
+    def tick(i):
+        if not args.json:
+            sys.stderr.write(f"\rshaker tests: posture {i + 1}/{n}")
+            sys.stderr.flush()
+    ds = measure_campaign(robot, grid, seed=args.seed, progress=tick)
+    save(ds, args.out)
+    summary = {"out": str(args.out), "postures": n, "axes": list(grid.axes), "robot": robot.name,
+               "duration_s": grid.duration}
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"\n{n} postures x {len(grid.axes)} shaker tests of {grid.duration:g} s; wrote {args.out}")
+    return 0
+
+
+def _load_any(path):
+    """A controller or a schedule file."""
+    import json
+
+    from rmbench.control import Controller
+    from rmbench.control.schedule import Schedule
+
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+    except FileNotFoundError:
+        raise InputError(f"no controller file {path}") from None
+    except (OSError, ValueError, KeyError) as exc:
+        raise InputError(f"{path} is not an rmbench controller file ({exc})") from None
+    return Schedule.load(path) if "rmbench_schedule_version" in meta else Controller.load(path)
+
+
+def _run_moving(args, ctrl) -> int:
+    from rmbench.control.moving import moving_test
+    from rmbench.control.trajectory import load_trajectory
+
+    robot = load_robot(args)
+    traj = load_trajectory(args.trajectory, len(robot.arm_joints))
+    op = robot.at(traj.q[0])
+    if args.force_rms <= 0:
+        raise InputError(f"--force-rms must be positive, got {args.force_rms}")
+    ds = moving_test(op, {"controlled": ctrl}, traj, axis=ctrl.axes[0], force_rms=args.force_rms)
+    c = ds.sel(controller="controlled")
+    result = {"trajectory": str(args.trajectory), "duration_s": float(traj.t[-1]), "axis": ctrl.axes[0],
+              "reduction": float(c.reduction), "transient": float(c.transient), "saturated": float(c.saturated),
+              "stroke_used": float(c.stroke_used), "realtime_factor": float(c.realtime_factor),
+              "windows": [{"t_s": float(t), "mode_hz": float(f),
+                           "reduction": 1 - float(np.sqrt(ds.energy.sel(controller="controlled")[w]
+                                                          / ds.energy.sel(controller="open")[w]))}
+                          for w, (t, f) in enumerate(zip(ds.t_mid.values, ds.f0.values))]}
+    if args.out:
+        from rmbench.impact.dataset import save
+
+        save(ds, args.out)
+    if args.json:
+        print_json(result)
+        return 0
+    print(f"{result['duration_s']:.1f} s along {args.trajectory}, random force {args.force_rms:g} N rms on the "
+          f"{result['axis']} coil")
+    print(f"{'t, s':>6} {'mode, Hz':>9} {'reduction':>10}")
+    for w in result["windows"]:
+        print(f"{w['t_s']:6.1f} {w['mode_hz']:9.2f} {100 * w['reduction']:9.1f}%")
+    print(f"over the move: reduction {100 * result['reduction']:.1f} % at the mode; loudest 0.25 s "
+          f"{result['transient']:.2f} of the uncontrolled level; stroke used {100 * result['stroke_used']:.0f} %, "
+          f"saturated {100 * result['saturated']:.1f} % of samples; {result['realtime_factor']:.1f}x real time")
+    return 0
+
+
 def cmd_run(args) -> int:
     from rmbench.control import Controller, eccentric_test, excitation_frequencies, reduction_at, sine_sweep
     from rmbench.control.experiments import cluster
 
     report = report_path(args)
-    ctrl = Controller.load(args.controller)
+    ctrl = _load_any(args.controller)
+    if args.trajectory:
+        return _run_moving(args, ctrl)
+    if not isinstance(ctrl, Controller):
+        raise InputError(f"{args.controller} is a posture schedule: run it along a move with --trajectory TRAJ.csv")
     op = _operating_point(args)
     modes = op.linear.modes()
     mode_hz = ctrl.meta.get("mode_hz", [])

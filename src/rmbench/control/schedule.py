@@ -35,6 +35,7 @@ from rmbench.errors import InputError
 __all__ = ["Schedule", "grid_posture", "design_schedule", "Certificate", "certify", "blend_plants", "loop_margin"]
 
 SCHEDULE_VERSION = 1
+F_BAND = (2.0, 40.0)  # Hz: where a design looks for the mode it targets (the suppressor's band)
 
 
 def grid_posture(q_ref, joints, s, hold: int | None = None) -> np.ndarray:
@@ -243,7 +244,12 @@ def design_schedule(plants, grid, joints, q_ref, *, hold: int | None = None, wei
     for i, p in enumerate(plants):
         if p.axes != axes:
             raise InputError(f"plant {i} has axes {p.axes}, the first {axes}")
-        target = [first_strong_mode(p, k) for k in range(p.n_axes)]
+        target = [first_strong_mode(p, k, f_min=F_BAND[0], f_max=F_BAND[1]) for k in range(p.n_axes)]
+        for k, f in enumerate(target):
+            if not F_BAND[0] * 1.02 < f < F_BAND[1] * 0.98:
+                raise InputError(f"grid posture {i}: the {axes[k]} response shows no resonance within "
+                                 f"{F_BAND[0]:g}-{F_BAND[1]:g} Hz (its largest value sits at the band's edge, "
+                                 f"{f:.3g} Hz): no mode for the controller to damp")
         if mimo or p.n_axes == 1:
             d = design(p, weights, order=order or controller_order(p.n_axes), mode_hz=target)
             c, gammas = d.controller, [d.gamma]

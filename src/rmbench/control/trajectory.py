@@ -7,7 +7,10 @@ CSV (SI time, degrees at the interface)::
     ...
 
 The joint columns are named as the path stage writes them (``rmbench path plan --csv``); other
-columns are ignored. Times strictly increase; between rows the commands are interpolated linearly.
+columns are ignored. Times strictly increase; between rows the commands are interpolated by a
+monotone cubic (PCHIP): the velocity stays continuous, where a straight line between rows would
+jerk the arm at every row (a step of velocity through the servos excites the modes the
+suppressor damps, and can drive its stage into saturation).
 """
 
 from __future__ import annotations
@@ -55,8 +58,10 @@ class Trajectory:
 
     def at(self, time) -> np.ndarray:
         """Joint commands at ``time`` (s; clamped to the trajectory's span), rad, shape (..., n_arm)."""
-        time = np.asarray(time, float)
-        return np.stack([np.interp(time, self.t, self.q[:, k]) for k in range(self.q.shape[1])], axis=-1)
+        from scipy.interpolate import PchipInterpolator
+
+        time = np.clip(np.asarray(time, float), self.t[0], self.t[-1])
+        return PchipInterpolator(self.t, self.q, axis=0)(time)
 
 
 def linear_move(q_start, q_end, duration: float, *, hold: float = 0.0) -> Trajectory:
