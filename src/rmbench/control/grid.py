@@ -22,13 +22,11 @@ campaign recorded, so a design needs the measurements and nothing of the robot's
 from __future__ import annotations
 
 import json
-import tomllib
 from dataclasses import asdict
-from pathlib import Path
 
 import numpy as np
 import xarray as xr
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rmbench.control.axes import plant_order
 from rmbench.control.identify import measure_accelerance_matrix, plant_from_frf_matrix
@@ -110,20 +108,9 @@ class ScheduleGrid(BaseModel):
 
 def load_schedule_grid(path) -> ScheduleGrid:
     """Parse and validate a grid TOML file, or a bundled one by name (one-line errors naming the key)."""
-    bundled = Path(__file__).parent / "configs" / f"{path}.toml"
-    path = bundled if not str(path).endswith(".toml") and bundled.exists() else Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError(f"no schedule grid {path}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise InputError(f"{path}: not valid TOML ({err})") from None
-    try:
-        return ScheduleGrid(**raw)
-    except ValidationError as err:
-        e = err.errors()[0]
-        where = ".".join(str(x) for x in e["loc"]) or "grid"
-        raise InputError(f"{path}: {where}: {e['msg']}") from None
+    from rmbench.control.tune import load_toml_model
+
+    return load_toml_model(path, ScheduleGrid, "schedule grid")
 
 
 def measure_campaign(robot, grid: ScheduleGrid, *, seed: int = 0, progress=None) -> xr.Dataset:

@@ -86,24 +86,30 @@ class TuneConfig(BaseModel):
                 for combo in itertools.product(*(self.weights[n] for n in names))]
 
 
-def load_tune_config(path) -> TuneConfig:
-    """Parse and validate a tuning TOML file, or a bundled one by name (one-line errors naming the key)."""
+def load_toml_model(path, model: type[BaseModel], what: str):
+    """A TOML file (or a bundled one in ``control/configs`` by name) parsed into ``model``, with
+    one-line errors naming the file and the offending key."""
     bundled = Path(__file__).parent / "configs" / f"{path}.toml"
     path = bundled if not str(path).endswith(".toml") and bundled.exists() else Path(path)
     try:
         raw = tomllib.loads(path.read_text())
     except FileNotFoundError:
-        raise InputError(f"no tuning config {path}") from None
-    except tomllib.TOMLDecodeError as err:
+        raise InputError(f"no {what} {path}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise InputError(f"{path}: not valid TOML ({err})") from None
     try:
-        cfg = TuneConfig(**raw)
-        cfg.cases()
-        return cfg
+        return model(**raw)
     except ValidationError as err:
         e = err.errors()[0]
-        where = ".".join(str(x) for x in e["loc"]) or "config"
+        where = ".".join(str(x) for x in e["loc"]) or what
         raise InputError(f"{path}: {where}: {e['msg']}") from None
+
+
+def load_tune_config(path) -> TuneConfig:
+    """Parse and validate a tuning TOML file, or a bundled one by name (one-line errors naming the key)."""
+    cfg = load_toml_model(path, TuneConfig, "tuning config")
+    cfg.cases()
+    return cfg
 
 
 def _case(robot_xml, name, q_ref, q_eval, axes, weights, cfg_json):
