@@ -6,7 +6,8 @@ plots of measured vs exact FRF matrices, and the MDOF modal fit of the measured 
 against the exact modes; posture prediction (48 grid postures fitted and learnt by the seed's
 grouped multi-task GPs, a never-hammered posture predicted); the bundled contour's redundant angle
 planned from that predictor; then the MH180 stand-in's proof-mass suppressor: an H∞ controller
-designed on its linearisation and run closed loop in MuJoCo against a 20 N sine at its mode; the
+designed on its linearisation and run closed loop in MuJoCo against a 20 N sine at its mode, and a
+posture schedule designed from a two-posture shaker campaign run on the moving arm; the
 RCSA tool change and supported plate; lobes; the gap diagnoses. It ends by writing one HTML report
 of everything it ran (``report.html``).
 """
@@ -446,3 +447,25 @@ def _demo_control(out: Path, page) -> None:
     page.part("Proof-mass suppressor (MH180)")
     control_sections(page, {"uncontrolled": runs["uncontrolled"], "controlled": runs["H-infinity"]},
                      controller=d.controller, traces=traced_runs(op, d.controller, "tangential", f0))
+    _demo_schedule(op)
+
+
+def _demo_schedule(op) -> None:
+    """A posture schedule designed from a two-posture shaker campaign, run along a short move."""
+    from rmbench.control.grid import ScheduleGrid, measure_campaign, plants_from_campaign
+    from rmbench.control.moving import moving_test
+    from rmbench.control.schedule import design_schedule
+    from rmbench.control.trajectory import linear_move
+
+    grid = ScheduleGrid(axes=("tangential",), hold="j5", duration=24.0, joints={"j2": [-5.0, 10.0]})
+    robot = op.robot
+    _, plants = plants_from_campaign(measure_campaign(robot, grid))
+    idx, g, hold, q_ref = grid.resolve(robot)
+    sch = design_schedule(plants, g, idx, q_ref, hold=hold)
+    _, (q0, q1) = grid.postures(robot)
+    ds = moving_test(robot.at(q0), {"scheduled": sch}, linear_move(q0, q1, 6.0, hold=1.0), start=1.0, window=2.0,
+                     hop=0.5)
+    modes = [c.meta["mode_hz"][0] for c in sch.controllers]
+    print(f"  posture schedule over J2 -5..10 deg from a 2-posture shaker campaign (modes {modes[0]:.2f} and "
+          f"{modes[1]:.2f} Hz), run on the arm moving for 6 s under a 10 N rms random force: "
+          f"{100 * float(ds.reduction.sel(controller='scheduled')):.1f} % less vibration at the mode")
