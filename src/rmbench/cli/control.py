@@ -5,6 +5,8 @@ Joint angles on the command line are in degrees; files and JSON are SI (N, m, m/
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from rmbench.cli._common import (add_report_option, add_robot_options, command_group, load_robot, print_json,
@@ -51,8 +53,9 @@ def register(sub) -> None:
     _robot(r)
     r.add_argument("--test", choices=("sweep", "eccentric"), default="sweep")
     r.add_argument("--trajectory", default=None, metavar="TRAJ.csv",
-                   help="move the arm along this joint trajectory (t_s, q1_deg ... columns) under a random force "
-                        "on the first axis's disturbance coil, uncontrolled and controlled (a schedule needs one)")
+                   help="move the arm along this joint trajectory (t_s, q1_deg ... columns; or move_j2j3, bundled) "
+                        "under a random force on the first axis's disturbance coil, uncontrolled and controlled "
+                        "(a schedule needs one)")
     r.add_argument("--force-rms", type=float, default=10.0, help="--trajectory: random force, N rms (default 10)")
     r.add_argument("--axis", default=None, help="sweep: the disturbed axis (default the controller's first)")
     r.add_argument("--amplitude", type=float, default=20.0, help="sweep: sine amplitude, N (default 20)")
@@ -242,7 +245,11 @@ def _run_moving(args, ctrl) -> int:
     from rmbench.control.trajectory import load_trajectory
 
     robot = load_robot(args)
-    traj = load_trajectory(args.trajectory, len(robot.arm_joints))
+    path = Path(args.trajectory)
+    bundled = Path(__file__).parents[1] / "control" / "configs" / f"{args.trajectory}.csv"
+    if path.suffix != ".csv" and bundled.exists():
+        path = bundled  # a bundled move by name (move_j2j3)
+    traj = load_trajectory(path, len(robot.arm_joints))
     op = robot.at(traj.q[0])
     if args.force_rms <= 0:
         raise InputError(f"--force-rms must be positive, got {args.force_rms}")
