@@ -130,6 +130,7 @@ def moving(real, q_ref, sch, fixed, seed) -> dict:
         out["realtime_factor"].append(float(sc.realtime_factor))
         out["saturated"] = max(out["saturated"], float(sc.saturated))
         out["stroke_used"] = max(out["stroke_used"], float(sc.stroke_used))
+        out["guard_trips"] = out.get("guard_trips", 0) + int(sc.guard_trips)
         out["transient_ratio"] = max(out["transient_ratio"], float(sc.transient))
         out.setdefault("fixed_transient_ratio", []).append(float(ds.transient.sel(controller="fixed")))
     for k in ("scheduled", "fixed", "static_scheduled", "static_fixed"):
@@ -254,7 +255,7 @@ def report(lines: list[dict]) -> dict:
           f"of the open loop's RMS there (fixed controller: up to "
           f"{max(v for p in paths for v in p['fixed_transient_ratio']):.3g}); "
           f"saturated samples at most {max(p['saturated'] for p in paths):.1%}, stroke used at most "
-          f"{max(p['stroke_used'] for p in paths):.0%}; scheduled loop {min(p['realtime_factor'] for p in paths):.1f}x "
+          f"{max(p['stroke_used'] for p in paths):.0%}, stroke guard trips {sum(p['guard_trips'] for p in paths)}; scheduled loop {min(p['realtime_factor'] for p in paths):.1f}x "
           "real time (slowest run)")
     return {"robots": len(lines), "postures": n_post,
             "single_p5": round(pct(s[("single", 0)][0], 5), 4),

@@ -257,7 +257,8 @@ def _run_moving(args, ctrl) -> int:
     c = ds.sel(controller="controlled")
     result = {"trajectory": str(args.trajectory), "duration_s": float(traj.t[-1]), "axis": ctrl.axes[0],
               "reduction": float(c.reduction), "transient": float(c.transient), "saturated": float(c.saturated),
-              "stroke_used": float(c.stroke_used), "realtime_factor": float(c.realtime_factor),
+              "stroke_used": float(c.stroke_used), "guard_trips": int(c.guard_trips),
+              "realtime_factor": float(c.realtime_factor),
               "windows": [{"t_s": float(t), "mode_hz": float(f),
                            "reduction": 1 - float(np.sqrt(ds.energy.sel(controller="controlled")[w]
                                                           / ds.energy.sel(controller="open")[w]))}
@@ -276,7 +277,8 @@ def _run_moving(args, ctrl) -> int:
         print(f"{w['t_s']:6.1f} {w['mode_hz']:9.2f} {100 * w['reduction']:9.1f}%")
     print(f"over the move: reduction {100 * result['reduction']:.1f} % at the mode; loudest 0.25 s "
           f"{result['transient']:.2f} of the uncontrolled level; stroke used {100 * result['stroke_used']:.0f} %, "
-          f"saturated {100 * result['saturated']:.1f} % of samples; {result['realtime_factor']:.1f}x real time")
+          f"saturated {100 * result['saturated']:.1f} % of samples, stroke guard tripped {result['guard_trips']} "
+          f"time(s); {result['realtime_factor']:.1f}x real time")
     return 0
 
 

@@ -72,6 +72,16 @@ class Hardware:
     end_stop_stiffness, end_stop_damping : float
         The stages' end stops beyond ±stroke, N/m and N·s/m (92 Hz and ζ 0.3 against a 3 kg
         mass: stiff, yet resolved by the 0.5 ms step).
+    guard : bool
+        The stroke guard: a reaction mass beyond ``guard_trip`` of its stroke fades the controller
+        out over ``guard_fade`` s and resets its state; once every mass has stayed within
+        ``guard_rearm`` of its stroke for ``guard_rest`` s the controller fades back in. Without
+        it a loop driven into the end stops can stay in a limit cycle banging them (a 1 s burst of
+        60 N at the mode did that to the default design), where the uncontrolled robot decays.
+    guard_trip, guard_rearm : float
+        Fractions of the stroke.
+    guard_rest, guard_fade : float
+        Seconds.
     """
 
     fs: float = 2000.0
@@ -83,10 +93,16 @@ class Hardware:
     amp_bandwidth: float = 1000.0
     end_stop_stiffness: float = 1e6
     end_stop_damping: float = 1e3
+    guard: bool = True
+    guard_trip: float = 0.9
+    guard_rearm: float = 0.3
+    guard_rest: float = 0.5
+    guard_fade: float = 0.05
 
     def __post_init__(self):
         if not (self.fs > 0 and self.substeps >= 1 and self.delay_samples >= 0 and self.amp_bandwidth > 0
-                and self.acc_noise >= 0 and self.encoder_resolution >= 0):
+                and self.acc_noise >= 0 and self.encoder_resolution >= 0
+                and 0 < self.guard_rearm < self.guard_trip and self.guard_rest >= 0 and self.guard_fade > 0):
             raise InputError(f"invalid hardware settings: {self}")
 
 
@@ -114,6 +130,10 @@ class LoopRecord:
     wall_s : float
     q_arm : ndarray, shape (n, n_arm), rad, or None
         The arm's motor-side joint angles, recorded when the robot follows a trajectory.
+    guard_trips : int
+        Times the stroke guard took the controller out (:class:`Hardware`).
+    guard_off : float
+        Fraction of samples with the controller faded (partly or wholly) out by the guard.
     """
 
     t: np.ndarray
@@ -126,6 +146,8 @@ class LoopRecord:
     end_stop: float
     wall_s: float
     q_arm: np.ndarray | None = None
+    guard_trips: int = 0
+    guard_off: float = 0.0
 
     @property
     def stroke_exceeded(self) -> bool:
@@ -286,6 +308,9 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
     k_stop, c_stop = hw.end_stop_stiffness, hw.end_stop_damping
     sat = stops = 0
     at_stop = False
+    gain, engaged, calm, trips, off = 1.0, True, 0, 0, 0
+    d_gain = 1.0 / max(hw.guard_fade * hw.fs, 1.0)
+    n_rest = int(round(hw.guard_rest * hw.fs))
     t0 = time.perf_counter()
     for k in range(n):
         a = E_all @ sens[adr:adr + 3] - c0
@@ -301,8 +326,22 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
             out = step_mat @ z
             if scheduled and k % blend_every == 0:
                 blend = controller.weights(qpos[sched_adr])
-            u_hist[k + n_delay] = blend @ out[:n_parts * k_ax].reshape(n_parts, k_ax)
             z[:n_k] = out[n_parts * k_ax:]
+            if hw.guard:
+                used = float(np.max(np.abs(p) / stroke))
+                if engaged and used > hw.guard_trip:
+                    engaged, trips = False, trips + 1
+                if engaged:
+                    gain = min(1.0, gain + d_gain)
+                else:
+                    gain = max(0.0, gain - d_gain)
+                    calm = calm + 1 if used < hw.guard_rearm else 0
+                    if gain == 0.0:
+                        z[:n_k] = 0.0  # re-engage from rest, not from the state the stops left
+                        if calm >= n_rest:
+                            engaged, calm = True, 0
+                off += gain < 1.0
+            u_hist[k + n_delay] = gain * (blend @ out[:n_parts * k_ax].reshape(n_parts, k_ax))
             total = base + u_hist[k]
             clipped = np.minimum(np.maximum(total, lo), hi)
             if (clipped != total).any():
@@ -337,7 +376,8 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
     acc = acc_all[:, :n_rec]
     wall = time.perf_counter() - t0
     used = float(np.max(np.abs(pos) / stroke)) if k_ax else 0.0
-    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc, pos, force, sat / n, used, stops / n, wall, q_arm)
+    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc, pos, force, sat / n, used, stops / n, wall, q_arm,
+                      trips, off / n)
 
 
 def _stacked_step(parts, fs: float, k_ax: int) -> tuple[np.ndarray, int, int]:

@@ -61,7 +61,7 @@ def moving_test(op, controllers: dict, trajectory: Trajectory, *, axis: str = "t
         Per window (``window``): ``t_mid`` s, ``q_mid`` (window, arm_joint) rad, ``f0`` Hz,
         ``energy`` (controller incl. ``"open"``, window); per controller: ``reduction`` over the
         move, ``transient`` (loudest 0.25 s / open-loop RMS, in the modes' band), ``saturated``,
-        ``stroke_used``, ``realtime_factor``.
+        ``stroke_used``, ``guard_trips`` (the stroke guard, :class:`Hardware`), ``realtime_factor``.
     """
     hw = hardware if hardware is not None else Hardware()
     if not controllers:
@@ -96,14 +96,14 @@ def moving_test(op, controllers: dict, trajectory: Trajectory, *, axis: str = "t
     per = {k: {"reduction": 1 - float(np.sqrt(energy[i].sum() / energy[0].sum())),
                "transient": float(np.max(np.sqrt(np.mean(a[k][:m].reshape(-1, short) ** 2, axis=1)))) / open_rms,
                "saturated": recs[k].saturated, "stroke_used": recs[k].stroke_used,
-               "realtime_factor": recs[k].realtime_factor}
+               "guard_trips": recs[k].guard_trips, "realtime_factor": recs[k].realtime_factor}
            for i, k in enumerate(names)}
     ctrl_names = list(controllers)
     return xr.Dataset(
         {"energy": (("controller", "window"), energy),
          "f0": ("window", f0), "q_mid": (("window", "arm_joint"), q_mid),
          **{key: ("controller", [per[k][key] for k in names])
-            for key in ("reduction", "transient", "saturated", "stroke_used", "realtime_factor")}},
+            for key in ("reduction", "transient", "saturated", "stroke_used", "guard_trips", "realtime_factor")}},
         coords={"controller": names, "window": np.arange(len(starts)), "t_mid": ("window", (starts + win // 2) / hw.fs),
                 "arm_joint": np.arange(q_mid.shape[1])},
         attrs={"axis": axis, "force_rms_n": force_rms, "f_max_hz": f_max, "band": band, "window_s": window,
