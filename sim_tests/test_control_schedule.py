@@ -204,3 +204,10 @@ def test_a_trajectory_not_starting_at_the_posture_is_input_error(op):
     traj = linear_move(op.q_cmd + 0.1, op.q_cmd, 1.0)
     with pytest.raises(InputError, match="must start"):
         run_loop(op, None, 0.1, trajectory=traj)
+
+
+def test_a_grid_plant_without_a_mode_in_the_band_is_named(rm):
+    high = modal_plant([60.0], [0.03], [[0.1]], [rm], ("tangential",))  # its only mode above 40 Hz
+    grid = (np.radians([-10.0, 20.0]),)
+    with pytest.raises(InputError, match="grid posture 1: the tangential response shows no resonance"):
+        design_schedule([plant_at(rm, 1.0), high], grid, (1,), np.zeros(6))
