@@ -25,7 +25,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	@if [ -f ../shared/tools/check_layers.py ]; then $(BIN)/python ../shared/tools/check_layers.py src/rmbench; fi
-	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --durations=15 sim_tests
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder --durations=15 sim_tests
 
 bench: $(STAMP)
 	$(BIN)/python bench/modes.py | tee bench/results/modes.txt

@@ -423,18 +423,7 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
     """
     say = progress or (lambda msg: None)
     t0 = time.perf_counter()
-    held = sorted({int(h) for h in held})
-    train = [p for p in range(len(data)) if p not in held]
-    if not train:
-        raise InputError("every posture is held out: nothing is left to calibrate on")
-    if any(not 0 <= h < len(data) for h in held):
-        raise InputError(f"held-out posture index out of range (the data have {len(data)} postures)")
-    q = []
-    for post in data.postures:
-        try:
-            q.append(robot.ik(post).q)
-        except UnreachablePosture as err:
-            raise InputError(f"the data's postures are not this robot's: {err}") from None
+    held, train, q = _postures(robot, data, held)
     rob, params = parameter_set(robot, settings.groups, settings.extra)
     if settings.free:
         params = params.freed(settings.free)
@@ -468,12 +457,7 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
         say(f"nominal: χ²/residual {chi2_before / problem.n:.3g} over {problem.n} residuals, "
             f"{len(params)} parameters")
         if start is not None:
-            unknown = set(start) - set(params.names)
-            if unknown:
-                raise InputError(f"no parameters {', '.join(sorted(unknown))} to start from")
-            z0 = np.array([start.get(n, 0.0) for n in params.names]) / sigma
-            # a start on a bound cannot leave it (trust-region steps scale with the distance)
-            z0 = np.clip(z0, lo + 0.05, hi - 0.05)
+            z0 = _given_start(start, params, sigma, lo, hi)
         else:
             z0 = _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say)
         sol = solve(lambda z: problem.residuals(z * sigma), lambda z: jac_at(z)[1], z0, prior_sd=prior_sd,
@@ -499,6 +483,35 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
                        modes_held=rows_held, xml=xml, iterations=sol.nfev,
                        seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes),
                        chi2_prior=sol.chi2_prior)
+
+
+def _postures(robot, data, held) -> tuple[list, list, np.ndarray]:
+    """``(held, train, q)``: the held-out and training posture indices (sorted) and the robot's
+    joint angles at every posture of the data, (n_postures, n_joints) rad."""
+    held = sorted({int(h) for h in held})
+    train = [p for p in range(len(data)) if p not in held]
+    if not train:
+        raise InputError("every posture is held out: nothing is left to calibrate on")
+    if any(not 0 <= h < len(data) for h in held):
+        raise InputError(f"held-out posture index out of range (the data have {len(data)} postures)")
+    q = []
+    for post in data.postures:
+        try:
+            q.append(robot.ik(post).q)
+        except UnreachablePosture as err:
+            raise InputError(f"the data's postures are not this robot's: {err}") from None
+    return held, train, np.array(q)
+
+
+def _given_start(start: dict, params, sigma, lo, hi) -> np.ndarray:
+    """The scaled start ``z0`` of a given ``{name: u}`` (absent names at the nominal), kept off the
+    bounds ``lo``, ``hi``."""
+    unknown = set(start) - set(params.names)
+    if unknown:
+        raise InputError(f"no parameters {', '.join(sorted(unknown))} to start from")
+    z0 = np.array([start.get(n, 0.0) for n in params.names]) / sigma
+    # a start on a bound cannot leave it (trust-region steps scale with the distance)
+    return np.clip(z0, lo + 0.05, hi - 0.05)
 
 
 def _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say) -> np.ndarray:

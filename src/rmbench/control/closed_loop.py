@@ -209,16 +209,132 @@ def _shaker_forces(m, shaker: dict | None, n: int, fs: float) -> tuple[np.ndarra
     return np.array(idx, int), (np.array(forces).T if forces else np.zeros((n, 0)))
 
 
-def _proof_masses(m, axes) -> tuple:
-    """Per controlled axis: the voice-coil actuator, the proof mass's qpos and dof addresses,
-    the coil's control range (N) and the stroke (m, inf where the joint has no range)."""
-    vc = np.array([_actuator(m, f"vc_{a}") for a in axes], int)
-    joints = [_joint(m, f"pm_{a}") for a in axes]
-    pm_adr = np.array([m.jnt_qposadr[j] for j in joints], int)
-    pm_dof = np.array([m.jnt_dofadr[j] for j in joints], int)
-    stroke = np.array([max(abs(m.jnt_range[j])) for j in joints])
-    stroke = np.where(stroke > 0, stroke, np.inf)
-    return vc, pm_adr, pm_dof, m.actuator_ctrlrange[vc, 0], m.actuator_ctrlrange[vc, 1], stroke
+class _Coils:
+    """The controlled axes' voice coils behind their amplifier (a first-order lag) and their stages'
+    end stops (stiff damped springs beyond ±stroke, applied as joint forces)."""
+
+    def __init__(self, m, d, axes, hw: Hardware, ctrl0: np.ndarray):
+        self.d, self.hw = d, hw
+        self.vc = np.array([_actuator(m, f"vc_{a}") for a in axes], int)
+        joints = [_joint(m, f"pm_{a}") for a in axes]
+        self.pm_adr = np.array([m.jnt_qposadr[j] for j in joints], int)
+        self.pm_dof = np.array([m.jnt_dofadr[j] for j in joints], int)
+        self.lo, self.hi = m.actuator_ctrlrange[self.vc, 0], m.actuator_ctrlrange[self.vc, 1]
+        stroke = np.array([max(abs(m.jnt_range[j])) for j in joints])
+        self.stroke = np.where(stroke > 0, stroke, np.inf)        # m; inf where the joint has no range
+        self.base = ctrl0[self.vc]                                # the static (gravity) share, N
+        self.alpha = 1.0 - np.exp(-2 * np.pi * hw.amp_bandwidth / (hw.fs * hw.substeps))
+        self.f_app = np.zeros(len(axes))                          # dynamic force applied, N
+        self.at_stop = False
+
+    def target(self, u: np.ndarray) -> tuple[np.ndarray, bool]:
+        """The amplifier's target for the commanded dynamic forces ``u`` (N) within the coils'
+        range, and whether the range clipped it."""
+        total = self.base + u
+        clipped = np.minimum(np.maximum(total, self.lo), self.hi)
+        return clipped - self.base, bool((clipped != total).any())
+
+    def substep(self, target: np.ndarray) -> None:
+        """One physics step's coil forces and end-stop forces (before ``mj_step``)."""
+        d, hw = self.d, self.hw
+        self.f_app += self.alpha * (target - self.f_app)
+        d.ctrl[self.vc] = self.base + self.f_app
+        p = d.qpos[self.pm_adr]
+        over = np.abs(p) - self.stroke
+        if self.at_stop or (over > 0).any():
+            hit = over > 0
+            self.at_stop = bool(hit.any())
+            d.qfrc_applied[self.pm_dof] = np.where(hit, -hw.end_stop_stiffness * np.sign(p) * over
+                                                   - hw.end_stop_damping * d.qvel[self.pm_dof], 0.0)
+
+
+class _Guard:
+    """The stroke guard's state over a run (:class:`Hardware`): the gain it puts on the
+    controller's output, and its trips and faded samples."""
+
+    def __init__(self, hw: Hardware):
+        self.hw = hw
+        self.gain, self.engaged, self.calm, self.trips, self.off = 1.0, True, 0, 0, 0
+        self.d_gain = 1.0 / max(hw.guard_fade * hw.fs, 1.0)
+        self.n_rest = int(round(hw.guard_rest * hw.fs))
+
+    def step(self, used: float) -> bool:
+        """Advance one sample at stroke use ``used`` (largest |position| / stroke); True when the
+        controller is wholly faded out and its state is to be reset (it re-engages from rest, not
+        from the state the stops left)."""
+        hw = self.hw
+        if self.engaged and used > hw.guard_trip:
+            self.engaged, self.trips = False, self.trips + 1
+        reset = False
+        if self.engaged:
+            self.gain = min(1.0, self.gain + self.d_gain)
+        else:
+            self.gain = max(0.0, self.gain - self.d_gain)
+            self.calm = self.calm + 1 if used < hw.guard_rearm else 0
+            if self.gain == 0.0:
+                reset = True
+                if self.calm >= self.n_rest:
+                    self.engaged, self.calm = True, 0
+        self.off += self.gain < 1.0
+        return reset
+
+
+class _Controllers:
+    """The controllers (one, or a schedule's) stepped side by side at ``fs`` on the same measurements,
+    their outputs blended by the schedule's weights of the measured joint angles."""
+
+    def __init__(self, controller: Controller | Schedule, fs: float, arm_adr: np.ndarray):
+        self.k_ax = len(controller.axes)
+        parts = controller.controllers if isinstance(controller, Schedule) else (controller,)
+        # [u_1 … u_N; x+] = step_mat @ [x; y]
+        self.step_mat, self.n_k, self.n_parts = _stacked_step(parts, fs, self.k_ax)
+        self.z = np.zeros(self.n_k + 2 * self.k_ax)
+        self.blend = np.ones(1)
+        self.schedule = controller if isinstance(controller, Schedule) else None
+        if self.schedule is not None:
+            self.sched_adr = arm_adr[list(controller.joints)]
+            self.blend_every = max(1, int(round(fs / BLEND_HZ)))
+
+    def step(self, k: int, acc: np.ndarray, pos: np.ndarray, qpos: np.ndarray) -> np.ndarray:
+        """Sample ``k``: take the measured accelerations and positions (k_ax each), advance the
+        state and return the blended forces before the guard's gain, N."""
+        n_k, k_ax, z = self.n_k, self.k_ax, self.z
+        z[n_k:n_k + k_ax] = acc
+        z[n_k + k_ax:] = pos
+        out = self.step_mat @ z
+        if self.schedule is not None and k % self.blend_every == 0:
+            self.blend = self.schedule.weights(qpos[self.sched_adr])
+        z[:n_k] = out[self.n_parts * k_ax:]
+        return self.blend @ out[:self.n_parts * k_ax].reshape(self.n_parts, k_ax)
+
+    def reset(self) -> None:
+        self.z[:self.n_k] = 0.0
+
+
+def _spindle(m, d, spindle_hz: float | None):
+    """A function setting the spindle servo's command to turn at ``spindle_hz`` rev/s (its joint
+    set spinning at that speed), or None where the spindle is held still."""
+    if spindle_hz is None:
+        return None
+    act, j = _actuator(m, "spindle"), _joint(m, "spindle")
+    w = 2 * np.pi * float(spindle_hz)
+    d.qvel[m.jnt_dofadr[j]] = w
+    q0 = d.qpos[m.jnt_qposadr[j]]
+
+    def command(ctrl, time_s):
+        ctrl[act] = q0 + w * time_s
+    return command
+
+
+def _commands(trajectory: Trajectory | None, op, n_arm: int, n: int, fs: float) -> np.ndarray | None:
+    """The arm's joint commands per controller sample, (n, n_arm) rad, checked against the robot."""
+    if trajectory is None:
+        return None
+    if trajectory.q.shape[1] != n_arm:
+        raise InputError(f"the trajectory has {trajectory.q.shape[1]} joints, the robot's arm {n_arm}")
+    if not np.allclose(trajectory.q[0], op.q_cmd, atol=1e-6):
+        raise InputError("the trajectory must start at the operating point's posture (its first row)")
+    return trajectory.at(np.arange(n) / fs)
 
 
 def run_loop(op, controller: Controller | Schedule | None, duration: float, *, hardware: Hardware | None = None,
@@ -260,124 +376,64 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
         if a not in AXES:
             raise InputError(f"unknown axis {a!r}; use {', '.join(AXES)}")
     adr, E_all, c0 = _accelerometer(m, d, op, record_axes + ctrl_axes)
-    vc, pm_adr, pm_dof, lo, hi, stroke = _proof_masses(m, ctrl_axes)
+    coils = _Coils(m, d, ctrl_axes, hw, ctrl0)
+    pm_adr, stroke = coils.pm_adr, coils.stroke
     shake_idx, shake_f = _shaker_forces(m, shaker, n, hw.fs)
-    shake0 = ctrl0[shake_idx]
-
-    if spindle_hz is not None:
-        sp_act, sp_j = _actuator(m, "spindle"), _joint(m, "spindle")
-        w_sp = 2 * np.pi * float(spindle_hz)
-        d.qvel[m.jnt_dofadr[sp_j]] = w_sp
-        sp0 = d.qpos[m.jnt_qposadr[sp_j]]
-
-    k_ax = len(ctrl_axes)
-    n_rec = len(record_axes)
-    if controller is not None:
-        parts = controller.controllers if isinstance(controller, Schedule) else (controller,)
-        step_mat, n_k, n_parts = _stacked_step(parts, hw.fs, k_ax)  # [u_1 … u_N; x+] = step_mat @ [x; y]
-        z = np.zeros(n_k + 2 * k_ax)
-        blend = np.ones(1)
+    spin = _spindle(m, d, spindle_hz)
     arm_act, arm_adr = _arm(m, op.robot.arm_joints)
-    if trajectory is not None:
-        if trajectory.q.shape[1] != len(arm_act):
-            raise InputError(f"the trajectory has {trajectory.q.shape[1]} joints, the robot's arm {len(arm_act)}")
-        if not np.allclose(trajectory.q[0], op.q_cmd, atol=1e-6):
-            raise InputError("the trajectory must start at the operating point's posture (its first row)")
-        q_cmd_t = trajectory.at(np.arange(n) / hw.fs)
-    scheduled = isinstance(controller, Schedule)
-    if scheduled:
-        sched_adr = arm_adr[list(controller.joints)]
-        blend_every = max(1, int(round(hw.fs / BLEND_HZ)))
-    q_arm = np.empty((n, len(arm_adr))) if trajectory is not None else None
-    rng = np.random.default_rng(seed)
-    noise = rng.normal(0.0, hw.acc_noise, (n, k_ax)) + hw.acc_bias
+    q_cmd_t = _commands(trajectory, op, len(arm_act), n, hw.fs)
+    loop = _Controllers(controller, hw.fs, arm_adr) if controller is not None else None
+    guard = _Guard(hw) if hw.guard and loop is not None else None
+
+    k_ax, n_rec = len(ctrl_axes), len(record_axes)
+    noise = np.random.default_rng(seed).normal(0.0, hw.acc_noise, (n, k_ax)) + hw.acc_bias
     res = hw.encoder_resolution
     inv_res = 1.0 / res if res > 0 else 0.0
-    alpha = 1.0 - np.exp(-2 * np.pi * hw.amp_bandwidth / (hw.fs * hw.substeps))
-    n_delay = hw.delay_samples
-    u_hist = np.zeros((n + n_delay, k_ax))  # u_hist[k + n_delay] computed at sample k
+    u_hist = np.zeros((n + hw.delay_samples, k_ax))  # u_hist[k + delay] computed at sample k
     acc_all = np.empty((n, n_rec + k_ax))
     pos = np.empty((n, k_ax))
     force = np.empty((n, k_ax))
-    f_app = np.zeros(k_ax)
-    base = ctrl0[vc]
-    shake_base = shake0
-    sens = d.sensordata
-    qpos, qvel, qfrc = d.qpos, d.qvel, d.qfrc_applied
-    ctrl = d.ctrl
-    k_stop, c_stop = hw.end_stop_stiffness, hw.end_stop_damping
+    q_arm = np.empty((n, len(arm_adr))) if trajectory is not None else None
+    shake_base = ctrl0[shake_idx]
+    sens, qpos, ctrl = d.sensordata, d.qpos, d.ctrl
     sat = stops = 0
-    at_stop = False
-    gain, engaged, calm, trips, off = 1.0, True, 0, 0, 0
-    d_gain = 1.0 / max(hw.guard_fade * hw.fs, 1.0)
-    n_rest = int(round(hw.guard_rest * hw.fs))
     t0 = time.perf_counter()
     for k in range(n):
         a = E_all @ sens[adr:adr + 3] - c0
         acc_all[k] = a
         p = qpos[pm_adr]
         pos[k] = p
-        if trajectory is not None:
+        if q_cmd_t is not None:
             ctrl[arm_act] = q_cmd_t[k]
             q_arm[k] = qpos[arm_adr]
-        if controller is not None:
-            z[n_k:n_k + k_ax] = a[n_rec:] + noise[k]
-            z[n_k + k_ax:] = np.rint(p * inv_res) * res if res > 0 else p
-            out = step_mat @ z
-            if scheduled and k % blend_every == 0:
-                blend = controller.weights(qpos[sched_adr])
-            z[:n_k] = out[n_parts * k_ax:]
-            if hw.guard:
-                used = float(np.max(np.abs(p) / stroke))
-                if engaged and used > hw.guard_trip:
-                    engaged, trips = False, trips + 1
-                if engaged:
-                    gain = min(1.0, gain + d_gain)
-                else:
-                    gain = max(0.0, gain - d_gain)
-                    calm = calm + 1 if used < hw.guard_rearm else 0
-                    if gain == 0.0:
-                        z[:n_k] = 0.0  # re-engage from rest, not from the state the stops left
-                        if calm >= n_rest:
-                            engaged, calm = True, 0
-                off += gain < 1.0
-            u_hist[k + n_delay] = gain * (blend @ out[:n_parts * k_ax].reshape(n_parts, k_ax))
-            total = base + u_hist[k]
-            clipped = np.minimum(np.maximum(total, lo), hi)
-            if (clipped != total).any():
-                sat += 1
-            target = clipped - base
-            for _ in range(hw.substeps):
-                f_app += alpha * (target - f_app)
-                ctrl[vc] = base + f_app
-                over = np.abs(qpos[pm_adr]) - stroke
-                if at_stop or (over > 0).any():
-                    hit = over > 0
-                    at_stop = bool(hit.any())
-                    qfrc[pm_dof] = np.where(hit, -k_stop * np.sign(qpos[pm_adr]) * over - c_stop * qvel[pm_dof], 0.0)
-                if len(shake_idx):
-                    ctrl[shake_idx] = shake_base + shake_f[k]
-                if spindle_hz is not None:
-                    ctrl[sp_act] = sp0 + w_sp * d.time
-                mujoco.mj_step(m, d)
-            force[k] = f_app
-            stops += at_stop
-        else:
-            for _ in range(hw.substeps):
-                if len(shake_idx):
-                    ctrl[shake_idx] = shake_base + shake_f[k]
-                if spindle_hz is not None:
-                    ctrl[sp_act] = sp0 + w_sp * d.time
-                mujoco.mj_step(m, d)
+        if loop is not None:
+            u = loop.step(k, a[n_rec:] + noise[k], np.rint(p * inv_res) * res if res > 0 else p, qpos)
+            gain = 1.0
+            if guard is not None:
+                if guard.step(float(np.max(np.abs(p) / stroke))):
+                    loop.reset()
+                gain = guard.gain
+            u_hist[k + hw.delay_samples] = gain * u
+            target, clipped = coils.target(u_hist[k])
+            sat += clipped
+        for _ in range(hw.substeps):
+            if loop is not None:
+                coils.substep(target)
+            if len(shake_idx):
+                ctrl[shake_idx] = shake_base + shake_f[k]
+            if spin is not None:
+                spin(ctrl, d.time)
+            mujoco.mj_step(m, d)
+        force[k] = coils.f_app
+        stops += coils.at_stop
         if k % 256 == 0 and (not np.isfinite(d.qacc).all() or (k_ax and np.abs(qpos[pm_adr]).max() > 1.0)):
             raise LoopDiverged(f"the closed loop diverged at t = {k / hw.fs:.3f} s")
     if not np.isfinite(acc_all).all():
         raise LoopDiverged("the closed loop diverged")
-    acc = acc_all[:, :n_rec]
     wall = time.perf_counter() - t0
     used = float(np.max(np.abs(pos) / stroke)) if k_ax else 0.0
-    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc, pos, force, sat / n, used, stops / n, wall, q_arm,
-                      trips, off / n)
+    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc_all[:, :n_rec], pos, force, sat / n, used, stops / n,
+                      wall, q_arm, guard.trips if guard else 0, guard.off / n if guard else 0.0)
 
 
 def _stacked_step(parts, fs: float, k_ax: int) -> tuple[np.ndarray, int, int]:

@@ -138,48 +138,64 @@ def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gai
     fs = band_cfg.sample_rate
     n_rec = int(round(fs / band_cfg.line_spacing))
     lines = np.rint(freq / band_cfg.line_spacing).astype(int)
-    omega = 2 * np.pi * freq
-    accel = sensors.kind == "accelerometer"
     hcfg = band_cfg.hammer
-    win_f = force_window(n_rec, fs, _force_window_length(hcfg, fs))
     win_e = exponential_window(n_rec, band_cfg.exp_window)
     load_noise = hcfg.load_cell_noise_n * noise_scale
 
     if method == "linear":
-        return _linear_band(h_exact, omega, n_rec, fs, sensors, hcfg, n_avg, win_f, win_e,
+        win_f = force_window(n_rec, fs, _force_window_length(hcfg, fs))
+        return _linear_band(h_exact, 2 * np.pi * freq, n_rec, fs, sensors, hcfg, n_avg, win_f, win_e,
                             lines, load_noise, rng), 0, 0
 
-    integrator = integrator_of(band_cfg)
     sub = substeps(op_sim, band_cfg)
-    dt = 1.0 / (fs * sub)
     # without decimation there is no anti-aliasing filter to spread the onset: no pre-trigger (its
     # samples would only widen the force window and let more of the load cell's noise in)
     pre = PRETRIGGER if sub > 1 else 0
+    n_step = min(n_rec, int(np.ceil(_decay_time(op_full, band, band_cfg.decay) * fs))) * sub
+    hits = [[draw_hit(c, hcfg, rng) for c in coords] for _ in range(n_avg)]
+    forces, resp = _hit_responses(op_sim, op_full, sensors, band, coords, hits, n_step, fs * sub,
+                                  integrator_of(band_cfg))
+    # anti-aliasing FIR and decimation to the DAQ rate, force and responses alike
+    rec = _record(np.concatenate([forces[:, :, None], resp], axis=2), sub, n_rec, pre)
     win_f = force_window(n_rec, fs, _force_window_length(hcfg, fs) + pre / fs)
-    t_sim = _decay_time(op_full, band, band_cfg.decay)
-    n_samp = min(n_rec, int(np.ceil(t_sim * fs)))
-    n_step = n_samp * sub
-    t = np.arange(n_step) * dt
+    sums = [SpectralSums(len(freq), 4) for _ in coords]
+    overloads = 0
+    for j in range(len(rec)):   # noise is drawn hit by hit, in the order of the hits
+        k = j % len(coords)
+        f_rec = hammer_gain * rec[j, :, 0] + load_noise * rng.standard_normal(n_rec)
+        y_rec, over = _sensor_record(sensors, rec[j, :, 1:], rng)
+        overloads += over
+        f_win, y_win = f_rec * win_f * win_e, y_rec * win_e[:, None]
+        if records is not None:
+            records.append((k, f_win, y_win))
+        sums[k].add(np.fft.rfft(f_win)[lines], np.fft.rfft(y_win, axis=0)[lines])
+    return _receptance(sums, freq, sensors.kind == "accelerometer"), n_step * len(rec), overloads
 
+
+def _hit_responses(op_sim, op_full, sensors: SensorSet, band, coords, hits, n_step: int, rate: float,
+                   integrator: str) -> tuple[np.ndarray, np.ndarray]:
+    """Every hit's force, (n_hit, n_step) N, and the sensors' response at the simulation rate
+    ``rate`` (Hz), (n_hit, n_step, 4) in the sensors' quantity, hits in the order (average,
+    coordinate)."""
+    dt = 1.0 / rate
+    t = np.arange(n_step) * dt
     read_sim = sensors.reading_rows(op_sim)
     flex, read_full = _condensation(op_sim, op_full, sensors)
-    sums = [SpectralSums(len(freq), 4) for _ in coords]
-    hits = [[draw_hit(c, hcfg, rng) for c in coords] for _ in range(n_avg)]
-    n_hit = len(coords) * n_avg
+    n_hit = len(coords) * len(hits)
     # a spinning spindle's unforced run rides along as the last history of the same rollout
     spinning = bool(op_sim.robot.spindle_rpm)
     qfrc = np.empty((n_hit + spinning, n_step, op_sim.robot.model.nv))
     qfrc[n_hit:] = 0.0
     forces = np.empty((n_hit, n_step))
     static = np.zeros((n_hit, 4))
-    for a in range(n_avg):
-        rows_sim = hammer_rows(op_sim, coords, band.s_1a, hits[a])
-        rows_full = hammer_rows(op_full, coords, band.s_1a, hits[a]) if flex is not None else None
+    for a, hits_a in enumerate(hits):
+        rows_sim = hammer_rows(op_sim, coords, band.s_1a, hits_a)
+        rows_full = hammer_rows(op_full, coords, band.s_1a, hits_a) if flex is not None else None
         for k in range(len(coords)):
             j = a * len(coords) + k
             # each step holds the force's mean over the step: what the simulator applies and,
             # box-filtered, what the load cell records for the step's midpoint
-            forces[j] = pulse(hits[a][k], t)
+            forces[j] = pulse(hits_a[k], t)
             qfrc[j] = forces[j][:, None] * rows_sim[k][None, :]
             if flex is not None:
                 static[j] = read_full[:, flex] @ np.linalg.solve(
@@ -198,38 +214,36 @@ def measure_band(op_sim, op_full, sensors: SensorSet, band_cfg, band, hammer_gai
         mid -= q0
         disp[j] = mid @ read_sim.T + forces[j][:, None] * static[j][None, :]
     del states
-    if accel:
-        resp = _second_derivative(disp, dt)
-        if sensors.highpass > 0:
-            b, a_ = signal.bilinear([1, 0], [1, 2 * np.pi * sensors.highpass], fs * sub)
-            resp = signal.lfilter(b, a_, resp, axis=-2)
-    else:
-        resp = disp
-    # anti-aliasing FIR and decimation to the DAQ rate, force and responses alike
-    rec = _record(np.concatenate([forces[:, :, None], resp], axis=2), sub, n_rec, pre)
-    overloads = 0
-    for j in range(n_hit):   # noise is drawn hit by hit, in the order of the hits
-        k = j % len(coords)
-        f_rec = hammer_gain * rec[j, :, 0] + load_noise * rng.standard_normal(n_rec)
-        y_rec = sensors.gain * rec[j, :, 1:] + sensors.noise * rng.standard_normal((n_rec, 4))
-        if sensors.resolution > 0:
-            y_rec = np.round(y_rec / sensors.resolution) * sensors.resolution
-        over = np.abs(y_rec) > sensors.full_range
-        overloads += int(over.sum())
-        y_rec = np.clip(y_rec, -sensors.full_range, sensors.full_range)
-        f_win, y_win = f_rec * win_f * win_e, y_rec * win_e[:, None]
-        if records is not None:
-            records.append((k, f_win, y_win))
-        spec_f = np.fft.rfft(f_win)[lines]
-        spec_y = np.fft.rfft(y_win, axis=0)[lines]
-        sums[k].add(spec_f, spec_y)
-    h = np.empty((len(freq), 4, len(coords)), complex)
-    coh = np.empty((len(freq), 4, len(coords)))
+    if sensors.kind != "accelerometer":
+        return forces, disp
+    resp = _second_derivative(disp, dt)
+    if sensors.highpass > 0:
+        b, a_ = signal.bilinear([1, 0], [1, 2 * np.pi * sensors.highpass], rate)
+        resp = signal.lfilter(b, a_, resp, axis=-2)
+    return forces, resp
+
+
+def _sensor_record(sensors: SensorSet, y: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, int]:
+    """The sensors' record of the true response ``y`` (n_rec, 4): gain, noise, quantisation and
+    clipping at full range; and the number of overloaded samples."""
+    y_rec = sensors.gain * y + sensors.noise * rng.standard_normal(y.shape)
+    if sensors.resolution > 0:
+        y_rec = np.round(y_rec / sensors.resolution) * sensors.resolution
+    over = int((np.abs(y_rec) > sensors.full_range).sum())
+    return np.clip(y_rec, -sensors.full_range, sensors.full_range), over
+
+
+def _receptance(sums, freq: np.ndarray, accel: bool) -> tuple[np.ndarray, np.ndarray]:
+    """H1 receptance and coherence per coordinate from the spectral sums, (n_lines, 4, n_coords)
+    each (an accelerance divided by −ω²)."""
+    omega = 2 * np.pi * freq
+    h = np.empty((len(freq), 4, len(sums)), complex)
+    coh = np.empty((len(freq), 4, len(sums)))
     for k, s in enumerate(sums):
         hk, ck = h1(s)
         h[:, :, k] = -hk / omega[:, None] ** 2 if accel else hk
         coh[:, :, k] = ck
-    return (h, coh), n_step * n_hit, overloads
+    return h, coh
 
 
 def integrator_of(band_cfg) -> str:

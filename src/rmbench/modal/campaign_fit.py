@@ -147,59 +147,76 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     present = [b for b in bands if np.any(ds.band.values == b)]
     if not present:
         raise InputError(f"no frequency lines of band(s) {', '.join(bands)} in the dataset")
-    n_post = ds.sizes["posture"]
     t0 = time.perf_counter()
     by_key = _fit_all(ds, present, n_modes, workers)
     elapsed = time.perf_counter() - t0
-
     positions = (posture_positions(ds.x.values, ds.y.values, ds.theta.values)
                  if all(c in ds.coords for c in ("x", "y", "theta")) else None)
-    blocks, std_blocks, ev_blocks, band_of_mode = [], [], [], []
-    fit_ok = np.zeros((n_post, len(present)), bool)
-    reasons = np.full((n_post, len(present)), "", dtype=object)
-    notes = np.full((n_post, len(present)), "", dtype=object)
-    nmse = np.full((n_post, len(present), 4, 4), np.nan)
-    residual = np.full((n_post, len(present), len(RESIDUAL_TERMS), 4, 4), np.nan + 0j)
-    f_max = [float(ds.freq.values[ds.band.values == b].max()) for b in present]
-    for bi, b in enumerate(present):
-        tables, stds, evs = [], [], []
-        for p in range(n_post):
-            r = by_key.get((b, p))
-            if r is None or not r["ok"]:
-                tables.append(None)
-                stds.append(None)
-                evs.append(None)
-                reasons[p, bi] = r["reason"] if r is not None else "posture not measured"
-                continue
-            prm = r["params"]
-            tables.append(ModeTable(band=b, f_n=prm[:, 0], zeta=prm[:, 1], phi_r=r["phi_r"],
-                                    phi_l=r["phi_l"], peak=np.zeros(len(prm))))
-            stds.append(r["std"])
-            evs.append(np.column_stack([r[k] for k in _EVIDENCE]).astype(float))
-            nmse[p, bi] = r["nmse"]
-            residual[p, bi] = r["residual"]
-            fit_ok[p, bi] = r["fit_ok"]
-            reasons[p, bi] = r["reason"]
-            notes[p, bi] = "; ".join(r["notes"])
-        tracked, std, ev = _tracked(tables, stds, evs, positions)
-        blocks.append(tracked)
-        std_blocks.append(std)
-        ev_blocks.append(ev)
-        band_of_mode += [b] * tracked.shape[1]
-    modal = np.concatenate(blocks, axis=1)
-    modal_std = np.concatenate(std_blocks, axis=1)
-    evidence = np.concatenate(ev_blocks, axis=1)
+    per_band = [_band_results(by_key, b, ds.sizes["posture"], positions) for b in present]
+    out = _modal_dataset(ds, present, per_band)
+    if "modal_exact" in ds:
+        out = out.merge(truth_errors(out, ds))
+    out.attrs.update(rmbench_version=__version__, rmbench_dataset_version=1, kind="modal",
+                     upstream=str(ds.attrs.get("source_file", "")), fit_seconds=elapsed,
+                     phiL_normalisation="phiL[phiL_ref] = 1 per mode, 1aY unless it nears zero "
+                     "somewhere in the campaign (METHODS.md §2); phiL_1aY holds the 1aY element",
+                     residual_terms="-lower/omega^2 + upper + quadratic (f/residual_f_max)^2; "
+                                    "lower 1/kg, upper and quadratic m/N")
+    return out
+
+
+def _band_results(by_key: dict, band: str, n_post: int, positions) -> dict:
+    """One band's fits over the postures: its modes tracked across them (``tracked``, ``std``,
+    ``evidence``, as :func:`_tracked` gives them) and per posture the verdict (``fit_ok``,
+    ``reason``, ``notes``), ``nmse`` (n_post, 4, 4) and ``residual`` (n_post, n_terms, 4, 4)."""
+    tables, stds, evs = [], [], []
+    out = {"fit_ok": np.zeros(n_post, bool), "reason": np.full(n_post, "", dtype=object),
+           "notes": np.full(n_post, "", dtype=object), "nmse": np.full((n_post, 4, 4), np.nan),
+           "residual": np.full((n_post, len(RESIDUAL_TERMS), 4, 4), np.nan + 0j)}
+    for p in range(n_post):
+        r = by_key.get((band, p))
+        if r is None or not r["ok"]:
+            tables.append(None)
+            stds.append(None)
+            evs.append(None)
+            out["reason"][p] = r["reason"] if r is not None else "posture not measured"
+            continue
+        prm = r["params"]
+        tables.append(ModeTable(band=band, f_n=prm[:, 0], zeta=prm[:, 1], phi_r=r["phi_r"],
+                                phi_l=r["phi_l"], peak=np.zeros(len(prm))))
+        stds.append(r["std"])
+        evs.append(np.column_stack([r[k] for k in _EVIDENCE]).astype(float))
+        out["nmse"][p] = r["nmse"]
+        out["residual"][p] = r["residual"]
+        out["fit_ok"][p] = r["fit_ok"]
+        out["reason"][p] = r["reason"]
+        out["notes"][p] = "; ".join(r["notes"])
+    out["tracked"], out["std"], out["evidence"] = _tracked(tables, stds, evs, positions)
+    return out
+
+
+def _modal_dataset(ds: xr.Dataset, present: list, per_band: list) -> xr.Dataset:
+    """The modal dataset (DATA.md) of the bands' results, modes of the bands side by side."""
+    modal = np.concatenate([r["tracked"] for r in per_band], axis=1)
+    modal_std = np.concatenate([r["std"] for r in per_band], axis=1)
+    evidence = np.concatenate([r["evidence"] for r in per_band], axis=1)
+    band_of_mode = [b for b, r in zip(present, per_band) for _ in range(r["tracked"].shape[1])]
     modal, modal_std, phi_l_1ay, refs = renormalise_phi_l(modal, modal_std)
-    pm = ("posture", "mode")
+    f_max = [float(ds.freq.values[ds.band.values == b].max()) for b in present]
+    pm, pb = ("posture", "mode"), ("posture", "fit_band")
+
+    def by_band(name):
+        return np.stack([r[name] for r in per_band], axis=1)
+
     out = xr.Dataset(
         {"modal": (("posture", "mode", "param"), modal),
          "modal_std": (("posture", "mode", "param"), modal_std),
          "phiL_1aY": (pm, phi_l_1ay),
-         "nmse": (("posture", "fit_band", "out", "inp"), nmse),
-         "residual": (("posture", "fit_band", "term", "out", "inp"), residual),
-         "fit_ok": (("posture", "fit_band"), fit_ok),
-         "fit_reason": (("posture", "fit_band"), reasons.astype(str)),
-         "fit_notes": (("posture", "fit_band"), notes.astype(str)),
+         "nmse": (("posture", "fit_band", "out", "inp"), by_band("nmse")),
+         "residual": (("posture", "fit_band", "term", "out", "inp"), by_band("residual")),
+         "fit_ok": (pb, by_band("fit_ok")),
+         "fit_reason": (pb, by_band("reason").astype(str)),
+         "fit_notes": (pb, by_band("notes").astype(str)),
          "mode_uncertain": (pm, evidence[..., 0] > 0.5),
          "mode_delta_bic": (pm, evidence[..., 1]),
          "mode_share": (pm, evidence[..., 2]),
@@ -212,14 +229,6 @@ def fit_campaign(ds: xr.Dataset, *, bands=("low", "high"), n_modes: int | None =
     for c in ("x", "y", "theta", "ok"):
         if c in ds.coords:
             out = out.assign_coords({c: ("posture", ds[c].values)})
-    if "modal_exact" in ds:
-        out = out.merge(truth_errors(out, ds))
-    out.attrs.update(rmbench_version=__version__, rmbench_dataset_version=1, kind="modal",
-                     upstream=str(ds.attrs.get("source_file", "")), fit_seconds=elapsed,
-                     phiL_normalisation="phiL[phiL_ref] = 1 per mode, 1aY unless it nears zero "
-                     "somewhere in the campaign (METHODS.md §2); phiL_1aY holds the 1aY element",
-                     residual_terms="-lower/omega^2 + upper + quadratic (f/residual_f_max)^2; "
-                                    "lower 1/kg, upper and quadratic m/N")
     return out
 
 

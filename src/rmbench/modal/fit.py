@@ -197,24 +197,7 @@ class ModalFit:
         if self.n_modes is not None and n_band < self.n_modes:
             warnings.warn(f"asked for {self.n_modes} modes, the data gave {n_band}; fitting "
                           "those", ModalFitWarning, stacklevel=2)
-        # the fit normalised each φL on its largest element (best conditioned), which is also
-        # where the eigenvector's standard errors are judged; the parameters are reported with
-        # the user's normalisation, φR rescaled so that the model is unchanged
-        args = (problem.omega, problem.H, problem.W, sol.n)
-        x = mdof._pack(sol.lam, sol.phi_r, sol.phi_l, sol.lower, sol.upper, sol.refs,
-                       self.residuals)
-        r = mdof._residual(x, *args, sol.refs, self.residuals)
-        mac_loss = _mac_loss(_covariance(mdof._jacobian(x, *args, sol.refs, self.residuals), r),
-                             sol)
-        refs = np.full(sol.n, int(self.ref) if np.ndim(self.ref) == 0 else 3)
-        if np.ndim(self.ref) == 1:
-            refs[sel.in_band] = self._refs(n_band)
-        piv = sol.phi_l[np.arange(sol.n), refs]
-        piv = np.where(np.abs(piv) > 0, piv, 1.0)
-        phi_l, phi_r = sol.phi_l / piv[:, None], sol.phi_r * piv[:, None]
-        phi_l[np.arange(sol.n), refs] = 1.0  # exactly, not to rounding
-        x = mdof._pack(sol.lam, phi_r, phi_l, sol.lower, sol.upper, refs, self.residuals)
-        cov = _covariance(mdof._jacobian(x, *args, refs, self.residuals), r)
+        phi_r, phi_l, refs, cov, mac_loss, r = self._normalised(problem, sol, sel, n_band)
         lam = sol.lam
 
         # back to SI; one pole per pair with Im > 0, sorted by frequency
@@ -255,6 +238,31 @@ class ModalFit:
                           f"{self.fit_reason_}", ModalFitWarning, stacklevel=2)
         self._warn_ref()
         return self
+
+    def _normalised(self, problem: Problem, sol, sel, n_band: int):
+        """The solution's eigenvectors in the user's φL normalisation, with the parameters'
+        covariance there: ``(phi_r, phi_l, refs, cov, mac_loss, r)``, r the weighted residual.
+
+        The fit normalised each φL on its largest element (best conditioned), which is also where
+        the eigenvector's standard errors are judged (``mac_loss``); the parameters are reported
+        with the user's normalisation, φR rescaled so that the model is unchanged.
+        """
+        args = (problem.omega, problem.H, problem.W, sol.n)
+        x = mdof._pack(sol.lam, sol.phi_r, sol.phi_l, sol.lower, sol.upper, sol.refs,
+                       self.residuals)
+        r = mdof._residual(x, *args, sol.refs, self.residuals)
+        mac_loss = _mac_loss(_covariance(mdof._jacobian(x, *args, sol.refs, self.residuals), r),
+                             sol)
+        refs = np.full(sol.n, int(self.ref) if np.ndim(self.ref) == 0 else 3)
+        if np.ndim(self.ref) == 1:
+            refs[sel.in_band] = self._refs(n_band)
+        piv = sol.phi_l[np.arange(sol.n), refs]
+        piv = np.where(np.abs(piv) > 0, piv, 1.0)
+        phi_l, phi_r = sol.phi_l / piv[:, None], sol.phi_r * piv[:, None]
+        phi_l[np.arange(sol.n), refs] = 1.0  # exactly, not to rounding
+        x = mdof._pack(sol.lam, phi_r, phi_l, sol.lower, sol.upper, refs, self.residuals)
+        cov = _covariance(mdof._jacobian(x, *args, refs, self.residuals), r)
+        return phi_r, phi_l, refs, cov, mac_loss, r
 
     def predict(self, freq) -> np.ndarray:
         """Model receptance including the out-of-band poles and the residual terms.

@@ -347,8 +347,19 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
                                           method=method, shank=shank, tool_model=tool_model, free=free,
                                           mass_loading=mass_loading)
         contact = fit.contact
+    out, freqs = _predict_bands(data, index, bands, reference, target, contact, method=method, shank=shank,
+                                tool_model=tool_model, mass_loading=mass_loading)
+    truth, peaks = _truth_peaks(data, index, target, out, freqs)
+    posture = (1e3 * float(data["x"].values[index]), 1e3 * float(data["y"].values[index]),
+               float(np.degrees(data["theta"].values[index])))
+    return CampaignToolChange(index, posture, method, out, truth, peaks, fit, source, tool_model)
+
+
+def _predict_bands(data, index: int, bands, reference, target, contact, *, method, shank, tool_model,
+                   mass_loading) -> tuple[dict, dict]:
+    """The target tool's predicted receptances per band (:func:`change_tool` results) and the
+    bands' lines (Hz)."""
     out, freqs = {}, {}
-    s_key = {b: float(data.attrs[f"sensor_spacing_{b}"]) for b in bands}
     for band in bands:
         if method == "difference":
             t_ref = campaign_receptance(data, index, band)
@@ -356,11 +367,17 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
         else:
             campaign_receptance(data, index, band)  # same checks of the posture and the matrix
             f, t_in = _point_matrix(data, index, band)
-            s = s_key[band]
+            s = float(data.attrs[f"sensor_spacing_{band}"])
         masses = sensor_masses(data, band) if mass_loading else ()
         out[band] = change_tool(t_in, f, reference, target, target_contact=contact, s_1a=s, shank=shank,
                                 tool_model=tool_model, reference_masses=masses)
         freqs[band] = f
+    return out, freqs
+
+
+def _truth_peaks(data, index: int, target, out: dict, freqs: dict) -> tuple[dict, list]:
+    """Where the campaign holds ground truth: the target tool's exact tip receptances per band and
+    the predicted peaks' errors against them (tip entries); else nothing."""
     truth, peaks = {}, []
     if "H_exact" in data:
         truth = _truth(data, index, target, freqs)
@@ -368,9 +385,7 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
             rows = [e[0] for e in TIP_ENTRIES]
             peaks += peak_errors(freqs[band], np.stack([out[band].t[:, i, j] for i, j in rows], 1),
                                  np.stack([t[:, i, j] for i, j in rows], 1), [e[1] for e in TIP_ENTRIES])
-    posture = (1e3 * float(data["x"].values[index]), 1e3 * float(data["y"].values[index]),
-               float(np.degrees(data["theta"].values[index])))
-    return CampaignToolChange(index, posture, method, out, truth, peaks, fit, source, tool_model)
+    return truth, peaks
 
 
 def _fit_contact(data, i_ref, cal, j, reference, target, method, shank, tool_model, free,

@@ -331,88 +331,18 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
         An unknown group, or a group the robot has nothing of (no ``*_flex`` joints, no tool
         contact), or a foundation without equal tilt joints ``base_rx``/``base_ry``.
     """
-    from rmbench.robot.model import Robot
-    from rmbench.robot.spec import spec_to_xml
-    from rmbench.robot.variant import add_compliant_base
-
     groups = parse_groups(",".join(groups)) if not isinstance(groups, str) else parse_groups(groups)
     extra = tuple(dict.fromkeys(extra))
     base_mass = 0.0
     base_c0 = 0.0
     if "base" in groups or "base.lateral_compliance" in extra:
-        if any(b.name == "base_mount" for b in robot.spec.bodies):
-            # a robot already on a foundation (a calibrated one): its tilt is the parameter,
-            # from the compliance it has
-            m0 = robot.model
-            names = [m0.joint(j).name for j in range(m0.njnt)]
-            if not all(t in names for t in ("base_rx", "base_ry")):
-                raise InputError("the robot already stands on a base without tilt joints (base_rx, "
-                                 "base_ry); calibrate it without the base group")
-            k_rx, k_ry = (float(m0.jnt_stiffness[m0.joint(t).id]) for t in ("base_rx", "base_ry"))
-            if not np.isclose(k_rx, k_ry, rtol=1e-6):
-                raise InputError("the robot's base tilts unequally about x and y; calibrate it without "
-                                 "the base group")
-            base_c0 = 0.0 if k_rx >= _RIGID / 2 else 1 / k_rx
-            if "base.lateral_compliance" in extra and not all(t in names for t in ("base_x", "base_y")):
-                raise InputError("the robot's base has no lateral slides (base_x, base_y) for "
-                                 "base.lateral_compliance")
-        else:
-            spec = robot.spec
-            add_compliant_base(spec, _RIGID, _RIGID)
-            robot = Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool,
-                          spindle_rpm=robot.spindle_rpm, spec=spec)
+        robot, base_c0 = _on_foundation(robot, "base.lateral_compliance" in extra)
         base_mass = float(robot.model.body_subtreemass[robot.model.body("base_mount").id])
     m = robot.model
-    spec = robot.spec
-    ln = np.log
+    names = _Names.of(robot)
     out: list[Parameter] = []
-    flex = [m.joint(j).name for j in range(m.njnt) if m.joint(j).name.endswith("_flex")]
-    arm = set(robot.arm_joints)
-    acts = [m.actuator(a).name for a in range(m.nu)
-            if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
-            and m.joint(int(m.actuator_trnid[a, 0])).name in arm and m.actuator_gainprm[a, 0] > 0]
-    links = [b.name for b in spec.bodies
-             if b.name and b.explicitinertial and b.mass >= _MIN_LINK_KG and not b.name.startswith("motor")
-             and not b.name.startswith(("spindle", "tool_", "base_mount"))]
     for g in groups:
-        if g == "joints":
-            for j in flex:
-                out.append(Parameter(f"{j}.stiffness", g, "stiffness", (j,), 0, float(m.jnt_stiffness[m.joint(j).id]),
-                                     True, 1.0, ln(0.4), ln(2.5), "N·m/rad"))
-        elif g == "damping":
-            for j in flex:
-                c = float(m.dof_damping[m.jnt_dofadr[m.joint(j).id]])
-                if c > 0:
-                    out.append(Parameter(f"{j}.damping", g, "damping", (j,), 0, c, True, 1.0, ln(0.25), ln(4.0),
-                                         "N·m·s/rad"))
-        elif g == "servo":
-            for a in acts:
-                out.append(Parameter(f"{a}.kp", g, "kp", (a,), 0, float(m.actuator(a).gainprm[0]), True, 1.0,
-                                     ln(0.25), ln(4.0), "N·m/rad"))
-        elif g == "masses":
-            for b in links:
-                out.append(Parameter(f"{b}.mass", g, "mass", (b,), 0, float(m.body(b).mass[0]), True, 1.0,
-                                     ln(0.8), ln(1.25), "kg"))
-        elif g == "com":
-            for b in links:
-                ipos = m.body(b).ipos
-                for i, axis in enumerate("xyz"):
-                    out.append(Parameter(f"{b}.com_{axis}", g, "com", (b,), i, float(ipos[i]), False, 0.01,
-                                         -25.0, 25.0, "mm"))
-        elif g == "base":
-            c0 = base_c0 / _BASE_UNIT
-            out.append(Parameter("base.tilt_compliance", g, "base", ("base_rx", "base_ry"), 0, base_c0, False,
-                                 _BASE_UNIT, -c0, 300.0 - c0, "µrad/(kN·m)"))
-        elif g == "tool":
-            contact = [f"tool_contact_{a}" for a in ("x", "y", "rx", "ry")]
-            if not all(c in [m.joint(j).name for j in range(m.njnt)] for c in contact):
-                raise InputError("the robot has no tool-holder contact joints (tool_contact_x, _y, _rx, _ry) "
-                                 "for the tool group")
-            for name, joints in (("translation", contact[:2]), ("rotation", contact[2:])):
-                ks = [float(m.jnt_stiffness[m.joint(j).id]) for j in joints]
-                out.append(Parameter(f"tool_contact.{name}", g, "stiffness", tuple(joints), 0, ks[0], True, 1.0,
-                                     ln(0.4), ln(2.5), "N/m" if name == "translation" else "N·m/rad",
-                                     scales=tuple(k / ks[0] for k in ks)))
+        out += _group(g, m, names, base_c0)
     have = {p.name for p in out}
     for name in extra:
         if name not in have:
@@ -423,6 +353,100 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
         if not any(p.group == g for p in out):
             raise InputError(f"the robot has no parameters in the group {g!r}")
     return robot, ParameterSet(out, base_mass=base_mass)
+
+
+def _on_foundation(robot, lateral: bool):
+    """``(robot, c0)``: the robot on a foundation whose tilt the base group calibrates, and that
+    tilt's nominal compliance c0, rad/(N·m).
+
+    A robot already on one (a calibrated one) keeps it, its tilt the nominal; any other is mounted
+    on a copy of a foundation rigid at the nominal (c0 = 0). ``lateral``: the set will also soften
+    the foundation's lateral slides.
+    """
+    from rmbench.robot.model import Robot
+    from rmbench.robot.spec import spec_to_xml
+    from rmbench.robot.variant import add_compliant_base
+
+    if not any(b.name == "base_mount" for b in robot.spec.bodies):
+        spec = robot.spec
+        add_compliant_base(spec, _RIGID, _RIGID)
+        return Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool, spindle_rpm=robot.spindle_rpm,
+                     spec=spec), 0.0
+    m0 = robot.model
+    names = [m0.joint(j).name for j in range(m0.njnt)]
+    if not all(t in names for t in ("base_rx", "base_ry")):
+        raise InputError("the robot already stands on a base without tilt joints (base_rx, "
+                         "base_ry); calibrate it without the base group")
+    k_rx, k_ry = (float(m0.jnt_stiffness[m0.joint(t).id]) for t in ("base_rx", "base_ry"))
+    if not np.isclose(k_rx, k_ry, rtol=1e-6):
+        raise InputError("the robot's base tilts unequally about x and y; calibrate it without "
+                         "the base group")
+    if lateral and not all(t in names for t in ("base_x", "base_y")):
+        raise InputError("the robot's base has no lateral slides (base_x, base_y) for "
+                         "base.lateral_compliance")
+    return robot, (0.0 if k_rx >= _RIGID / 2 else 1 / k_rx)
+
+
+@dataclass(frozen=True)
+class _Names:
+    """What a robot has to calibrate: its flexible joints, its arm's position servos and its links
+    (bodies of explicit inertia and at least :data:`_MIN_LINK_KG`, motors, spindle, tool and
+    foundation left out)."""
+
+    joints: tuple
+    flex: tuple
+    servos: tuple
+    links: tuple
+
+    @classmethod
+    def of(cls, robot) -> "_Names":
+        m, spec = robot.model, robot.spec
+        joints = tuple(m.joint(j).name for j in range(m.njnt))
+        arm = set(robot.arm_joints)
+        servos = tuple(m.actuator(a).name for a in range(m.nu)
+                       if m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT
+                       and m.joint(int(m.actuator_trnid[a, 0])).name in arm and m.actuator_gainprm[a, 0] > 0)
+        links = tuple(b.name for b in spec.bodies
+                      if b.name and b.explicitinertial and b.mass >= _MIN_LINK_KG and not b.name.startswith("motor")
+                      and not b.name.startswith(("spindle", "tool_", "base_mount")))
+        return cls(joints, tuple(j for j in joints if j.endswith("_flex")), servos, links)
+
+
+def _group(g: str, m, names: _Names, base_c0: float) -> list:
+    """The parameters of group ``g`` (of :data:`GROUPS`) of the model ``m``."""
+    ln = np.log
+    if g == "joints":
+        return [Parameter(f"{j}.stiffness", g, "stiffness", (j,), 0, float(m.jnt_stiffness[m.joint(j).id]),
+                          True, 1.0, ln(0.4), ln(2.5), "N·m/rad") for j in names.flex]
+    if g == "damping":
+        damping = [(j, float(m.dof_damping[m.jnt_dofadr[m.joint(j).id]])) for j in names.flex]
+        return [Parameter(f"{j}.damping", g, "damping", (j,), 0, c, True, 1.0, ln(0.25), ln(4.0), "N·m·s/rad")
+                for j, c in damping if c > 0]
+    if g == "servo":
+        return [Parameter(f"{a}.kp", g, "kp", (a,), 0, float(m.actuator(a).gainprm[0]), True, 1.0,
+                          ln(0.25), ln(4.0), "N·m/rad") for a in names.servos]
+    if g == "masses":
+        return [Parameter(f"{b}.mass", g, "mass", (b,), 0, float(m.body(b).mass[0]), True, 1.0,
+                          ln(0.8), ln(1.25), "kg") for b in names.links]
+    if g == "com":
+        return [Parameter(f"{b}.com_{axis}", g, "com", (b,), i, float(m.body(b).ipos[i]), False, 0.01,
+                          -25.0, 25.0, "mm") for b in names.links for i, axis in enumerate("xyz")]
+    if g == "base":
+        c0 = base_c0 / _BASE_UNIT
+        return [Parameter("base.tilt_compliance", g, "base", ("base_rx", "base_ry"), 0, base_c0, False,
+                          _BASE_UNIT, -c0, 300.0 - c0, "µrad/(kN·m)")]
+    # the tool group
+    contact = [f"tool_contact_{a}" for a in ("x", "y", "rx", "ry")]
+    if not all(c in names.joints for c in contact):
+        raise InputError("the robot has no tool-holder contact joints (tool_contact_x, _y, _rx, _ry) "
+                         "for the tool group")
+    out = []
+    for name, joints in (("translation", contact[:2]), ("rotation", contact[2:])):
+        ks = [float(m.jnt_stiffness[m.joint(j).id]) for j in joints]
+        out.append(Parameter(f"tool_contact.{name}", g, "stiffness", tuple(joints), 0, ks[0], True, 1.0,
+                             ln(0.4), ln(2.5), "N/m" if name == "translation" else "N·m/rad",
+                             scales=tuple(k / ks[0] for k in ks)))
+    return out
 
 
 def _structural(robot, name: str) -> Parameter:

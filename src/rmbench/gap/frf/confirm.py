@@ -174,6 +174,73 @@ def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=None) -> _T
     raise ValueError(f"{effect.name} maps onto no model parameter")
 
 
+@dataclass(frozen=True)
+class _Recalibration:
+    """The recalibrations of one :func:`confirm` (its arguments; ``cal_u``: the first calibration's
+    values by parameter name, ``say``: the progress callback)."""
+
+    nominal: object
+    data: object
+    held_data: object
+    cal_u: dict
+    settings: object
+    q_cmd: np.ndarray
+    meas: list
+    frf: list
+    bands: object
+    held: object
+    max_iter: int
+    p_noise: float
+    sizes: dict
+    say: object
+
+    def __call__(self, effect: Effect | None, prev: Confirmed | None = None) -> Confirmed:
+        """Recalibrate with ``effect`` in place (None: the null) and score it on the held-out
+        postures; ``prev``: the run this one continues."""
+        from rmbench.calibrate import calibrate
+        from rmbench.robot import Robot
+
+        t0 = time.perf_counter()
+        settings, nominal, data = self.settings, self.nominal, self.data
+        terms = None if effect is None else _terms(effect, self.cal_u, tuple(settings.groups), nominal,
+                                                    self.sizes.get(effect.name))
+        change = Change() if terms is None else terms.change
+        # a sensor candidate: the data read through the corrected design
+        used = data if change.is_null() else replace(data, design=data.design.with_offsets(change.offsets))
+        if prev is not None:            # a continuation
+            start, iters = dict(zip([p.name for p in prev.calibration.params],
+                                    np.asarray(prev.calibration.u, float))), self.max_iter
+        elif terms is None:             # the null: from the first calibration
+            start, iters = dict(self.cal_u), self.max_iter
+        else:
+            # a candidate: from the nominal, as the first calibration started. The first
+            # calibration moved the ordinary parameters to mimic the effect, and a fit from there
+            # stalls before it has moved them back (a sliding foundation found 40 % short); the
+            # freed parameters start at the best of their gross sizes (rmbench.calibrate.fit)
+            start, iters = None, settings.max_iter
+        s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
+                    max_iter=iters, extra=() if terms is None else terms.extra,
+                    free=() if terms is None else terms.free)
+        cal = calibrate(nominal, used, held=self.held_data, settings=s, start=start)
+        robot = Robot(cal.xml, name=nominal.name, tool=nominal.tool, spindle_rpm=nominal.spindle_rpm)
+        obj = Objective(ModelBench(robot, data.design, self.q_cmd), self.meas, self.frf, self.bands, self.held)
+        e = obj.vector(change)
+        per = obj.per_posture(change)
+        out_values = None
+        if terms is not None:
+            out_values = terms.values(dict(zip([p.name for p in cal.params], np.asarray(cal.u, float))))
+        chi2 = float(e @ e)
+        c = Confirmed(effect=effect, values=out_values, calibration=cal, robot=robot, chi2_held=chi2,
+                      n_held=obj.n, peak_held=peak_residual(e), chi2_held_posture=np.asarray(per), objective=obj,
+                      significant=significant(chi2, obj.n, p=self.p_noise, peak=peak_residual(e)),
+                      seconds=round(time.perf_counter() - t0 + (0 if prev is None else prev.seconds), 1),
+                      freed=() if terms is None else terms.free, rounds=1 if prev is None else prev.rounds + 1,
+                      change=change)
+        self.say(f"recalibrated with {c.name}: held-out χ²/residual {chi2 / max(obj.n, 1):.3g}"
+                 + (" (noise)" if not c.significant else ""))
+        return c
+
+
 def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, bands, held, settings,
             max_iter: int = 8, p_noise: float = 1e-3, min_shrink: float = 0.5, accept=None,
             need_gap: bool = True, sizes=None, progress=None) -> tuple:
@@ -226,55 +293,10 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     null : Confirmed
     confirmed : list of Confirmed, one per candidate run
     """
-    from rmbench.calibrate import calibrate
-    from rmbench.robot import Robot
-
-    say = progress or (lambda msg: None)
     names = [p.name for p in first.params]
-    cal_u = dict(zip(names, np.asarray(first.u, float)))
-
-    def run(effect, prev: Confirmed | None = None):
-        t0 = time.perf_counter()
-        terms = None if effect is None else _terms(effect, cal_u, tuple(settings.groups), nominal,
-                                                    (sizes or {}).get(effect.name))
-        change = Change() if terms is None else terms.change
-        # a sensor candidate: the data read through the corrected design
-        used = data if change.is_null() else replace(data, design=data.design.with_offsets(change.offsets))
-        if prev is not None:            # a continuation
-            start, iters = dict(zip([p.name for p in prev.calibration.params],
-                                    np.asarray(prev.calibration.u, float))), max_iter
-        elif terms is None:             # the null: from the first calibration
-            start, iters = dict(cal_u), max_iter
-        else:
-            # a candidate: from the nominal, as the first calibration started. The first
-            # calibration moved the ordinary parameters to mimic the effect, and a fit from there
-            # stalls before it has moved them back (a sliding foundation found 40 % short); the
-            # freed parameters start at the best of their gross sizes (rmbench.calibrate.fit)
-            start, iters = None, settings.max_iter
-        s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
-                    max_iter=iters, extra=() if terms is None else terms.extra,
-                    free=() if terms is None else terms.free)
-        cal = calibrate(nominal, used, held=held_data, settings=s, start=start)
-        robot = Robot(cal.xml, name=nominal.name, tool=nominal.tool, spindle_rpm=nominal.spindle_rpm)
-        bench = ModelBench(robot, data.design, q_cmd)
-        obj = Objective(bench, meas, frf, bands, held)
-        e = obj.vector(change)
-        per = obj.per_posture(change)
-        out_values = None
-        if terms is not None:
-            u = dict(zip([p.name for p in cal.params], np.asarray(cal.u, float)))
-            out_values = terms.values(u)
-        chi2 = float(e @ e)
-        c = Confirmed(effect=effect, values=out_values, calibration=cal, robot=robot, chi2_held=chi2,
-                      n_held=obj.n, peak_held=peak_residual(e), chi2_held_posture=np.asarray(per), objective=obj,
-                      significant=significant(chi2, obj.n, p=p_noise, peak=peak_residual(e)),
-                      seconds=round(time.perf_counter() - t0 + (0 if prev is None else prev.seconds), 1),
-                      freed=() if terms is None else terms.free, rounds=1 if prev is None else prev.rounds + 1,
-                      change=change)
-        say(f"recalibrated with {c.name}: held-out χ²/residual {chi2 / max(obj.n, 1):.3g}"
-            + (" (noise)" if not c.significant else ""))
-        return c
-
+    run = _Recalibration(nominal, data, held_data, dict(zip(names, np.asarray(first.u, float))), settings,
+                         q_cmd, meas, frf, bands, held, max_iter, p_noise, sizes or {},
+                         progress or (lambda msg: None))
     null = run(None)
     done = []
     if need_gap and not null.significant:        # the ordinary parameters alone reach the noise

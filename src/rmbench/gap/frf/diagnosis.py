@@ -13,7 +13,7 @@ the gap shrinks once the effect is in the model (METHODS.md §11).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -347,8 +347,6 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
     dg = _diagnose(data, settings, workers, say, t, ordinary=ordinary)
     if calibration is None:
         return dg
-    from dataclasses import replace
-
     dg = replace(dg, calibration=calibration, calibrated_xml=robot.xml)
     if dg.verdict == "explained":
         dg = _spread_checked(dg, nominal_robot, first)
@@ -406,8 +404,6 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
     that closes ``min_shrink`` of the baseline's held-out gap and that left its ordinary spread;
     "no significant gap" when the null recalibration alone reaches the noise; otherwise
     unexplained as before."""
-    from dataclasses import replace
-
     from rmbench.gap.frf.confirm import confirm
 
     cal, sub, cal_settings = first
@@ -479,6 +475,15 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
             return replace(dg, verdict="no significant gap", notes=tuple(notes), confirmation=record,
                            seconds=_seconds(t))
         return replace(dg, notes=tuple(notes), confirmation=record, seconds=_seconds(t))
+    return _explained(dg, winners, base, null, done, held, ds, settings, record, notes, gap, t)
+
+
+
+def _explained(dg: Diagnosis, winners, base, null, done, held, ds, settings, record: dict, notes: list, gap: bool,
+               t) -> Diagnosis:
+    """The diagnosis explained by the best of the confirmed ``winners`` (by held-out χ² and its
+    parameter count), its confidence the bootstrap selection frequency among ``base`` (the
+    baseline: null recalibration or first calibration) and every candidate run (``done``)."""
     best = min(winners, key=lambda c: c.chi2_held + c.effect.n_params * np.log(max(c.n_held, 2)))
     # confidence: bootstrap selection frequency over the held-out postures among the null and
     # the confirmed candidates
@@ -595,8 +600,6 @@ def _spread_checked(dg: Diagnosis, nominal, first) -> Diagnosis:
     """The joint search's explanation, unless every effect it chose is an ordinary parameter of
     the calibration (the tool holder, a link's mass) that ends inside its ordinary spread: then
     the calibration's prior merely held that parameter back, and the gap is no structural one."""
-    from dataclasses import replace
-
     from rmbench.robot.parameters import parameter_set
 
     cal, _, cal_settings = first
