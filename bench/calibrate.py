@@ -83,7 +83,8 @@ def _digest() -> str:
     gap = list(src.joinpath("gap", "frf").glob("*.py")) + list(src.joinpath("gap").glob("*.py"))
     gap = [p for p in gap if p.name != "plot.py"]
     files = (list(src.joinpath("calibrate").glob("*.py")) + gap
-             + [src / "robot" / "parameters.py", HERE / "_calibrate_truth.py", Path(__file__)])
+             + [src / "robot" / "parameters.py", HERE / "_calibrate_truth.py", HERE / "_truth_edits.py",
+                Path(__file__)])
     return code_digest(files)
 
 

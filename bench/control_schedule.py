@@ -278,7 +278,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     warnings.filterwarnings("ignore", module="control")
     keyed_run(args, f"control_schedule_p{args.postures}", __file__,
-              modules=("rmbench.control", "rmbench.robot"), extra=("_control_truth.py", "_calibrate_truth.py"))
+              modules=("rmbench.control", "rmbench.robot"), extra=("_control_truth.py", "_truth_edits.py"))
     path = Path(args.lines)
     path.parent.mkdir(parents=True, exist_ok=True)
     done = {json.loads(s)["index"] for s in path.read_text().splitlines()} if path.exists() else set()
