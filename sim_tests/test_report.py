@@ -61,7 +61,9 @@ def files(tmp_path_factory):
     fit = fit_campaign(open_campaign(campaign), workers=0)
     fit.attrs["upstream"] = str(campaign)
     save(fit, tmp / "modal.nc")
-    return {"dir": tmp, "campaign": campaign, "modal": tmp / "modal.nc"}
+    # two of its postures: what a command that fits while it plots needs, at a quarter of the fits
+    save(xr.load_dataset(campaign).isel(posture=[0, 1]), tmp / "two.nc")
+    return {"dir": tmp, "campaign": campaign, "modal": tmp / "modal.nc", "two": tmp / "two.nc"}
 
 
 @pytest.fixture(scope="module")
@@ -152,14 +154,15 @@ def test_each_report_renders_with_a_clean_console_and_every_plot_drawn(browser, 
 
 @pytest.mark.parametrize("argv", [
     ["campaign", "plot", "{campaign}", "--index", "2", "--report", "{out}"],
-    ["modal", "fit", "{campaign}", "--workers", "0", "--report", "{out}"],
+    ["modal", "fit", "{two}", "--workers", "0", "--report", "{out}"],
     ["modal", "plot", "{campaign}", "--index", "1", "--report", "{out}"],
     ["predict", "cv", "{modal}", "--model", "knn", "--report", "{out}"],
 ], ids=["campaign-plot", "modal-fit", "modal-plot", "predict-cv"])
 def test_commands_that_plot_also_write_a_report(browser, cli, files, argv, tmp_path):
     """--report takes the place of the PNG: a whole page with every plot drawn."""
     out = tmp_path / "r.html"
-    code, _, err = cli(*[a.format(campaign=files["campaign"], modal=files["modal"], out=out) for a in argv])
+    code, _, err = cli(*[a.format(campaign=files["campaign"], two=files["two"], modal=files["modal"], out=out)
+                         for a in argv])
     assert code == 0, err
     r = browser.render(out)
     assert r.n_plots >= 2 and r.console_errors == () and r.undrawn == ()
