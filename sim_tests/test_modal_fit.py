@@ -156,6 +156,36 @@ def test_analytic_jacobian_matches_finite_differences(ref, residuals):
     np.testing.assert_allclose(J, J_fd, atol=1e-6 * np.abs(J).max())
 
 
+@pytest.mark.parametrize("residuals", [True, False], ids=["residuals", "no-residuals"])
+def test_covariance_carried_to_another_normalisation_equals_the_one_computed_there(residuals):
+    """The parameters' covariance in the user's normalisation is the fit's carried through the
+    change of variables (T C Tᵀ): it equals σ² (JᵀJ)⁻¹ with J taken in that normalisation, each
+    mode's reference moved (1aY to 1X, 1X to 1Y) or kept, to 1e-10 of the largest variance: the
+    map is exact, so the two differ by rounding only (about 1e-14 here)."""
+    from rmbench.modal.fit import _covariance, _renormalisation
+
+    rng = np.random.default_rng(5)
+    n = 3
+    lam = np.array([-0.02 + 0.8j, -0.05 + 1.0j, -0.03 + 1.3j])
+    phi_r = rng.standard_normal((n, 4)) + 1j * rng.standard_normal((n, 4))
+    phi_l = rng.standard_normal((n, 4)) + 1j * rng.standard_normal((n, 4))
+    fit_refs, user_refs = np.array([3, 0, 2]), np.array([0, 1, 2])
+    phi_l /= phi_l[np.arange(n), fit_refs][:, None]
+    low, up = (rng.standard_normal((2, 4, 4)) + 1j * rng.standard_normal((2, 4, 4))) * 0.1
+    omega = np.linspace(0.5, 1.6, 60)
+    W = rng.uniform(0.5, 2.0, (60, 4, 4))
+    x = mdof._pack(lam, phi_r, phi_l, low, up, fit_refs, residuals)
+    Hs = (mdof._model(x, omega, n, fit_refs, residuals)[0]
+          + 0.01 * (rng.standard_normal((60, 4, 4)) + 1j * rng.standard_normal((60, 4, 4))))
+    r = mdof._residual(x, omega, Hs, W, n, fit_refs, residuals)
+    cov_fit = _covariance(mdof._jacobian(x, omega, Hs, W, n, fit_refs, residuals), r)
+    piv = phi_l[np.arange(n), user_refs][:, None]
+    x_user = mdof._pack(lam, phi_r * piv, phi_l / piv, low, up, user_refs, residuals)
+    cov_user = _covariance(mdof._jacobian(x_user, omega, Hs, W, n, user_refs, residuals), r)
+    T = _renormalisation(phi_r, phi_l, fit_refs, user_refs, len(x))
+    np.testing.assert_allclose(T @ cov_fit @ T.T, cov_user, atol=1e-10 * np.abs(np.diag(cov_user)).max())
+
+
 def test_ref_moves_the_normalisation_not_the_model(table_b1_fits):
     """ref=0 fixes φL[1X] = 1; the poles and the model FRF are those of the default ref.
 

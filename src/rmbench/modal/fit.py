@@ -251,17 +251,26 @@ class ModalFit:
         x = mdof._pack(sol.lam, sol.phi_r, sol.phi_l, sol.lower, sol.upper, sol.refs,
                        self.residuals)
         r = mdof._residual(x, *args, sol.refs, self.residuals)
-        mac_loss = _mac_loss(_covariance(mdof._jacobian(x, *args, sol.refs, self.residuals), r),
-                             sol)
+        cov_fit = _covariance(mdof._jacobian(x, *args, sol.refs, self.residuals), r)
+        mac_loss = _mac_loss(cov_fit, sol)
         refs = np.full(sol.n, int(self.ref) if np.ndim(self.ref) == 0 else 3)
         if np.ndim(self.ref) == 1:
             refs[sel.in_band] = self._refs(n_band)
         piv = sol.phi_l[np.arange(sol.n), refs]
+        if np.all(np.abs(piv) > 0):
+            # the user's normalisation is a smooth reparametrisation of the fit's: its covariance
+            # is the fit's carried through the change of variables (T C Tᵀ), to rounding what a
+            # second Jacobian there would give, at a fraction of the cost
+            T = _renormalisation(sol.phi_r, sol.phi_l, sol.refs, refs, len(x))
+            cov = T @ cov_fit @ T.T
         piv = np.where(np.abs(piv) > 0, piv, 1.0)
         phi_l, phi_r = sol.phi_l / piv[:, None], sol.phi_r * piv[:, None]
         phi_l[np.arange(sol.n), refs] = 1.0  # exactly, not to rounding
-        x = mdof._pack(sol.lam, phi_r, phi_l, sol.lower, sol.upper, refs, self.residuals)
-        cov = _covariance(mdof._jacobian(x, *args, refs, self.residuals), r)
+        if not np.all(np.abs(sol.phi_l[np.arange(sol.n), refs]) > 0):
+            # a zero reference entry: no change of variables reaches that normalisation; the
+            # covariance at the forced one
+            x = mdof._pack(sol.lam, phi_r, phi_l, sol.lower, sol.upper, refs, self.residuals)
+            cov = _covariance(mdof._jacobian(x, *args, refs, self.residuals), r)
         return phi_r, phi_l, refs, cov, mac_loss, r
 
     def predict(self, freq) -> np.ndarray:
@@ -391,6 +400,56 @@ def _covariance(J, r):
     w, V = np.linalg.eigh(Js.T @ Js)
     inv = np.where(w > w[-1] * 1e-24, 1 / np.where(w > 0, w, 1.0), 0.0)
     return sigma2 * ((V * inv) @ V.T) / np.outer(d, d)
+
+
+def _renormalisation(phi_r, phi_l, refs_from, refs_to, n_x: int) -> np.ndarray:
+    """``∂x_to/∂x_from``, shape (n_x, n_x): the fit's variables (:func:`mdof._pack`) normalised
+    with ``φL[refs_from] = 1`` (``phi_r``, ``phi_l`` in that normalisation, (n, 4)) against those
+    normalised with ``φL[refs_to] = 1``.
+
+    Per mode, with ``p = φL[to]``: ``φR' = p φR`` and ``φL' = φL / p`` (so ``φL'[from] = 1/p``);
+    the poles and the residual terms are unchanged. A complex derivative ``d`` acts on
+    ``(Re z, Im z)`` as ``[[Re d, −Im d], [Im d, Re d]]``.
+    """
+    T = np.eye(n_x)
+    n_out, n_in = phi_r.shape[1], phi_l.shape[1]
+    lo = 2 + 2 * n_out                          # first φL variable of a mode's block
+
+    def put(b, row, col, d):
+        # rows (Re, Im) of output `row`, columns (Re, Im) of input `col`, each an offset of
+        # its kind's real part; imaginary parts follow at +n (φR) or +n_in - 1 (φL)
+        (ri, rj), (ci, cj) = row, col
+        T[b + ri, b + ci] = d.real
+        T[b + ri, b + cj] = -d.imag
+        T[b + rj, b + ci] = d.imag
+        T[b + rj, b + cj] = d.real
+
+    for m, (s, u) in enumerate(zip(refs_from, refs_to)):
+        if s == u:
+            continue                             # p = 1: the identity
+        b = mdof.N_PER_MODE * m
+        free_s = [k for k in range(n_in) if k != s]
+        free_u = [k for k in range(n_in) if k != u]
+        nf = n_in - 1
+
+        def col_l(k):
+            q = free_s.index(k)
+            return (lo + q, lo + nf + q)
+
+        p = complex(phi_l[m, u])
+        T[b + 2:b + mdof.N_PER_MODE, b + 2:b + mdof.N_PER_MODE] = 0.0
+        for j in range(n_out):
+            row = (2 + j, 2 + n_out + j)
+            put(b, row, row, p)
+            put(b, row, col_l(u), complex(phi_r[m, j]))
+        for q, k in enumerate(free_u):
+            row = (lo + q, lo + nf + q)
+            if k == s:                           # φL'[from] = 1 / p
+                put(b, row, col_l(u), -1 / p**2)
+            else:
+                put(b, row, col_l(k), 1 / p)
+                put(b, row, col_l(u), -complex(phi_l[m, k]) / p**2)
+    return T
 
 
 def _params(lam, phi_r, phi_l, cov, refs, flip, ws, hs):
