@@ -117,6 +117,19 @@ def test_heldout_frequencies_improve_after_calibration(calibrated):
     assert s["after"]["unpaired"] == 0
 
 
+def test_a_fit_stopped_at_its_limit_says_so(irb, truth, design):
+    # two evaluations cannot converge from the nominal to gearboxes 25-30 % off; the converged
+    # fixture's fit did not stop there
+    data = _exact_data(truth, design, POSTURES[:3])
+    cal = calibrate(irb, data, settings=CalibrationSettings(groups=("joints",), workers=1, max_iter=2))
+    assert cal.at_limit and cal.to_json()["at_limit"] is True
+    assert any("limit of 2 evaluations" in n for n in cal.notes)
+
+
+def test_a_converged_fit_is_not_at_its_limit(calibrated):
+    assert not calibrated.at_limit
+
+
 def test_the_calibrated_mjcf_is_the_model_that_was_fitted(calibrated, truth, design):
     robot = Robot(calibrated.xml, name="calibrated", tool="dummy")
     assert calibrated.xml.startswith("<!-- calibrated by rmbench to exact")

@@ -54,3 +54,36 @@ def test_calibration_enters_the_json_beside_the_effects(calibrated_diagnosis):
     assert out["calibration"]["groups"] == ["joints"]
     assert {"params", "heldout_errors", "chi2_per_residual"} <= set(out["calibration"])
     assert out["verdict"] == "explained" and out["effects"]
+
+
+def _null(chi2_held):
+    """A null recalibration's record, as much of it as the choice of the reported calibration reads."""
+    from types import SimpleNamespace
+
+    account = {"params": [], "iterations": 8}
+    return SimpleNamespace(chi2_held=chi2_held, rounds=2, calibration=SimpleNamespace(
+        to_json=lambda: dict(account), xml="<mujoco model='null'/>"))
+
+
+def test_the_recalibration_with_the_frfs_is_reported_where_it_is_the_better_model():
+    # the first calibration stopped short of the data (its held-out χ² far above the null's):
+    # the verdict rests on the recalibration, so that is the calibration a user gets
+    from types import SimpleNamespace
+
+    from rmbench.gap.frf.diagnosis import _better_calibration
+
+    dg, notes = SimpleNamespace(calibration={"groups": ["joints", "com"]}), []
+    better = _better_calibration(dg, _null(44.0), 3448.0, notes)
+    assert better["calibrated_xml"] == "<mujoco model='null'/>"
+    assert better["calibration"]["groups"] == ["joints", "com"]
+    assert len(notes) == 1 and "recalibration with the FRFs" in notes[0]
+
+
+def test_the_first_calibration_stays_where_the_recalibration_is_no_better():
+    from types import SimpleNamespace
+
+    from rmbench.gap.frf.diagnosis import _better_calibration
+
+    notes = []
+    assert _better_calibration(SimpleNamespace(calibration={"groups": ["joints"]}), _null(120.0), 100.0, notes) == {}
+    assert notes == []

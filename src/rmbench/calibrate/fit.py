@@ -156,6 +156,9 @@ class Calibration:
     iterations : int
     seconds : float
     notes : tuple of str
+    at_limit : bool
+        The fit stopped at its limit of evaluations (``CalibrationSettings.max_iter``) rather
+        than converging.
     """
 
     params: tuple
@@ -174,6 +177,7 @@ class Calibration:
     seconds: float
     notes: tuple = field(default=())
     chi2_prior: float = 0.0
+    at_limit: bool = False
 
     def heldout_summary(self) -> dict:
         """Mean and p95 of the held-out |f| and |ζ| errors before and after, unpaired counts."""
@@ -188,7 +192,7 @@ class Calibration:
                 "train_errors": {k: error_summary(v) for k, v in self.modes_train.items()},
                 "heldout_errors": self.heldout_summary(),
                 "heldout_modes": self.modes_held, "iterations": self.iterations,
-                "seconds": self.seconds, "notes": list(self.notes)}
+                "at_limit": self.at_limit, "seconds": self.seconds, "notes": list(self.notes)}
 
 
 def error_summary(rows) -> dict:
@@ -482,7 +486,7 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
                        train=tuple(train), held=tuple(held), modes_train=rows_train,
                        modes_held=rows_held, xml=xml, iterations=sol.nfev,
                        seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes),
-                       chi2_prior=sol.chi2_prior)
+                       chi2_prior=sol.chi2_prior, at_limit=bool(sol.at_limit))
 
 
 def _postures(robot, data, held) -> tuple[list, list, np.ndarray]:

@@ -269,7 +269,8 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
         The first calibration's.
     max_iter : int
         Evaluations of the null recalibration and of each continuation; a candidate's runs
-        ``settings.max_iter`` from the nominal.
+        ``settings.max_iter`` from the nominal. A null that reaches the noise at this limit is
+        continued once (it is the calibration reported).
     min_shrink : float
         A candidate that closes this much of the null's held-out gap but is not yet at the
         noise is continued for another ``max_iter`` evaluations, and the null with it (the same
@@ -300,6 +301,10 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     null = run(None)
     done = []
     if need_gap and not null.significant:        # the ordinary parameters alone reach the noise
+        if null.calibration.at_limit:
+            # it is then the calibration the diagnosis reports: one more run toward convergence,
+            # so that its intervals are those of a minimum
+            null = run(None, prev=null)
         return null, done
     for effect in candidates:
         done.append(run(effect))
