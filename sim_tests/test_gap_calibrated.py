@@ -87,3 +87,50 @@ def test_the_first_calibration_stays_where_the_recalibration_is_no_better():
     notes = []
     assert _better_calibration(SimpleNamespace(calibration={"groups": ["joints"]}), _null(120.0), 100.0, notes) == {}
     assert notes == []
+
+
+class _Runs:
+    """Stands in for the recalibrations of ``confirm``: the null continued from the first
+    calibration leaves a gap, the candidate reaches the noise, and a null from the nominal reaches
+    it (``fresh_noise``) or not; each call recorded."""
+
+    def __init__(self, fresh_noise):
+        self.fresh_noise, self.calls = fresh_noise, []
+
+    def run(self, effect, prev=None, *, from_nominal=False):
+        from types import SimpleNamespace
+
+        self.calls.append((None if effect is None else effect, from_nominal))
+        significant = effect is None and not (from_nominal and self.fresh_noise)
+        return SimpleNamespace(effect=effect, significant=significant, from_nominal=from_nominal,
+                               chi2_held=900.0 if significant else 200.0,
+                               shrink_against=lambda null: 0.5)
+
+
+def _confirm(monkeypatch, fresh_noise):
+    from types import SimpleNamespace
+
+    import rmbench.gap.frf.confirm as confirm_module
+
+    runs = _Runs(fresh_noise)
+    monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: runs.run)
+    first = SimpleNamespace(params=(), u=np.zeros(0))
+    null, done = confirm_module.confirm(None, None, [], first, ["base_compliance@base"], q_cmd=None, meas=[],
+                                        frf=[], bands=(), held=[], settings=None, accept=lambda c, n: True)
+    return runs, null, done
+
+
+def test_a_candidate_is_not_credited_with_a_gap_a_null_from_the_nominal_closes(monkeypatch):
+    # the candidate ran from the nominal with the full budget, the null only on from a first
+    # calibration caught short: the null gets the same start, and where it reaches the noise the
+    # gap was the first calibration's
+    runs, null, done = _confirm(monkeypatch, fresh_noise=True)
+    assert runs.calls == [(None, False), ("base_compliance@base", False), (None, True)]
+    assert null.from_nominal and not null.significant
+    assert [c.effect for c in done] == ["base_compliance@base"]
+
+
+def test_a_candidate_stands_where_a_null_from_the_nominal_still_leaves_a_gap(monkeypatch):
+    runs, null, _ = _confirm(monkeypatch, fresh_noise=False)
+    assert runs.calls[-1] == (None, True)
+    assert not null.from_nominal and null.significant

@@ -81,6 +81,9 @@ class Confirmed:
         Recalibrations run, each continuing the last (see :func:`confirm`'s ``min_shrink``).
     change : Change
         The test design's correction a sensor candidate reads the data through (null otherwise).
+    from_nominal : bool
+        A null recalibration run from the nominal with a candidate's budget, not continued from
+        the first calibration.
     """
 
     effect: Effect | None
@@ -97,6 +100,7 @@ class Confirmed:
     freed: tuple = ()
     rounds: int = 1
     change: Change = Change()
+    from_nominal: bool = False
 
     @property
     def name(self) -> str:
@@ -116,7 +120,8 @@ class Confirmed:
         out = {"name": self.name, "chi2_held": self.chi2_held, "n_held": self.n_held,
                "peak_held": self.peak_held, "significant": self.significant,
                "iterations": self.calibration.iterations, "rounds": self.rounds, "seconds": self.seconds,
-               "chi2_train": float(self.calibration.chi2_after), "chi2_prior": float(self.calibration.chi2_prior)}
+               "chi2_train": float(self.calibration.chi2_after), "chi2_prior": float(self.calibration.chi2_prior),
+               "from_nominal": self.from_nominal}
         if self.effect is not None:
             out["params"] = self.effect.params_dict(self.values)
             out["description"] = self.effect.describe(self.values)
@@ -194,9 +199,11 @@ class _Recalibration:
     sizes: dict
     say: object
 
-    def __call__(self, effect: Effect | None, prev: Confirmed | None = None) -> Confirmed:
+    def __call__(self, effect: Effect | None, prev: Confirmed | None = None, *,
+                 from_nominal: bool = False) -> Confirmed:
         """Recalibrate with ``effect`` in place (None: the null) and score it on the held-out
-        postures; ``prev``: the run this one continues."""
+        postures; ``prev``: the run this one continues; ``from_nominal``: a null run as a
+        candidate is, from the nominal with the full budget."""
         from rmbench.calibrate import calibrate
         from rmbench.robot import Robot
 
@@ -210,7 +217,7 @@ class _Recalibration:
         if prev is not None:            # a continuation
             start, iters = dict(zip([p.name for p in prev.calibration.params],
                                     np.asarray(prev.calibration.u, float))), self.max_iter
-        elif terms is None:             # the null: from the first calibration
+        elif terms is None and not from_nominal:     # the null: from the first calibration
             start, iters = dict(self.cal_u), self.max_iter
         else:
             # a candidate: from the nominal, as the first calibration started. The first
@@ -235,7 +242,7 @@ class _Recalibration:
                       significant=significant(chi2, obj.n, p=self.p_noise, peak=peak_residual(e)),
                       seconds=round(time.perf_counter() - t0 + (0 if prev is None else prev.seconds), 1),
                       freed=() if terms is None else terms.free, rounds=1 if prev is None else prev.rounds + 1,
-                      change=change)
+                      change=change, from_nominal=from_nominal or (prev is not None and prev.from_nominal))
         self.say(f"recalibrated with {c.name}: held-out χ²/residual {chi2 / max(obj.n, 1):.3g}"
                  + (" (noise)" if not c.significant else ""))
         return c
@@ -281,7 +288,9 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
         ``accept(candidate, null)``: whether a confirmed candidate explains the gap. The
         candidates run in their order and stop at the first accepted one (each recalibration
         takes minutes); none run when the null recalibration reaches the noise, unless
-        ``need_gap`` is False.
+        ``need_gap`` is False. Once one is accepted (with ``need_gap``), a null is run from the
+        nominal with the candidates' budget; where it reaches the noise it is the null returned
+        (the gap was the first calibration's, not the data's).
     need_gap : bool
         False: run the candidates even where the null reaches the noise (an ordinary parameter
         that ended on its bound: the calibration reached the data only by pushing it to the edge
@@ -309,6 +318,14 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     for effect in candidates:
         done.append(run(effect))
         if accept is not None and accept(done[-1], null):
+            if need_gap:
+                # the candidate ran from the nominal with the full budget, the null only on from
+                # the first calibration: a first calibration caught in a local minimum of the modes
+                # leaves a gap a fresh start closes with or without the candidate. The null gets the
+                # same chance; where it then reaches the noise, it is the null returned
+                fresh = run(None, from_nominal=True)
+                if not fresh.significant:
+                    return fresh, done
             return null, done       # the best-ranked candidate that explains the gap
     promising = [c for c in done if c.significant and c.shrink_against(null) >= min_shrink]
     if promising:

@@ -446,7 +446,8 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
             return (not c.significant and c.train_objective < null_.train_objective
                     and _beyond_spread(c, nominal, cal_settings.groups))
         base_chi2 = min(null_.chi2_held, first_chi2)
-        return (not c.significant and base_chi2 > 0 and 1 - np.sqrt(c.chi2_held / base_chi2) >= settings.min_shrink
+        # no gap is left to explain where the ordinary parameters alone reach the noise
+        return (null_.significant and not c.significant and base_chi2 > 0 and 1 - np.sqrt(c.chi2_held / base_chi2) >= settings.min_shrink
                 and not _within_spread(c, nominal, cal_settings.groups))
 
     if pinned:
@@ -473,10 +474,15 @@ def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, band
                      "better: no structural effect is needed")
         return replace(dg, notes=tuple(notes), confirmation=record, seconds=_seconds(t))
     fits = [c for c in done if not c.significant and c.shrink_against(base) >= settings.min_shrink]
-    for c in fits:
-        if c not in winners:
-            notes.append(f"{c.effect.name} reaches the noise but stays within its ordinary spread: an "
-                         "ordinary parameter, not a structural effect")
+    if null.from_nominal and not null.significant:
+        notes.append(f"{', '.join(c.effect.name for c in done if not c.significant)} reached the noise "
+                     "recalibrated from the nominal, but so do the ordinary parameters alone, recalibrated "
+                     "the same way: the gap was the first calibration's (it had stopped short of the data)")
+    else:
+        for c in fits:
+            if c not in winners:
+                notes.append(f"{c.effect.name} reaches the noise but stays within its ordinary spread: an "
+                             "ordinary parameter, not a structural effect")
     if not winners:
         if not null.significant or fits:
             notes.append("recalibrated with the FRFs, the ordinary parameters bring the held-out gap "
