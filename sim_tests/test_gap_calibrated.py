@@ -134,3 +134,29 @@ def test_a_candidate_stands_where_a_null_from_the_nominal_still_leaves_a_gap(mon
     runs, null, _ = _confirm(monkeypatch, fresh_noise=False)
     assert runs.calls[-1] == (None, True)
     assert not null.from_nominal and null.significant
+
+
+def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
+    # a candidate that closed most of the gap but not to the noise is continued, the null with
+    # it; where the continued candidate explains the gap, the null from the nominal runs too
+    from types import SimpleNamespace
+
+    import rmbench.gap.frf.confirm as confirm_module
+
+    calls = []
+
+    def run(effect, prev=None, *, from_nominal=False):
+        calls.append((effect, prev is not None, from_nominal))
+        at_noise = (effect is not None and prev is not None) or from_nominal
+        return SimpleNamespace(effect=effect, significant=not at_noise, from_nominal=from_nominal,
+                               chi2_held=200.0 if at_noise else (300.0 if effect else 900.0),
+                               shrink_against=lambda null: 0.42 if effect else 0.0)
+
+    monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)
+    first = SimpleNamespace(params=(), u=np.zeros(0))
+    null, _ = confirm_module.confirm(None, None, [], first, ["base_compliance@base"], q_cmd=None, meas=[],
+                                     frf=[], bands=(), held=[], settings=None,
+                                     accept=lambda c, n: not c.significant, min_shrink=0.4)
+    assert calls == [(None, False, False), ("base_compliance@base", False, False), (None, True, False),
+                     ("base_compliance@base", True, False), (None, False, True)]
+    assert null.from_nominal

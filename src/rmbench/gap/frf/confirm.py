@@ -318,18 +318,27 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     for effect in candidates:
         done.append(run(effect))
         if accept is not None and accept(done[-1], null):
-            if need_gap:
-                # the candidate ran from the nominal with the full budget, the null only on from
-                # the first calibration: a first calibration caught in a local minimum of the modes
-                # leaves a gap a fresh start closes with or without the candidate. The null gets the
-                # same chance; where it then reaches the noise, it is the null returned
-                fresh = run(None, from_nominal=True)
-                if not fresh.significant:
-                    return fresh, done
-            return null, done       # the best-ranked candidate that explains the gap
+            # the best-ranked candidate that explains the gap
+            return _same_chance(run, null, need_gap), done
     promising = [c for c in done if c.significant and c.shrink_against(null) >= min_shrink]
     if promising:
         best = min(promising, key=lambda c: c.chi2_held)
         null = run(None, prev=null)
         done = [run(c.effect, prev=c) if c is best else c for c in done]
+        if accept is not None and any(accept(c, null) for c in done):
+            return _same_chance(run, null, need_gap), done
     return null, done
+
+
+def _same_chance(run, null: Confirmed, need_gap: bool) -> Confirmed:
+    """The null a candidate that explains the gap is credited against.
+
+    The candidate ran from the nominal with the full budget, the null only on from the first
+    calibration: a first calibration caught in a local minimum of the modes leaves a gap that a
+    fresh start closes with or without the candidate. So a null is run the same way; where it
+    reaches the noise, it is the null returned (the gap was the first calibration's, not the
+    data's). Not where the candidates ran without a gap (``need_gap`` False)."""
+    if not need_gap:
+        return null
+    fresh = run(None, from_nominal=True)
+    return null if fresh.significant else fresh
