@@ -13,7 +13,9 @@ posture predictor, against θ held fixed and against a plan from the exact model
 
 5. The 95 % band of the predicted depth along the predicted plan (64 draws from the predictor's
    standard deviations, calibrated by leave-one-posture-out: ``depth_band``) and how often it covers
-   the exact depth, at the evaluated locations, at the speed with the largest exact gain.
+   the exact depth, at the evaluated locations, at the speed with the largest exact gain; beside it
+   the conformal band (``conformal=True``: the draws' spread scaled by the training postures'
+   left-out depths).
 6. Virtual milling along the plan (``mill_schedule``) at the first speed, where the impact bands'
    modes limit (above ~12 krpm the tool on its holder, outside the bands, does): ``--mill`` evenly
    spaced locations of the planned and of the fixed-θ schedule, each cut at three depths along the
@@ -22,8 +24,8 @@ posture predictor, against θ held fixed and against a plan from the exact model
    predicted depth there (the others counted): chatter where the plan says it, stable where not.
 
 Last line: ``{"cl_points", "plan_s", "min_alim_gain", "exact_min_alim_gain", "mill_agreement",
-"alim_pred_err_p95", "alim_band_coverage"}`` (gains at the speed with the largest exact gain of those
-tried; every speed's figures are printed).
+"alim_pred_err_p95", "alim_band_coverage", "alim_band_coverage_conformal"}`` (gains at the speed with
+the largest exact gain of those tried; every speed's figures are printed).
 
 usage: python bench/path.py [--speeds 9000,12000,15000,18000] [--quick] | tee bench/results/path.txt
 """
@@ -122,14 +124,21 @@ def main() -> None:
     best = max(rows, key=lambda r: r["exact_gain"])
     all_err = np.concatenate(errs)
     j = best["index"][at]
-    t0 = time.perf_counter()
-    _, lo, hi = depth_band(pred, tp.xy[at], reach.theta[j], ALUMINIUM_6061, best["speed_rpm"], draws=64)
     exact_on = best["ex"][np.arange(len(at)), j]
     ok = np.isfinite(exact_on)
-    covered = (exact_on[ok] >= lo[ok]) & (exact_on[ok] <= hi[ok])
-    print(f"5. band along the plan at {best['speed_rpm']:.0f} rev/min ({time.perf_counter() - t0:.0f} s): "
-          f"median half-width {100 * np.median((hi - lo) / (hi + lo)):.2f} %; covers the exact depth at "
-          f"{covered.sum()} of {ok.sum()} locations")
+    coverage = {}
+    for conformal in (False, True):
+        t0 = time.perf_counter()
+        band = depth_band(pred, tp.xy[at], reach.theta[j], ALUMINIUM_6061, best["speed_rpm"], draws=64,
+                          conformal=conformal)
+        lo, hi = band.lower, band.upper
+        covered = (exact_on[ok] >= lo[ok]) & (exact_on[ok] <= hi[ok])
+        coverage[conformal] = float(np.mean(covered))
+        half = (hi - lo) / (hi + lo)
+        print(f"5. {'conformal' if conformal else 'sampled'} band along the plan at {best['speed_rpm']:.0f} rev/min "
+              f"({time.perf_counter() - t0:.0f} s{f', factor {band.scale:.2f} from {band.n_calibration} postures' if conformal else ''}): "
+              f"half-width median {100 * np.median(half):.2f} %, p90 {100 * np.percentile(half, 90):.2f} %; "
+              f"covers the exact depth at {covered.sum()} of {ok.sum()} locations")
     agreement = None
     if args.mill:
         t0 = time.perf_counter()
@@ -150,7 +159,8 @@ def main() -> None:
               f"as planned {right}")
     line = {"cl_points": len(tp), "plan_s": round(plan_s, 1), "min_alim_gain": best["pred_plan_on_exact_gain"],
             "exact_min_alim_gain": best["exact_gain"], "mill_agreement": agreement,
-            "alim_pred_err_p95": float(np.percentile(all_err, 95)), "alim_band_coverage": float(np.mean(covered))}
+            "alim_pred_err_p95": float(np.percentile(all_err, 95)), "alim_band_coverage": coverage[False],
+            "alim_band_coverage_conformal": coverage[True]}
     print(json.dumps(line))
 
 

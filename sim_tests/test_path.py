@@ -59,7 +59,7 @@ def test_a_cutter_location_csv_round_trips_and_names_a_bad_value_by_line(tmp_pat
 @pytest.fixture(scope="module")
 def contour_reach(irb):
     tp = example("contour").resampled(20e-3)
-    return tp, reach_grid(irb, tp, np.radians([-60.0, 0.0, 60.0]))
+    return tp, reach_grid(irb, tp, np.radians([-60.0, 0.0, 60.0]), workers=1)
 
 
 def test_every_contour_location_is_reached_on_one_branch_per_angle(contour_reach):
@@ -68,6 +68,16 @@ def test_every_contour_location_is_reached_on_one_branch_per_angle(contour_reach
     # warm-started along the path: neighbouring locations 20 mm apart move no joint by more than a
     # few degrees (a branch flip moves the wrist by ~180°)
     assert np.degrees(np.nanmax(np.abs(np.diff(reach.q, axis=0)))) < 5.0
+
+
+def test_the_angles_shared_among_processes_give_the_same_solutions(irb, contour_reach):
+    """Each process follows its own columns from the same warm starts: bit for bit the solutions
+    of one process."""
+    tp, one = contour_reach
+    two = reach_grid(irb, tp, one.theta, workers=2)
+    np.testing.assert_array_equal(two.q, one.q)
+    np.testing.assert_array_equal(two.sigma_min, one.sigma_min)
+    np.testing.assert_array_equal(two.ok, one.ok)
 
 
 def test_a_location_beyond_the_arms_reach_is_named_unreachable(irb):
@@ -223,6 +233,14 @@ def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path
         assert m["cuts"] == 1 and m["decided"] + m["inside_band"] == 1 and m["depth_mm"] == pytest.approx(3.0)
     rows = (tmp_path / "plan" / "plan.csv").read_text().splitlines()
     assert rows[0].startswith("s_mm,x_mm,y_mm,theta_deg,q1_deg") and len(rows) == out["cl_points"] + 1
+    # the band along the plan beside the depth (the true depth's, from the draws: the depth of the
+    # mean parameters, a minimum over modes, need not lie inside it), and the locations it puts at
+    # risk counted
+    assert "a_lim_mm,a_lim_lower_mm,a_lim_upper_mm,cutting" in rows[0]
+    lo, hi = (np.array([float(r.split(",")[i]) for r in rows[1:]]) for i in (-3, -2))
+    assert np.all(lo <= hi) and np.all(lo > 0)
+    assert out["band"]["min_lower_mm"] == pytest.approx(lo.min(), abs=1e-5)
+    assert out["at_risk"]["planned_band"] == int(np.sum(lo < 3.0))
     assert json.loads((tmp_path / "plan" / "plan.json").read_text())["cl_points"] == out["cl_points"]
     html = (tmp_path / "plan.html").read_text()
     assert "Redundant angle along the path" in html and "Critical depth along the path" in html
@@ -263,12 +281,59 @@ def test_the_depth_band_widens_with_the_predictors_standard_deviations(small_pre
 
     pred = PosturePredictor.load(small_predictor)
     xy, theta = np.array([[1.5, 0.0], [1.7, 0.1]]), np.array([0.0, 0.3])
-    a0, lo0, hi0 = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=8, sd_scale=0.0)
-    np.testing.assert_allclose([lo0, hi0], [a0, a0])
-    _, lo1, hi1 = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=32, sd_scale=0.002)
-    _, lo2, hi2 = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=32, sd_scale=0.004)
-    assert np.all(lo1 < a0) and np.all(a0 < hi1)
-    np.testing.assert_allclose((hi2 - lo2) / (hi1 - lo1), 2.0, rtol=0.15)
+    b0 = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=8, sd_scale=0.0)
+    np.testing.assert_allclose([b0.lower, b0.upper], [b0.a_lim, b0.a_lim])
+    b1 = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=32, sd_scale=0.002)
+    b2 = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=32, sd_scale=0.004)
+    assert np.all(b1.lower < b0.a_lim) and np.all(b0.a_lim < b1.upper)
+    np.testing.assert_allclose((b2.upper - b2.lower) / (b1.upper - b1.lower), 2.0, rtol=0.15)
+
+
+def test_the_depth_bands_centre_is_the_predicted_depth_veering_clusters_included(small_predictor):
+    """The band is drawn around the depth the planner uses: a veering cluster's modes keep the
+    cluster's residues, also where the cluster's pole is the mode's own (a tight veering inside a
+    looser cluster), as in a predictor trained on the seed's 112 postures."""
+    from rmbench.path import depth_band
+    from rmbench.path.margin import N_FREQ, _freq, tip_modes
+    from rmbench.predict import PosturePredictor
+    from rmbench.stability import ALUMINIUM_6061
+    from rmbench.stability.zoa import zoa_limit
+
+    pred = PosturePredictor.load(small_predictor)
+    X = np.array([[1.5, 0.0, 0.0], [1.7, 0.1, 0.3]])
+    ds = pred.predict(X)
+    high = np.flatnonzero(ds.mode_band.values == "high")
+    clustered = high[np.isfinite(ds.cluster_pole.values[0, high])]
+    assert len(clustered)
+    # the first clustered mode's cluster pole set to the mode's own pole, its residues left the cluster's
+    m = clustered[0]
+    f, z = ds.modal.sel(param="f_n").values[:, m], ds.modal.sel(param="zeta").values[:, m]
+    ds.cluster_pole.values[:, m] = 2 * np.pi * f * (-z + 1j * np.sqrt(1 - z ** 2))
+
+    class Fixed:
+        def predict(self, X, **kw):
+            return ds
+
+    band = depth_band(Fixed(), X[:, :2], X[:, 2], ALUMINIUM_6061, 9000.0, draws=2, bands=("high",))
+    poles, res = tip_modes(ds, "high")
+    want = zoa_limit(poles, res, ALUMINIUM_6061, 9000.0, _freq(poles, N_FREQ))
+    np.testing.assert_allclose(band.a_lim, want, rtol=1e-12)
+
+
+def test_the_conformal_depth_band_scales_the_draws_spread_by_the_left_out_postures(small_predictor):
+    """Symmetric in log depth about the predicted depth, by one factor found from every training
+    posture's left-out depth; a higher level takes a larger factor."""
+    from rmbench.path import depth_band
+    from rmbench.predict import PosturePredictor
+    from rmbench.stability import ALUMINIUM_6061
+
+    pred = PosturePredictor.load(small_predictor)
+    xy, theta = np.array([[1.5, 0.0], [1.7, 0.1]]), np.array([0.0, 0.3])
+    b = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=16, conformal=True, level=0.8)
+    assert b.n_calibration == len(pred.X_train_) and 0 < b.scale < np.inf
+    np.testing.assert_allclose(np.log(b.upper / b.a_lim), np.log(b.a_lim / b.lower), rtol=1e-12)
+    wider = depth_band(pred, xy, theta, ALUMINIUM_6061, 15000.0, draws=16, conformal=True, level=0.9)
+    assert wider.scale >= b.scale
 
 
 def test_a_prediction_without_standard_deviations_has_the_same_means(small_predictor):

@@ -473,11 +473,16 @@ def test_leave_one_out_residuals_are_those_of_the_model_without_that_posture(m):
         np.testing.assert_allclose(sd[i], np.sqrt(var), rtol=1e-8)
 
 
-def test_calibrated_standard_deviations_are_the_latent_ones_times_the_leave_one_out_factor(tmp_path):
+@pytest.fixture(scope="module")
+def one_mode_stgp():
+    """Single-task GPs of one mode's parameters over the seed's grid."""
+    return PosturePredictor("stgp", vectors="dataset").fit(_modal_dataset(1))
+
+
+def test_calibrated_standard_deviations_are_the_latent_ones_times_the_leave_one_out_factor(one_mode_stgp, tmp_path):
     """``calibrated=True`` multiplies each learnt column's standard deviation by its factor (the
     RMS of its standardised leave-one-out residuals), which a saved predictor keeps."""
-    ds = _modal_dataset(1)
-    pred = PosturePredictor("stgp", vectors="dataset").fit(ds)
+    pred = one_mode_stgp
     X = np.array([[1.62, 0.07, 0.1], [1.45, -0.2, -0.3]])
     scale = pred.std_scale()
     assert np.all(np.isfinite(scale.values)) and np.all(scale.values > 0)
@@ -487,3 +492,60 @@ def test_calibrated_standard_deviations_are_the_latent_ones_times_the_leave_one_
                                    rtol=1e-12)
     again = PosturePredictor.load(pred.save(tmp_path / "p.npz"))
     np.testing.assert_array_equal(again.std_scale().values, scale.values)
+
+
+def test_leave_one_out_prediction_is_the_posterior_of_the_other_postures():
+    """``source="loo"`` at a training posture is the same hyperparameters' posterior on every
+    other posture (a refit's mean and predictive deviation, to round-off); away from the training
+    postures it is the ordinary posterior, and ``source="data"`` gives the training data back."""
+    X = _grid()[::3]
+    rng = np.random.default_rng(4)
+    f = _smooth(X)
+    Y = np.column_stack([f, 0.5 * f ** 2]) + 0.01 * rng.normal(size=(len(X), 2))
+    model = MTGP(iterations=30).fit(X, Y)
+    post = model.posterior_
+    Ys = (Y - model.y_mean_) / model.y_scale_
+    for i in (0, len(X) // 2):
+        rest = np.delete(np.arange(len(X)), i)
+        alone = KronPosterior.build(post.X[rest], Ys[rest], post.lengthscales, post.Kc, post.noise, post.mean)
+        mu, sd = alone.predict(post.X[i:i + 1], return_std=True)
+        got_mu, got_sd = model.predict(X[i:i + 1], return_std=True, source="loo")
+        np.testing.assert_allclose(got_mu, mu * model.y_scale_ + model.y_mean_, rtol=1e-8)
+        # the predictive deviation holds the noise the latent one leaves out
+        np.testing.assert_allclose(got_sd ** 2, (sd ** 2 + post.noise) * model.y_scale_ ** 2, rtol=1e-7)
+    away = X[:2] + 0.013
+    np.testing.assert_array_equal(model.predict(away, source="loo"), model.predict(away))
+    np.testing.assert_allclose(model.predict(X[:4], source="data"), Y[:4], rtol=1e-12)
+    assert np.isnan(model.predict(away, source="data")).all()
+
+
+def test_a_saved_predictor_keeps_its_leave_one_out_predictions(one_mode_stgp, tmp_path):
+    pred = one_mode_stgp
+    again = PosturePredictor.load(pred.save(tmp_path / "p.npz"))
+    X = pred.X_train_[:5]
+    for source in ("loo", "data"):
+        a, b = pred.predict(X, source=source), again.predict(X, source=source)
+        np.testing.assert_array_equal(a.modal.values, b.modal.values)
+    # left out, a training posture's prediction moves; its data do not
+    assert not np.allclose(pred.predict(X, source="loo").modal.values, pred.predict(X).modal.values)
+
+
+def test_leave_one_out_predictions_need_a_gaussian_process_learner():
+    pred = PosturePredictor("knn", vectors="dataset").fit(_modal_dataset(1))
+    with pytest.raises(InputError, match="Gaussian-process"):
+        pred.predict(pred.X_train_[:2], source="loo")
+
+
+def test_a_grid_prediction_is_the_posture_by_posture_one(one_mode_stgp):
+    """Location and angle factors of the kernel (a path's grid) give each pose's means to round-off
+    (the GPs' weights cancel to ~1e-11 of a column's scale)."""
+    pred = one_mode_stgp
+    xy = np.array([[1.45, -0.12], [1.62, 0.07], [1.8, 0.2]])
+    theta = np.radians([-30.0, 0.0, 25.0, 50.0])
+    grid = pred.predict_grid(xy, theta)
+    X = np.column_stack([np.repeat(xy, len(theta), axis=0), np.tile(theta, len(xy))])
+    each = pred.predict(X, std=False)
+    np.testing.assert_array_equal(grid.x.values, X[:, 0])
+    np.testing.assert_array_equal(grid.theta.values, X[:, 2])
+    scale = np.nanmax(np.abs(each.modal.values), axis=0)
+    assert np.all(np.abs(grid.modal.values - each.modal.values) <= 1e-9 * scale)

@@ -26,6 +26,9 @@ def register(sub) -> None:
     p.add_argument("--spacing", type=float, default=5.0, metavar="MM", help="cutter-location spacing, mm (default 5)")
     p.add_argument("--max-joint-rate", type=float, default=60.0, metavar="DEG_S",
                    help="largest joint speed while cutting, deg/s (default 60)")
+    p.add_argument("--band-draws", type=int, default=64, metavar="N",
+                   help="draws of the predictor's calibrated deviations for the 95 %% band of the critical depth "
+                        "along the plan (default 64; 0: no band)")
     p.add_argument("--mill", type=int, default=0, metavar="N",
                    help="check the plan by virtual milling at --depth at N locations of the planned and of the "
                         "fixed-angle schedule (a few seconds a cut)")
@@ -52,13 +55,15 @@ def cmd_plan(args) -> int:
 
     from rmbench.io.strict_json import strict_dumps
     from rmbench.io.toolpath import read_toolpath
-    from rmbench.path import EXAMPLES, PlanSettings, example, plan_path
+    from rmbench.path import EXAMPLES, PlanSettings, example, plan_path, with_band
     from rmbench.predict import PosturePredictor
     from rmbench.robot import Robot
 
     report = report_path(args)
     if args.depth is not None and not args.depth > 0:
         raise InputError(f"--depth must be > 0 mm, got {args.depth!r}")
+    if args.band_draws < 0 or args.band_draws == 1:
+        raise InputError(f"--band-draws must be 0 (no band) or at least 2, got {args.band_draws}")
     if args.mill < 0 or (args.mill and args.depth is None):
         raise InputError("--mill N needs N >= 0 and a --depth to cut")
     if not args.spacing > 0 or not args.max_joint_rate > 0:
@@ -76,6 +81,9 @@ def cmd_plan(args) -> int:
     say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
     plan = plan_path(robot, predictor, tp, speed_rpm=args.speed,
                      depth=None if args.depth is None else 1e-3 * args.depth, settings=settings, progress=say)
+    if args.band_draws:
+        say(f"the critical depth's 95 % band along the plan from {args.band_draws} draws")
+        plan = with_band(plan, predictor, eval_spacing=settings.eval_spacing, draws=args.band_draws)
     summary = plan.summary()
     if args.mill:
         from rmbench.path import mill_schedule
@@ -111,8 +119,12 @@ def cmd_plan(args) -> int:
     lo, hi = summary["theta_range_deg"]
     print(f"planned θ between {lo:g}° and {hi:g}°; {'feasible' if summary['feasible']['planned'] else 'NOT feasible'} "
           f"within {args.max_joint_rate:g} deg/s per joint")
+    if "band" in summary:
+        print(f"95 % band of the planned critical depth: smallest lower bound {summary['band']['min_lower_mm']:.3f} mm")
     if "at_risk" in summary:
-        print(f"locations below the {args.depth:g} mm depth: planned {summary['at_risk']['planned']}, "
+        band = (f" ({summary['at_risk']['planned_band']} with the band below it)"
+                if "planned_band" in summary["at_risk"] else "")
+        print(f"locations below the {args.depth:g} mm depth: planned {summary['at_risk']['planned']}{band}, "
               f"fixed {summary['at_risk']['fixed']}")
     for sched, m in summary.get("milling", {}).items():
         agree = "no cut clear of the ±10 % band" if m["agreement"] is None else f"{100 * m['agreement']:.0f} % as planned"

@@ -34,16 +34,16 @@ from importlib import resources
 from rmbench.errors import InputError
 from rmbench.io.toolpath import ToolPath, read_toolpath
 from rmbench.path.chain import ChainResult, predicted_lobes, predicted_tool_structures, tool_structures
-from rmbench.path.margin import (DepthGrid, TipModes, depth_band, exact_depths, exact_modes, predicted_depths,
+from rmbench.path.margin import (DepthBand, DepthGrid, TipModes, depth_band, exact_depths, exact_modes, predicted_depths,
                                  predicted_modes)
 from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise_schedule
 from rmbench.path.milling import PathMilling, mill_schedule, sample_locations
-from rmbench.path.planner import PathPlan, PlanSettings, plan_path
+from rmbench.path.planner import PathPlan, PlanSettings, plan_path, with_band
 from rmbench.path.reach import Reach, reach_grid
 
 __all__ = ["ChainResult", "tool_structures", "predicted_tool_structures", "predicted_lobes", "EXAMPLES",
            "example", "Reach", "reach_grid", "Schedule", "plan_schedule", "fixed_schedule", "pointwise_schedule",
-           "DepthGrid", "TipModes", "depth_band", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths", "PathPlan", "PlanSettings", "plan_path",
+           "DepthBand", "DepthGrid", "TipModes", "depth_band", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths", "PathPlan", "PlanSettings", "plan_path", "with_band",
            "PathMilling", "mill_schedule", "sample_locations"]
 
 #: the bundled tool paths, on the seed's workpiece plane

@@ -19,8 +19,9 @@ import numpy as np
 from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
 from rmbench.stability.zoa import zoa_limit
+from rmbench.threads import run_concurrently
 
-__all__ = ["DepthGrid", "TipModes", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths",
+__all__ = ["DepthBand", "DepthGrid", "TipModes", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths",
            "tip_modes", "depth_band"]
 
 _PARAMS = ("f_n", "zeta", "phiR_1X_re", "phiR_1X_im", "phiR_1Y_re", "phiR_1Y_im",
@@ -73,6 +74,15 @@ def tip_modes(pred, band: str) -> tuple[np.ndarray, np.ndarray]:
     return poles, np.where(bad[..., None, None], np.nan, res)
 
 
+def _from_cluster(pred, band: str) -> np.ndarray:
+    """Which modes of one band a prediction takes from a veering cluster (pole and residues),
+    shape (n, n_modes) of bool."""
+    sel = np.flatnonzero(pred["mode_band"].values == band)
+    if "cluster_pole" not in pred:
+        return np.zeros((pred.sizes["posture"], len(sel)), bool)
+    return np.isfinite(pred["cluster_pole"].values[:, sel])
+
+
 # lines of the log-spaced grid the chatter frequency is searched on: against 3000 lines the critical
 # depths of 4440 pocket poses differ by at most 0.03 % at 18000 rev/min (0.08 % at 30000), a
 # hundredth of a predictor's error, at a quarter of the time
@@ -111,12 +121,16 @@ class TipModes:
     def depths(self, cutting: Cutting, speed_rpm: float, *, n_freq: int = N_FREQ) -> DepthGrid:
         """The critical depth of every pose at one spindle speed (rev/min)."""
         n, m = self.shape
-        by_band = {}
-        for b, p in self.poles.items():
+
+        def band(b):
             flat = np.full(n * m, np.nan)
             if len(self.where):
+                p = self.poles[b]
                 flat[self.where] = zoa_limit(p, self.residues[b], cutting, speed_rpm, _freq(p, n_freq))
-            by_band[b] = flat.reshape(n, m)
+            return flat.reshape(n, m)
+
+        # numpy's array loops release the GIL: the bands on threads share the cores
+        by_band = dict(zip(self.poles, run_concurrently([lambda b=b: band(b) for b in self.poles])))
         a_lim = np.minimum.reduce(list(by_band.values()))
         return DepthGrid(a_lim, by_band, self.outside_hull, float(speed_rpm))
 
@@ -136,14 +150,14 @@ def predicted_modes(predictor, xy, theta, *, bands=("low", "high"), chunk: int =
 
     xy, theta = np.asarray(xy, float), np.asarray(theta, float)
     n, m = len(xy), len(theta)
-    X = np.column_stack([np.repeat(xy, m, axis=0), np.tile(theta, n)])
     poles = {b: [] for b in bands}
     res = {b: [] for b in bands}
     outside = []
+    step = max(1, chunk // max(m, 1))       # locations per prediction: about ``chunk`` poses
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)   # reported through outside_hull
-        for a in range(0, len(X), chunk):
-            pred = predictor.predict(X[a:a + chunk], std=False)
+        for a in range(0, n, step):
+            pred = predictor.predict_grid(xy[a:a + step], theta)
             outside.append(pred["outside_hull"].values)
             for b in bands:
                 p, r = tip_modes(pred, b)
@@ -198,17 +212,139 @@ def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=
         cutting, speed_rpm, n_freq=n_freq)
 
 
-def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draws: int = 64, level: float = 0.95,
-               sd_scale: float = 1.0, calibrated: bool = True, bands=("low", "high"), n_freq: int = N_FREQ,
-               seed: int = 0) -> tuple:
-    """The critical depth along a schedule with its band, sampled from the predictor's variance.
+@dataclass(frozen=True)
+class DepthBand:
+    """The critical depth along a schedule with its band (:func:`depth_band`).
+
+    Attributes
+    ----------
+    a_lim : ndarray, shape (n,), m
+        From the predicted means.
+    lower, upper : ndarray, shape (n,), m
+        The band's limits.
+    scale : float
+        The conformal factor on the draws' robust spread of log depth (1 when not conformal): at
+        the band's level, the training postures' leave-one-out depths lie within ``scale`` times
+        their own spread of the depths their data give.
+    n_calibration : int
+        Training postures whose leave-one-out depth entered ``scale`` (0 when not conformal).
+    """
+
+    a_lim: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    scale: float
+    n_calibration: int
+
+
+def _sampled(pred, cutting: Cutting, speed_rpm: float, draws: int, sd_scale: float, bands, n_freq: int,
+             rng) -> tuple[np.ndarray, np.ndarray]:
+    """The critical depth of a prediction's means, shape (n,), and of ``draws`` draws from its
+    standard deviations, shape (draws, n).
 
     Each draw perturbs every predicted parameter a tool tip's modes are built from (natural
     frequency, damping, the tip components of both eigenvectors) by an independent normal of the
-    predictor's standard deviation times ``sd_scale`` (``modal_std``: the latent function's,
-    calibrated by leave-one-posture-out unless ``calibrated`` is False), and recomputes the critical
-    depth. A tight veering's modes, whose poles and residues the predictor takes from the cluster,
-    move from there by as much as the perturbed parameters move each mode alone.
+    prediction's standard deviation times ``sd_scale``. A tight veering's modes, whose poles and
+    residues the predictor takes from the cluster, move from there by as much as the perturbed
+    parameters move each mode alone.
+    """
+    mean = pred["modal"].values
+    sd = np.nan_to_num(pred["modal_std"].values) * sd_scale
+    idx = [list(pred["param"].values).index(p) for p in _PARAMS]
+    plain = pred.drop_vars(["cluster_pole", "cluster_residue"], errors="ignore")
+
+    def modes(values):
+        """Per band, the tip's poles and residues of these parameter values, every mode alone."""
+        values = values.copy()
+        values[..., idx[1]] = np.clip(values[..., idx[1]], 1e-4, 0.9)   # damping stays a ratio in (0, 1)
+        one = plain.copy()
+        one["modal"] = (("posture", "mode", "param"), values)
+        return {b: tip_modes(one, b) for b in bands}
+
+    # a draw moves each mode's pole and residues by what its perturbed parameters move them; a
+    # veering cluster's modes start from the cluster's (the mean) and keep its residues, so its learnt
+    # spread is sampled too. Which modes those are is the cluster's own mask, not where its pole
+    # differs from the mode's: a tight veering inside a cluster keeps the mode's pole.
+    centre, alone = {b: tip_modes(pred, b) for b in bands}, modes(mean)
+    clustered = {b: _from_cluster(pred, b)[..., None, None] for b in bands}
+
+    def limit(moved):
+        per = []
+        for b in bands:
+            p = centre[b][0] + (moved[b][0] - alone[b][0])
+            r = np.where(clustered[b], centre[b][1], moved[b][1])
+            per.append(zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)))
+        return np.minimum.reduce(per)
+
+    samples = []
+    for _ in range(draws):
+        v = mean.copy()
+        v[..., idx] += sd[..., idx] * rng.standard_normal(v[..., idx].shape)
+        samples.append(limit(modes(v)))
+    return limit(alone), np.array(samples)
+
+
+def _depth_of(pred, cutting: Cutting, speed_rpm: float, bands, n_freq: int) -> np.ndarray:
+    """The critical depth of a prediction's (or a training set's) tip modes, shape (n,), m."""
+    per = []
+    for b in bands:
+        p, r = tip_modes(pred, b)
+        per.append(zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)))
+    return np.minimum.reduce(per)
+
+
+def _log_spread(samples: np.ndarray) -> np.ndarray:
+    """Robust standard deviation of the draws' log depth (interquartile range / 1.349), shape (n,):
+    a few draws of a veering mode that comes near the chatter frequency drive the depth toward zero,
+    which the plain standard deviation of so few draws would follow."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ls = np.log(samples)
+    return (np.nanpercentile(ls, 75, axis=0) - np.nanpercentile(ls, 25, axis=0)) / 1.349
+
+
+def _conformal_scale(predictor, cutting: Cutting, speed_rpm: float, *, draws: int, level: float,
+                     sd_scale: float, calibrated: bool, bands, n_freq: int, rng) -> tuple[float, int]:
+    """The conformal factor on the draws' log spread: at each training posture the depth predicted
+    with it left out (every learner's leave-one-out means and deviations) against the depth its data
+    give, in units of that prediction's own spread; the factor is their ``level`` quantile.
+
+    Normalised split-conformal with leave-one-out residuals (the jackknife, Barber et al. 2021):
+    the draws know where the predictor is unsure (far from its postures, at a veering) but not how
+    the parameters' errors combine in a depth, which the one factor sets.
+    """
+    from rmbench.predict import ExtrapolationWarning
+
+    X = predictor.X_train_
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ExtrapolationWarning)   # the training postures themselves
+        data = predictor.predict(X, std=False, source="data")
+        loo = predictor.predict(X, calibrated=calibrated, source="loo")
+    truth = _depth_of(data, cutting, speed_rpm, bands, n_freq)
+    a0, samples = _sampled(loo, cutting, speed_rpm, draws, sd_scale, bands, n_freq, rng)
+    w = _log_spread(samples)
+    ok = np.isfinite(truth) & np.isfinite(a0) & (truth > 0) & (a0 > 0) & np.isfinite(w)
+    err = np.abs(np.log(truth[ok] / a0[ok]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        score = np.where(err == 0, 0.0, err / w[ok])
+    n = len(score)
+    k = int(np.ceil((n + 1) * level))
+    if n == 0 or k > n:
+        raise InputError(f"{n} training postures give a finite critical depth: too few for a conformal "
+                         f"{100 * level:.0f} % band")
+    return float(np.sort(score)[k - 1]), n
+
+
+def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draws: int = 64, level: float = 0.95,
+               sd_scale: float = 1.0, calibrated: bool = True, conformal: bool = False, bands=("low", "high"),
+               n_freq: int = N_FREQ, seed: int = 0) -> DepthBand:
+    """The critical depth along a schedule with its band, from draws of the predictor's parameters.
+
+    Each draw perturbs every predicted parameter a tool tip's modes are built from (natural
+    frequency, damping, the tip components of both eigenvectors) by an independent normal of its
+    standard deviation (:func:`_sampled`); the band is the draws' central ``level`` interval. With
+    ``conformal`` it is instead ``a_lim · exp(± factor · spread)``: each location's robust spread of
+    the draws' log depth times the factor that cross-validating the depth itself at the training
+    postures gives (:func:`_conformal_scale`).
 
     Parameters
     ----------
@@ -223,55 +359,24 @@ def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draw
     calibrated : bool
         Use the standard deviations calibrated on the training postures' leave-one-out errors
         (:meth:`rmbench.predict.PosturePredictor.std_scale`).
-
-    Returns
-    -------
-    a_lim : ndarray, shape (n,), m
-        From the predicted means.
-    lower, upper : ndarray, shape (n,), m
-        The band's limits (percentiles of the draws).
+    conformal : bool
+        Scale the band by the training postures' leave-one-out depths (a Gaussian-process
+        predictor).
     """
     from rmbench.predict import ExtrapolationWarning
 
     xy, theta = np.asarray(xy, float), np.asarray(theta, float)
     X = np.column_stack([xy, theta])
+    rng = np.random.default_rng(seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)
         pred = predictor.predict(X, calibrated=calibrated)
-    mean = pred["modal"].values
-    sd = np.nan_to_num(pred["modal_std"].values) * sd_scale
-    idx = [list(pred["param"].values).index(p) for p in _PARAMS]
-    rng = np.random.default_rng(seed)
-
-    plain = pred.drop_vars(["cluster_pole", "cluster_residue"], errors="ignore")
-
-    def modes(values):
-        """Per band, the tip's poles and residues of these parameter values, every mode alone."""
-        values = values.copy()
-        values[..., idx[1]] = np.clip(values[..., idx[1]], 1e-4, 0.9)   # damping stays a ratio in (0, 1)
-        one = plain.copy()
-        one["modal"] = (("posture", "mode", "param"), values)
-        return {b: tip_modes(one, b) for b in bands}
-
-    # a draw moves each mode's pole and residues by what its perturbed parameters move them; a tight
-    # veering's modes start from the cluster's (the mean), so its learnt spread is sampled too
-    centre, alone = {b: tip_modes(pred, b) for b in bands}, modes(mean)
-
-    def limit(moved):
-        per = []
-        for b in bands:
-            p = centre[b][0] + (moved[b][0] - alone[b][0])
-            fixed = (centre[b][0] != alone[b][0])[..., None, None]
-            r = np.where(fixed, centre[b][1], moved[b][1])
-            per.append(zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)))
-        return np.minimum.reduce(per)
-
-    a0 = limit(alone)
-    samples = []
-    for _ in range(draws):
-        v = mean.copy()
-        v[..., idx] += sd[..., idx] * rng.standard_normal(v[..., idx].shape)
-        samples.append(limit(modes(v)))
-    samples = np.array(samples)
-    tail = 100 * (1 - level) / 2
-    return a0, np.percentile(samples, tail, axis=0), np.percentile(samples, 100 - tail, axis=0)
+    a0, samples = _sampled(pred, cutting, speed_rpm, draws, sd_scale, bands, n_freq, rng)
+    if not conformal:
+        tail = 100 * (1 - level) / 2
+        return DepthBand(a0, np.percentile(samples, tail, axis=0), np.percentile(samples, 100 - tail, axis=0),
+                         1.0, 0)
+    q, n = _conformal_scale(predictor, cutting, speed_rpm, draws=draws, level=level, sd_scale=sd_scale,
+                            calibrated=calibrated, bands=bands, n_freq=n_freq, rng=rng)
+    half = q * _log_spread(samples)
+    return DepthBand(a0, a0 * np.exp(-half), a0 * np.exp(half), q, n)

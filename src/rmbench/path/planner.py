@@ -22,12 +22,12 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.io.toolpath import ToolPath
-from rmbench.path.margin import DepthGrid, predicted_depths
+from rmbench.path.margin import DepthBand, DepthGrid, depth_band, predicted_depths
 from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise_schedule
 from rmbench.path.reach import Reach, reach_grid
 from rmbench.stability.cutting import ALUMINIUM_6061, Cutting
 
-__all__ = ["PathPlan", "plan_path", "PlanSettings"]
+__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band"]
 
 
 @dataclass(frozen=True)
@@ -86,6 +86,11 @@ class PathPlan:
     hull_distance : ndarray, shape (n,), or None
         How far each planned pose lies outside the predictor's training postures (their standard
         deviations; :meth:`rmbench.predict.PosturePredictor.hull_distance`).
+    band : DepthBand or None
+        The planned schedule's critical depth with its band at every location (:func:`with_band`;
+        interpolated between the evaluated locations), None until computed.
+    band_level : float
+        The band's central probability.
     """
 
     toolpath: ToolPath
@@ -98,6 +103,8 @@ class PathPlan:
     speed_rpm: float
     seconds: dict
     hull_distance: np.ndarray | None = None
+    band: DepthBand | None = None
+    band_level: float = 0.95
 
     @property
     def gain(self) -> float:
@@ -134,6 +141,12 @@ class PathPlan:
                "seconds": self.seconds}
         if self.depth is not None:
             out["at_risk"] = {"planned": len(self.at_risk()), "fixed": len(self.at_risk(self.fixed))}
+        if self.band is not None:
+            out["band"] = {"level": self.band_level, "min_lower_mm": 1e3 * float(np.nanmin(self.band.lower)),
+                           "min_upper_mm": 1e3 * float(np.nanmin(self.band.upper))}
+            if self.depth is not None:
+                # locations whose band reaches below the depth cut: chatter there is not ruled out
+                out["at_risk"]["planned_band"] = int(np.sum(self.band.lower < self.depth))
         return out
 
     def to_csv(self, path, schedule: Schedule | None = None) -> Path:
@@ -142,13 +155,20 @@ class PathPlan:
         q = np.degrees(self.joint_trajectory(s))
         arc = self.toolpath.arc_length()
         joints = [f"q{k + 1}_deg" for k in range(q.shape[1])]
-        rows = [",".join(["s_mm", "x_mm", "y_mm", "theta_deg"] + joints + ["a_lim_mm", "cutting"])]
+        # the band is the planned schedule's: written beside it only
+        band = self.band if (self.band is not None and s is self.planned) else None
+        extra = ["a_lim_lower_mm", "a_lim_upper_mm"] if band is not None else []
+        rows = [",".join(["s_mm", "x_mm", "y_mm", "theta_deg"] + joints + ["a_lim_mm"] + extra + ["cutting"])]
+
+        def mm(v):
+            return f"{1e3 * v:.5f}" if np.isfinite(v) else ""
+
         for i in range(len(s.index)):
             rows.append(",".join([f"{1e3 * arc[i]:.3f}", f"{1e3 * self.toolpath.xy[i, 0]:.3f}",
                                   f"{1e3 * self.toolpath.xy[i, 1]:.3f}", f"{np.degrees(s.theta[i]):.3f}"]
-                                 + [f"{v:.5f}" for v in q[i]]
-                                 + [f"{1e3 * s.margin[i]:.5f}" if np.isfinite(s.margin[i]) else "",
-                                    str(int(self.toolpath.cutting[i]))]))
+                                 + [f"{v:.5f}" for v in q[i]] + [mm(s.margin[i])]
+                                 + ([mm(band.lower[i]), mm(band.upper[i])] if band is not None else [])
+                                 + [str(int(self.toolpath.cutting[i]))]))
         path = Path(path)
         tmp = path.with_name(path.name + ".part")
         tmp.write_text("\n".join(rows) + "\n")
@@ -240,3 +260,26 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: 
         "total": round(t[keys[-1]] - t[keys[0]], 3)}
     hull = predictor.hull_distance(np.column_stack([tp.xy, planned.theta]))
     return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(speed_rpm), seconds, hull)
+
+
+def with_band(plan: PathPlan, predictor, *, cutting: Cutting = ALUMINIUM_6061, eval_spacing: float = 20e-3,
+              draws: int = 64, level: float = 0.95, seed: int = 0) -> PathPlan:
+    """The plan with its critical depth's band along the planned schedule (:func:`depth_band`:
+    draws of the predictor's leave-one-out-calibrated standard deviations), evaluated every
+    ``eval_spacing`` of arc length and interpolated between, as the depths are; its seconds under
+    ``plan.seconds["band"]``."""
+    import dataclasses
+
+    t0 = time.perf_counter()
+    tp, s = plan.toolpath, plan.planned
+    at = _evaluated(tp, eval_spacing)
+    b = depth_band(predictor, tp.xy[at], s.theta[at], cutting, plan.speed_rpm, draws=draws, level=level, seed=seed)
+    arc = tp.arc_length()
+    # the band's width relative to its depth, interpolated, about the plan's own depth at each
+    # location: between evaluations the schedule's θ need not be its neighbours'
+    with np.errstate(divide="ignore", invalid="ignore"):
+        down, up = (np.interp(arc, arc[at], np.nan_to_num(np.log(v / b.a_lim), nan=0.0, posinf=0.0, neginf=-np.inf))
+                    for v in (b.lower, b.upper))
+    band = DepthBand(s.margin, s.margin * np.exp(down), s.margin * np.exp(up), b.scale, b.n_calibration)
+    seconds = plan.seconds | {"band": round(time.perf_counter() - t0, 3)}
+    return dataclasses.replace(plan, band=band, band_level=level, seconds=seconds)

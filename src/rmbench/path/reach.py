@@ -51,7 +51,7 @@ class Reach:
 
 
 def reach_grid(robot, toolpath: ToolPath, theta, *, min_margin: float = np.radians(2.0),
-               min_sigma: float = 1e-3, progress=None) -> Reach:
+               min_sigma: float = 1e-3, workers: int | None = None, progress=None) -> Reach:
     """Inverse kinematics of every cutter location at every θ.
 
     Parameters
@@ -64,10 +64,34 @@ def reach_grid(robot, toolpath: ToolPath, theta, *, min_margin: float = np.radia
         Joint-limit margin a usable pose keeps, rad.
     min_sigma : float
         Smallest singular value of the Jacobian a usable pose keeps (distance from singularities).
+    workers : int, optional
+        Processes the angles are shared among (each follows its own columns; the solutions do not
+        depend on the count); default this process's share of the cores
+        (:func:`rmbench.threads.default_workers`), 0 or 1 in this process.
     progress : callable, optional
-        ``progress(i)`` after each location.
+        ``progress(i)`` after each location (in this process only).
     """
+    from rmbench.threads import default_workers
+
     theta = np.asarray(theta, float)
+    n = min(default_workers() if workers is None else int(workers), len(theta))
+    if n > 1 and progress is None:
+        parts = _in_processes(robot, toolpath, theta, n)
+        if parts is not None:
+            q, margin, sigma = (np.concatenate(v, axis=1) for v in zip(*parts))
+            return _reach(theta, q, margin, sigma, min_margin, min_sigma)
+    return _reach(theta, *_columns(robot, toolpath, theta, progress), min_margin, min_sigma)
+
+
+def _reach(theta, q, margin, sigma, min_margin, min_sigma) -> Reach:
+    with np.errstate(invalid="ignore"):
+        ok = np.isfinite(margin) & (margin >= min_margin) & (sigma >= min_sigma)
+    return Reach(theta, q, ok, margin, sigma)
+
+
+def _columns(robot, toolpath: ToolPath, theta: np.ndarray, progress=None):
+    """Joint commands, limit margins and σ_min along the path for each θ, each column warm-started
+    from its previous location."""
     n, m, k = len(toolpath), len(theta), len(robot.arm_joints)
     q = np.full((n, m, k), np.nan)
     margin = np.full((n, m), np.nan)
@@ -90,6 +114,51 @@ def reach_grid(robot, toolpath: ToolPath, theta, *, min_margin: float = np.radia
             q[i, j], margin[i, j], sigma[i, j] = sol.q, sol.limit_margin, sol.sigma_min
         if progress is not None:
             progress(i)
-    with np.errstate(invalid="ignore"):
-        ok = np.isfinite(margin) & (margin >= min_margin) & (sigma >= min_sigma)
-    return Reach(theta, q, ok, margin, sigma)
+    return q, margin, sigma
+
+
+def _in_processes(robot, toolpath: ToolPath, theta: np.ndarray, n: int):
+    """:func:`_columns` of ``n`` blocks of angles in forked processes (the robot is not picklable;
+    a fork inherits it), in order; None where the processes cannot be started (the caller then
+    solves here)."""
+    import multiprocessing as mp
+
+    from rmbench.threads import worker_init
+
+    def work(cols, conn):
+        try:
+            worker_init()
+            conn.send(("ok", _columns(robot, toolpath, theta[cols])))
+        except BaseException as e:     # noqa: BLE001 - reported to the parent, which raises it
+            conn.send(("error", f"{type(e).__name__}: {e}"))
+        finally:
+            conn.close()
+
+    ctx = mp.get_context("fork")
+    blocks = np.array_split(np.arange(len(theta)), n)
+    procs = []
+    try:
+        for cols in blocks:
+            here, there = ctx.Pipe(duplex=False)
+            proc = ctx.Process(target=work, args=(cols, there), daemon=True)
+            proc.start()
+            there.close()
+            procs.append((proc, here))
+    except OSError:            # no memory to fork: solve here
+        for proc, _ in procs:
+            proc.kill()
+        return None
+    out = []
+    try:
+        for proc, here in procs:
+            status, value = here.recv()
+            if status != "ok":
+                raise RuntimeError(f"inverse kinematics in a worker process failed: {value}")
+            out.append(value)
+    finally:
+        for proc, here in procs:
+            here.close()
+            proc.join(timeout=10)
+            if proc.is_alive():
+                proc.kill()
+    return out

@@ -90,6 +90,10 @@ class MTGP:
         Root mean square of the leave-one-posture-out residuals in units of their predicted
         standard deviations (:func:`~rmbench.predict.posterior.loo_residuals`): the factor that
         calibrates the predicted standard deviations (1 where a task is constant or unlearnt).
+    y_fit_, loo_mu_, loo_sd_ : ndarray, shape (n_fit, n_varying)
+        At each training posture used (``posterior_.X``), the varying tasks' data, their
+        leave-one-posture-out means and predictive standard deviations, in the tasks' units: what
+        ``predict(..., source="data" | "loo")`` returns there.
     """
 
     def __init__(self, rank: int | None = None, iterations: int = 100, seed: int = 0):
@@ -141,6 +145,9 @@ class MTGP:
         r, sd = loo_residuals(Xs, Ys, ls, Kc, noise, mean)
         self.loo_scale_ = np.ones(self.n_tasks_)
         self.loo_scale_[self.varying_] = np.sqrt(np.mean((r / sd) ** 2, axis=0))
+        self.y_fit_ = Ys * self.y_scale_ + self.y_mean_
+        self.loo_mu_ = (Ys - r) * self.y_scale_ + self.y_mean_
+        self.loo_sd_ = sd * self.y_scale_
         self.lengthscales_ = ls * self.x_scale_
         self.task_covariance_ = Kc * np.outer(self.y_scale_, self.y_scale_)
         self.noise_ = np.sqrt(noise) * self.y_scale_
@@ -149,19 +156,43 @@ class MTGP:
         """Per task, the factor that calibrates the predicted standard deviations (``loo_scale_``)."""
         return np.asarray(getattr(self, "loo_scale_", np.ones(self.n_tasks_)), float)
 
-    def predict(self, X, return_std: bool = False):
-        """Mean, shape (n, m), and with ``return_std`` the latent standard deviation."""
+    def predict(self, X, return_std: bool = False, *, source: str = "posterior"):
+        """Mean, shape (n, m), and with ``return_std`` the latent standard deviation.
+
+        ``source`` "loo": at a posture the model was trained on, the mean and predictive standard
+        deviation with that posture left out (elsewhere the posterior's); "data": the training
+        data there (standard deviation 0), NaN elsewhere.
+        """
+        if source not in ("posterior", "loo", "data"):
+            raise InputError(f"source must be 'posterior', 'loo' or 'data', not {source!r}")
         X = np.atleast_2d(np.asarray(X, float))
         mu = np.tile(self.constant_, (len(X), 1))
         sd = np.zeros_like(mu)
         if self.posterior_ is not None:
             v = self.varying_
-            out = self.posterior_.predict((X - self.x_mean_) / self.x_scale_, return_std)
+            Xs = (X - self.x_mean_) / self.x_scale_
+            out = self.posterior_.predict(Xs, return_std)
             if return_std:
                 mu[:, v], sd[:, v] = out[0] * self.y_scale_ + self.y_mean_, out[1] * self.y_scale_
             else:
                 mu[:, v] = out * self.y_scale_ + self.y_mean_
+            if source != "posterior":
+                row, at = self._training_rows(Xs)
+                if source == "data":
+                    mu[:, v], sd[:, v] = np.nan, 0.0
+                    mu[np.ix_(row, v)] = self.y_fit_[at]
+                else:
+                    mu[np.ix_(row, v)], sd[np.ix_(row, v)] = self.loo_mu_[at], self.loo_sd_[at]
         return (mu, sd) if return_std else mu
+
+    def _training_rows(self, Xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of standardised postures ``Xs`` that are training postures, and which."""
+        if not hasattr(self, "loo_mu_"):
+            raise InputError("this model was saved before leave-one-out means were kept: retrain it")
+        d = np.abs(Xs[:, None, :] - self.posterior_.X[None]).max(axis=-1)     # (n, n_fit)
+        at = d.argmin(axis=1)
+        row = np.flatnonzero(d[np.arange(len(Xs)), at] < 1e-9)
+        return row, at[row]
 
 
 class STGP(MTGP):
@@ -188,8 +219,8 @@ class STGP(MTGP):
             self.noise_ = float(self.noise_[0])
         return self
 
-    def predict(self, X, return_std: bool = False):
-        out = super().predict(X, return_std)
+    def predict(self, X, return_std: bool = False, *, source: str = "posterior"):
+        out = super().predict(X, return_std, source=source)
         return (out[0][:, 0], out[1][:, 0]) if return_std else out[:, 0]
 
 

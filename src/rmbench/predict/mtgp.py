@@ -124,11 +124,27 @@ class GroupedMTGP:
             out[g] = model.std_scale()
         return out
 
-    def predict(self, X, return_std: bool = False):
-        """Mean, shape (n, n_tasks), and with ``return_std`` the latent standard deviation."""
+    def predict(self, X, return_std: bool = False, *, source: str = "posterior"):
+        """Mean, shape (n, n_tasks), and with ``return_std`` the latent standard deviation;
+        ``source`` as :meth:`MTGP.predict`'s (leave-one-out means or the data at training postures)."""
+        X = np.atleast_2d(np.asarray(X, float))
+        if source != "posterior":
+            mu, sd = np.full((len(X), self.n_tasks_), np.nan), np.full((len(X), self.n_tasks_), np.nan)
+            for g, model in zip(self.groups, self.models_):
+                if model.posterior_ is not None or np.all(np.isfinite(model.constant_)):
+                    mu[:, g], sd[:, g] = model.predict(X, True, source=source)
+            return (mu, sd) if return_std else mu
         if self._stack is None:
             self._stack = _Stack(self.groups, self.models_, self.n_tasks_)
-        return self._stack.predict(np.atleast_2d(np.asarray(X, float)), return_std)
+        return self._stack.predict(X, return_std)
+
+    def predict_product(self, xy, theta) -> np.ndarray:
+        """Means at every (location, angle) pair, shape (n * m, n_tasks), rows location-major: what
+        ``predict`` gives for ``X = [repeat(xy, m), tile(theta, n)]`` (to round-off), in a
+        fraction of the time (:meth:`_Stack.predict_product`)."""
+        if self._stack is None:
+            self._stack = _Stack(self.groups, self.models_, self.n_tasks_)
+        return self._stack.predict_product(np.atleast_2d(np.asarray(xy, float)), np.atleast_1d(np.asarray(theta, float)))
 
 
 class _Stack:
@@ -192,3 +208,29 @@ class _Stack:
                 out = np.sqrt(np.maximum(var, 0.0)) * self.scale[:, None]
                 sd[:, self.cols] = out.transpose(1, 0, 2).reshape(n_out, -1)[:, self.slots]
         return (mu, sd) if return_std else mu
+
+    def predict_product(self, xy: np.ndarray, theta: np.ndarray, chunk: int = 512) -> np.ndarray:
+        """Means over a (location, angle) product, rows location-major, shape (n * m, n_tasks).
+
+        The squared-exponential kernel is a product over the inputs, so at a grid's poses it is
+        ``k_xy(location) · k_θ(angle)`` elementwise over the training postures: two small kernels
+        and one batched matrix product per model instead of one exponential per (pose, training
+        posture, model), ~15× faster at a path's 480 × 37 poses.
+        """
+        n, m = len(xy), len(theta)
+        if len(xy) > chunk:
+            return np.concatenate([self.predict_product(xy[i:i + chunk], theta, chunk)
+                                   for i in range(0, len(xy), chunk)])
+        mu = np.tile(self.mu0, (n * m, 1))
+        if not len(self.cols):
+            return mu
+        M, k = self.W.shape[0], self.W.shape[2]
+        dxy = (xy[None, :, None, :] - self.X[:, None, :, :2]) / self.ls[:, None, None, :2]   # (M, n, n_tr, 2)
+        kxy = np.exp(-0.5 * (dxy ** 2).sum(-1))                                            # (M, n, n_tr)
+        dth = (theta[None, :, None] - self.X[:, None, :, 2]) / self.ls[:, None, None, 2]     # (M, m, n_tr)
+        kth = np.exp(-0.5 * dth ** 2)
+        # Σ_t kxy[b,i,t] kth[b,j,t] W[b,t,c]: one (n × n_tr) @ (n_tr × m·k) product per model
+        right = (kth[:, :, :, None] * self.W[:, None]).transpose(0, 2, 1, 3).reshape(M, -1, m * k)
+        out = (kxy @ right).reshape(M, n * m, k) + self.mean[:, None]                      # (M, n·m, k)
+        mu[:, self.cols] = out.transpose(1, 0, 2).reshape(n * m, -1)[:, self.slots]
+        return mu

@@ -284,7 +284,7 @@ class PosturePredictor:
             return np.full(len(Z), np.inf)
         return np.maximum((Z @ self._facets[:, :-1].T + self._facets[:, -1]).max(axis=1), 0.0)
 
-    def predict(self, X, *, std: bool = True, calibrated: bool = False) -> xr.Dataset:
+    def predict(self, X, *, std: bool = True, calibrated: bool = False, source: str = "posterior") -> xr.Dataset:
         """Parameters and their standard deviations at postures ``X`` (n, 3): x, y (m), θ (rad).
 
         With ``std`` False the learnt standard deviations are not computed (NaN in ``modal_std``): about
@@ -292,17 +292,54 @@ class PosturePredictor:
         ``modal_std`` is the GPs' latent standard deviation; with ``calibrated`` each learnt column's
         is multiplied by its leave-one-posture-out factor (:meth:`std_scale`), so that the training
         postures' held-out errors have unit variance in its units.
+        ``source`` (Gaussian-process learners only): "loo" predicts each training posture in ``X``
+        with that posture left out of every learner (the mean and predictive standard deviation of
+        the block formula, no refit; see :func:`~rmbench.predict.posterior.loo_residuals`), "data"
+        gives the learners' training data there (NaN at other postures), both for cross-validating
+        what is computed from a prediction (a path's critical depth).
         Warns (:class:`ExtrapolationWarning`) for postures outside the training hull.
         """
         X = np.atleast_2d(np.asarray(X, float))
         if X.ndim != 2 or X.shape[1] != 3 or not np.all(np.isfinite(X)):
             raise InputError(f"postures must be finite (x, y, θ) rows, got shape {X.shape}")
-        if std:
-            mu_live, sd_live = self.learner_.predict(X, return_std=True)
+        return self._predict(X, None, std=std, calibrated=calibrated, source=source)
+
+    def predict_grid(self, xy, theta) -> xr.Dataset:
+        """Parameters at every (location, angle) pair, postures location-major (``x, y = xy[i]``,
+        ``θ = theta[j]`` at posture ``i * len(theta) + j``), means only: :meth:`predict`'s with
+        ``std=False`` (to round-off) for a path's grid, the kernel split into location and angle
+        factors where the learner allows (:meth:`GroupedMTGP.predict_product`).
+
+        Parameters
+        ----------
+        xy : ndarray, shape (n, 2), m
+        theta : ndarray, shape (m,), rad
+        """
+        xy, theta = np.atleast_2d(np.asarray(xy, float)), np.atleast_1d(np.asarray(theta, float))
+        if xy.shape[1] != 2 or theta.ndim != 1 or not (np.all(np.isfinite(xy)) and np.all(np.isfinite(theta))):
+            raise InputError(f"locations must be finite (x, y) rows and angles a finite vector, got shapes "
+                             f"{xy.shape} and {theta.shape}")
+        X = np.column_stack([np.repeat(xy, len(theta), axis=0), np.tile(theta, len(xy))])
+        return self._predict(X, (xy, theta), std=False, calibrated=False, source="posterior")
+
+    def _predict(self, X, grid, *, std: bool, calibrated: bool, source: str) -> xr.Dataset:
+        if source != "posterior" and self.model not in SAVEABLE:
+            raise InputError(f"leave-one-out and training-data predictions need a Gaussian-process learner "
+                             f"({', '.join(SAVEABLE)}), not {self.model!r}")
+        at = {} if source == "posterior" else {"source": source}
+
+        def means(learner):
+            """A learner's means at X, over the grid's factors where it can."""
+            if grid is not None and hasattr(learner, "predict_product"):
+                return learner.predict_product(*grid)
+            return learner.predict(X, **at)
+
+        if std or at:
+            mu_live, sd_live = self.learner_.predict(X, return_std=True, **at)
             if calibrated:
                 sd_live = sd_live * _scale_of(self.learner_, sd_live.shape[1])
         else:
-            mu_live = self.learner_.predict(X)
+            mu_live = means(self.learner_)
             sd_live = np.full(np.shape(mu_live), np.nan)
         n, n_tasks = len(X), len(self.tasks_)
         mu = np.tile(self.constant_, (n, 1))
@@ -325,7 +362,11 @@ class PosturePredictor:
         i_f, i_z = self.params_.index("f_n"), self.params_.index("zeta")
         tight = np.full((n, n_modes), np.nan, complex)       # the tight veerings' poles
         for cl, learner in zip(self.pole_clusters_, self.pole_learners_):
-            mu_c, sd_c = (np.asarray(v, float) for v in learner.predict(X, return_std=True))
+            if std or at:
+                mu_c, sd_c = (np.asarray(v, float) for v in learner.predict(X, return_std=True, **at))
+            else:
+                mu_c = np.asarray(means(learner), float)
+                sd_c = np.full(mu_c.shape, np.nan)
             if calibrated:
                 sd_c = sd_c * _scale_of(learner, sd_c.shape[1])
             lam, lam_sd = cluster_poles(cl, mu_c, sd_c)
@@ -344,7 +385,7 @@ class PosturePredictor:
                   "mode_band": ("mode", self.mode_band_), "phiL_ref": ("mode", self.phiL_ref_),
                   "param": list(self.params_)}
         if self.residual_learner_ is not None:
-            y = np.asarray(self.residual_learner_.predict(X), float)
+            y = np.asarray(means(self.residual_learner_), float)
             half = y.shape[1] // 2
             z = (y[:, :half] + 1j * y[:, half:]).reshape(n, len(self.residual_bands_), len(RESIDUAL_TERMS), 4, 4)
             data_vars["residual"] = (("posture", "fit_band", "term", "out", "inp"), z)
@@ -356,7 +397,7 @@ class PosturePredictor:
             for cl, learner in zip(self.clusters_, self.cluster_learners_):
                 # a tight veering inside the cluster keeps its own poles, the ones ``modal`` reports
                 # (at the validation postures the low band's worst cross peak 18.8 -> 14.0 %)
-                lam, R = cluster_residues(cl, np.asarray(learner.predict(X), float),
+                lam, R = cluster_residues(cl, np.asarray(means(learner), float),
                                           poles=tight[:, list(cl.modes)])
                 pole[:, list(cl.modes)], residue[:, list(cl.modes)] = lam, R
             data_vars["cluster_pole"] = (("posture", "mode"), pole)
@@ -476,7 +517,8 @@ class PosturePredictor:
 
 
 _STATE_SCALARS = ("n_tasks_", "dropped_")
-_STATE_ARRAYS = ("varying_", "constant_", "x_mean_", "x_scale_", "y_mean_", "y_scale_", "loo_scale_")
+_STATE_ARRAYS = ("varying_", "constant_", "x_mean_", "x_scale_", "y_mean_", "y_scale_", "loo_scale_", "y_fit_",
+                 "loo_mu_", "loo_sd_")
 
 
 def _state(m: MTGP) -> dict:
