@@ -39,12 +39,22 @@ def path_sections(page: Page, plan) -> None:
                           "line": {"color": _COLORS[k], "width": 1.5}} for k, s in schedules.items()],
                 "layout": {"height": 360, "xaxis": {"title": {"text": "arc length (mm)"}},
                            "yaxis": {"title": {"text": "θ (deg)"}}}})
-    traces = [{"type": "scatter", "mode": "lines", "x": s_mm, "y": _mm(s.margin), "name": k,
-               "line": {"color": _COLORS[k], "width": 1.5}} for k, s in schedules.items()]
+    traces = []
+    if plan.band is not None:
+        # the planned depth's band: its upper edge, then the lower one filled up to it
+        level = f"{100 * plan.band_level:.0f} % band"
+        traces += [{"type": "scatter", "mode": "lines", "x": s_mm, "y": _mm(plan.band.upper), "name": level,
+                    "line": {"width": 0}, "showlegend": False, "hoverinfo": "skip"},
+                   {"type": "scatter", "mode": "lines", "x": s_mm, "y": _mm(plan.band.lower), "name": level,
+                    "fill": "tonexty", "fillcolor": "rgba(31,119,180,0.2)", "line": {"width": 0}}]
+    traces += [{"type": "scatter", "mode": "lines", "x": s_mm, "y": _mm(s.margin), "name": k,
+                "line": {"color": _COLORS[k], "width": 1.5}} for k, s in schedules.items()]
     if plan.depth is not None:
         traces.append({"type": "scatter", "mode": "lines", "x": [s_mm[0], s_mm[-1]], "y": [1e3 * plan.depth] * 2,
                        "name": "depth cut", "line": {"color": "#000", "dash": "dash"}})
-    sec = page.section("Critical depth along the path", "The predicted critical depth along each schedule.")
+    sec = page.section("Critical depth along the path", "The predicted critical depth along each schedule"
+                       + ("; shaded, the planned schedule's band (draws of the predictor's calibrated deviations)."
+                          if plan.band is not None else "."))
     sec.figure({"data": traces, "layout": {"height": 380, "xaxis": {"title": {"text": "arc length (mm)"}},
                                            "yaxis": {"title": {"text": "critical depth (mm)"}, "rangemode": "tozero"}}})
     rows = [[k, 1e3 * s.min_margin, float(np.degrees(s.theta.min())), float(np.degrees(s.theta.max())),
