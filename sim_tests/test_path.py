@@ -203,6 +203,8 @@ def test_virtual_milling_along_the_plan_chatters_above_its_predicted_depth_and_n
     assert below.predicted[0] == a and below.decided.all() and above.decided.all()
     assert not below.chatter[0] and above.chatter[0]
     assert below.agreement == above.agreement == 1.0
+    # a chattering cut shakes the tool tip more than a stable one
+    assert above.amplitude[0] > below.amplitude[0] > 0
     # the exact model's zero-order depth at the pose, beside the prediction
     assert below.exact[0] == pytest.approx(a, rel=0.1)
 
@@ -244,6 +246,7 @@ def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path
     assert json.loads((tmp_path / "plan" / "plan.json").read_text())["cl_points"] == out["cl_points"]
     html = (tmp_path / "plan.html").read_text()
     assert "Redundant angle along the path" in html and "Critical depth along the path" in html
+    assert "Virtual milling along the path" in html
 
 
 def test_an_unreachable_cutter_location_is_named_with_its_line_and_reach(irb, small_predictor, tmp_path):

@@ -100,7 +100,7 @@ def cmd_demo(args) -> int:
     campaign_sections(page, ds, fit=fit)
     modal_sections(page, fit, ds)
     _demo_predict(out, args.workers, page)
-    _demo_path(out)
+    _demo_path(out, page)
     _demo_rcsa(out, ds, page)
     _demo_lobes(out, fit, page)
     _demo_control(out, page)
@@ -225,24 +225,40 @@ def _demo_lobes(out: Path, fit, page) -> None:
                         "campaign's fitted modes and from the simulator's exact modes.")
 
 
-def _demo_path(out: Path) -> None:
-    """Tool path: the bundled contour planned from the demo's predictor (the dummy tool's dynamics)."""
-    from rmbench.path import PlanSettings, example, plan_path
+def _demo_path(out: Path, page) -> None:
+    """Tool path: the bundled contour planned from the demo's predictor (the dummy tool's dynamics),
+    its depth's band, and virtual milling of both schedules at a depth between their limits."""
+    from rmbench.path import PlanSettings, example, mill_schedule, plan_path, with_band
     from rmbench.predict import PosturePredictor
+    from rmbench.report.path import path_sections
     from rmbench.robot import Robot
 
     print("\ntool path: the bundled 400 x 400 mm contour, redundant angle chosen at each cutter location from -60 to 60 "
-          "degrees for the largest smallest critical depth at 15000 rev/min (aluminium 6061 slot), from the "
+          "degrees for the largest smallest critical depth at 9000 rev/min (aluminium 6061 slot), from the "
           "predictor above")
-    plan = plan_path(Robot.load("irb6660", tool="dummy"), PosturePredictor.load(out / "demo_predictor.npz"),
-                     example("contour"), speed_rpm=15000.0,
+    robot = Robot.load("irb6660", tool="dummy")
+    predictor = PosturePredictor.load(out / "demo_predictor.npz")
+    plan = plan_path(robot, predictor, example("contour"), speed_rpm=9000.0,
                      settings=PlanSettings(theta=tuple(np.radians(np.arange(-60.0, 61.0, 10.0))), spacing=10e-3))
+    plan = with_band(plan, predictor, draws=32)
     s = plan.summary()
     a = s["min_alim_mm"]
     print(f"  {s['cl_points']} cutter locations x {len(plan.reach.theta)} angles in {s['seconds']['total']:.1f} s: "
-          f"smallest critical depth planned {a['planned']:.3f} mm, theta held at 0 {a['fixed']:.3f} mm "
-          f"(gain {s['min_alim_gain']:.2f}x), each location's best {a['pointwise']:.3f} mm")
+          f"smallest critical depth planned {a['planned']:.3f} mm (95 % band down to {s['band']['min_lower_mm']:.3f}), "
+          f"theta held at 0 {a['fixed']:.3f} mm (gain {s['min_alim_gain']:.2f}x), each location's best "
+          f"{a['pointwise']:.3f} mm")
     print(f"wrote {plan.to_csv(out / 'demo_path_plan.csv')}")
+    # a depth between the two schedules' smallest limits: where they differ the plan should hold
+    depth = 0.5 * (plan.planned.min_margin + plan.fixed.min_margin)
+    milled = {}
+    for sched in ("planned", "fixed"):
+        milled[sched] = mill_schedule(robot, plan, depth=depth, schedule=sched, n=3)
+        m = milled[sched].summary()
+        agree = "" if m["agreement"] is None else f", {100 * m['agreement']:.0f} % of them as planned"
+        print(f"  milled 3 locations of the {sched} schedule at {1e3 * depth:.2f} mm: {m['chatter']} chatter "
+              f"({m['expected_chatter']} expected; {m['decided']} clear of the predicted depth's ±10 %{agree})")
+    page.part("Tool path: the contour planned and milled")
+    path_sections(page, plan, milled)
 
 
 def _demo_predict(out: Path, workers, page) -> None:

@@ -85,14 +85,15 @@ def cmd_plan(args) -> int:
         say(f"the critical depth's 95 % band along the plan from {args.band_draws} draws")
         plan = with_band(plan, predictor, eval_spacing=settings.eval_spacing, draws=args.band_draws)
     summary = plan.summary()
+    milled = {}
     if args.mill:
         from rmbench.path import mill_schedule
 
         summary["milling"] = {}
         for sched in ("planned", "fixed"):
             say(f"milling {args.mill} locations of the {sched} schedule at {args.depth:g} mm")
-            cuts = mill_schedule(robot, plan, depth=1e-3 * args.depth, schedule=sched, n=args.mill)
-            summary["milling"][sched] = cuts.summary()
+            milled[sched] = mill_schedule(robot, plan, depth=1e-3 * args.depth, schedule=sched, n=args.mill)
+            summary["milling"][sched] = milled[sched].summary()
     if out is not None:
         plan.to_csv(out / "plan.csv")
         plan.to_csv(out / "fixed.csv", plan.fixed)
@@ -106,7 +107,7 @@ def cmd_plan(args) -> int:
 
         page = Page(f"Tool path plan of {args.toolpath}", {"predictor": args.predictor, "robot": args.robot,
                                                           "speed (rev/min)": args.speed})
-        path_sections(page, plan)
+        path_sections(page, plan, milled)
         page.write(report)
         summary["report"] = str(report)
     if args.json:

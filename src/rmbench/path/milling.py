@@ -51,6 +51,8 @@ class PathMilling:
         The milling verdict per cut (``stable``, ``hopf``, ``flip``, ``runaway``).
     band : float
         Relative half-width around the predicted depth inside which a cut is not scored.
+    amplitude : ndarray, shape (k,), m, or None
+        Peak-to-peak tool-tip vibration over each cut's last third.
     """
 
     schedule: str
@@ -63,6 +65,7 @@ class PathMilling:
     chatter: np.ndarray
     kind: tuple
     band: float = 0.1
+    amplitude: np.ndarray | None = None
 
     @property
     def decided(self) -> np.ndarray:
@@ -147,14 +150,14 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         raise InputError(f"cutter locations must lie in 0-{len(s.index) - 1}")
     q = plan.reach.q[idx, s.index[idx]]
     predicted = plan.depths.a_lim[idx, s.index[idx]]
-    exact, chatter, kind = np.empty(len(idx)), np.empty(len(idx), bool), []
+    exact, chatter, kind, amplitude = np.empty(len(idx)), np.empty(len(idx), bool), [], np.empty(len(idx))
     for k in range(len(idx)):
         op = robot.at(q[k])
         exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
         run = mill(op, cutting, plan.speed_rpm, depth, periods=periods)
-        chatter[k] = run.chatter
+        chatter[k], amplitude[k] = run.chatter, run.amplitude
         kind.append(run.kind)
         if progress is not None:
             progress(k)
     return PathMilling(schedule, idx, s.theta[idx], float(depth), plan.speed_rpm, predicted, exact, chatter,
-                       tuple(kind), float(band))
+                       tuple(kind), float(band), amplitude)

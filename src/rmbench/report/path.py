@@ -17,8 +17,9 @@ def _mm(a) -> list:
     return np.where(np.isfinite(a), 1e3 * a, np.nan)
 
 
-def path_sections(page: Page, plan) -> None:
-    """The sections of one :class:`rmbench.path.PathPlan` (nothing is recomputed)."""
+def path_sections(page: Page, plan, milling: dict | None = None) -> None:
+    """The sections of one :class:`rmbench.path.PathPlan` and, where given, the virtual milling
+    along its schedules (``{schedule: PathMilling}``); nothing is recomputed."""
     tp = plan.toolpath
     s_mm = 1e3 * tp.arc_length()
     schedules = {"planned": plan.planned, "fixed": plan.fixed, "pointwise": plan.pointwise}
@@ -62,3 +63,28 @@ def path_sections(page: Page, plan) -> None:
             for k, s in schedules.items()]
     sec.table(["schedule", "smallest critical depth (mm)", "θ min (deg)", "θ max (deg)", "within joint rates",
                "locations at risk"], rows)
+    if milling:
+        _milling_section(page, plan, milling)
+
+
+def _milling_section(page: Page, plan, milling: dict) -> None:
+    s_mm = 1e3 * plan.toolpath.arc_length()
+    sec = page.section("Virtual milling along the path",
+                       "Each cut in the simulator at the plan's joint commands and the depth cut: the tool tip's "
+                       "peak-to-peak vibration over the cut's last third (µm); filled: chatter, open: stable.")
+    traces = []
+    for k, m in milling.items():
+        amp = np.full(len(m.index), np.nan) if m.amplitude is None else 1e6 * np.asarray(m.amplitude, float)
+        traces.append({"type": "scatter", "mode": "markers", "x": s_mm[m.index], "y": amp, "name": k,
+                       "marker": {"color": _COLORS.get(k, "#000"), "size": 9,
+                                  "symbol": ["circle" if c else "circle-open" for c in m.chatter]}})
+    sec.figure({"data": traces, "layout": {"height": 360, "xaxis": {"title": {"text": "arc length (mm)"}},
+                                           "yaxis": {"title": {"text": "vibration, peak to peak (µm)"},
+                                                     "type": "log"}}})
+    rows = []
+    for k, m in milling.items():
+        d = m.summary()
+        rows.append([k, d["cuts"], d["depth_mm"], d["chatter"], d["expected_chatter"], d["decided"],
+                     "" if d["agreement"] is None else f"{100 * d['agreement']:.0f} %", d["inside_band"]])
+    sec.table(["schedule", "cuts", "depth (mm)", "chatter", "expected", "clear of ±10 %", "as planned",
+               "inside ±10 %"], rows)
