@@ -249,6 +249,38 @@ def test_path_plan_writes_the_schedule_and_strict_json(small_predictor, tmp_path
     assert "Virtual milling along the path" in html
 
 
+def test_path_mill_mills_a_saved_plan_as_the_plan_says(small_predictor, tmp_path, capsys):
+    """The plan directory holds the whole plan (plan.npz, no pickle): milled from it, the cuts are
+    those of the plan in memory, at the plan's poses and predicted depths."""
+    import json
+
+    from rmbench.cli import main
+    from rmbench.path import load_plan
+
+    args = ["path", "plan", str(write_cl_csv(_square(), tmp_path / "square.csv")), "--predictor",
+            str(small_predictor), "--speed", "9000", "--theta-range=-40,40", "--theta-step", "40",
+            "--spacing", "40", "--band-draws", "0", "--out", str(tmp_path / "plan"), "--json"]
+    assert main(args) == 0
+    plan_out = json.loads(capsys.readouterr().out)
+    plan, meta = load_plan(tmp_path / "plan" / "plan.npz")
+    assert meta["robot"] == "irb6660" and len(plan.toolpath) == plan_out["cl_points"]
+    assert 1e3 * plan.planned.min_margin == pytest.approx(plan_out["min_alim_mm"]["planned"], rel=1e-12)
+    depth = 0.7 * plan_out["min_alim_mm"]["planned"]          # 30 % below every planned limit: stable
+    code = main(["path", "mill", str(tmp_path / "plan"), "--depth", f"{depth}", "-n", "2", "--json",
+                 "--report", str(tmp_path / "mill.html")])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["cuts"] == 2 and out["chatter"] == 0 and out["agreement"] == 1.0
+    assert [c["location"] for c in out["cuts_at"]] == [0, len(plan.toolpath) - 1]
+    assert "Virtual milling along the path" in (tmp_path / "mill.html").read_text()
+
+
+def test_path_mill_refuses_a_directory_without_a_plan(tmp_path, capsys):
+    from rmbench.cli import main
+
+    assert main(["path", "mill", str(tmp_path), "--depth", "1"]) != 0
+    assert "plan not found" in capsys.readouterr().err
+
+
 def test_an_unreachable_cutter_location_is_named_with_its_line_and_reach(irb, small_predictor, tmp_path):
     from rmbench.path import plan_path
     from rmbench.predict import PosturePredictor

@@ -36,6 +36,17 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the plan's summary as JSON")
     add_report_option(p, "the path coloured by its critical depth, θ and the depth along it")
     p.set_defaults(func=cmd_plan)
+    m = g.add_parser("mill", help="mill a saved plan in the simulator: does it chatter where the plan says?")
+    m.add_argument("plan_dir", help="a directory written by 'rmbench path plan --out DIR' (its plan.npz)")
+    m.add_argument("--depth", type=float, required=True, metavar="MM", help="axial depth of cut, mm")
+    m.add_argument("--schedule", default="planned", choices=("planned", "fixed", "pointwise"),
+                   help="which schedule to mill (default planned)")
+    m.add_argument("-n", type=int, default=10, metavar="N", help="locations milled, evenly spaced along the path (default 10)")
+    m.add_argument("--robot", default=None, help="the robot that mills (default: the plan's; a 'real' robot checks the plan against it)")
+    m.add_argument("--tool", default=None, help="its tool (default: the plan's)")
+    m.add_argument("--json", action="store_true", help="print the cuts' summary as JSON")
+    add_report_option(m, "the plan and the cuts' vibration along the path")
+    m.set_defaults(func=cmd_mill)
 
 
 def _theta(args):
@@ -95,12 +106,15 @@ def cmd_plan(args) -> int:
             milled[sched] = mill_schedule(robot, plan, depth=1e-3 * args.depth, schedule=sched, n=args.mill)
             summary["milling"][sched] = milled[sched].summary()
     if out is not None:
+        from rmbench.path import save_plan
+
         plan.to_csv(out / "plan.csv")
         plan.to_csv(out / "fixed.csv", plan.fixed)
+        save_plan(plan, out / "plan.npz", robot=args.robot, tool=args.tool, predictor=str(args.predictor))
         tmp = out / "plan.json.part"
         tmp.write_text(strict_dumps(summary) + "\n")
         tmp.replace(out / "plan.json")
-        summary["files"] = [str(out / f) for f in ("plan.csv", "fixed.csv", "plan.json")]
+        summary["files"] = [str(out / f) for f in ("plan.csv", "fixed.csv", "plan.json", "plan.npz")]
     if report is not None:
         from rmbench.report import Page
         from rmbench.report.path import path_sections
@@ -136,7 +150,52 @@ def cmd_plan(args) -> int:
               f"to {summary['hull_distance_max']:.2f} of their standard deviations beyond their hull: the "
               "predictor extrapolates there", file=sys.stderr)
     if out is not None:
-        print(f"wrote {out}: plan.csv, fixed.csv, plan.json")
+        print(f"wrote {out}: plan.csv, fixed.csv, plan.json, plan.npz (rmbench path mill {out} --depth MM)")
+    if report is not None:
+        print(f"wrote {report}")
+    return 0
+
+
+def cmd_mill(args) -> int:
+    import numpy as np
+
+    from rmbench.path import load_plan, mill_schedule
+    from rmbench.robot import Robot
+
+    report = report_path(args)
+    if not args.depth > 0:
+        raise InputError(f"--depth must be > 0 mm, got {args.depth!r}")
+    if args.n < 1:
+        raise InputError(f"-n must be at least 1, got {args.n}")
+    plan, meta = load_plan(Path(args.plan_dir) / "plan.npz" if Path(args.plan_dir).is_dir() else args.plan_dir)
+    robot = Robot.load(args.robot or meta.get("robot") or "irb6660",
+                       tool=args.tool if args.tool is not None else meta.get("tool"))
+    say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
+    say(f"milling {args.n} locations of the {args.schedule} schedule at {args.depth:g} mm, "
+        f"{plan.speed_rpm:g} rev/min")
+    cuts = mill_schedule(robot, plan, depth=1e-3 * args.depth, schedule=args.schedule, n=args.n,
+                         progress=lambda k: say(f"cut {k + 1} of {min(args.n, len(plan.toolpath))}"))
+    summary = cuts.summary() | {"cuts_at": [{"location": int(i), "theta_deg": float(t), "predicted_mm": 1e3 * float(a),
+                                             "exact_mm": 1e3 * float(e), "chatter": bool(c), "kind": k,
+                                             "vibration_um": 1e6 * float(v)}
+                                            for i, t, a, e, c, k, v in zip(cuts.index, np.degrees(cuts.theta), cuts.predicted,
+                                                                           cuts.exact, cuts.chatter, cuts.kind, cuts.amplitude)]}
+    if report is not None:
+        from rmbench.report import Page
+        from rmbench.report.path import path_sections
+
+        page = Page(f"Virtual milling of the plan in {args.plan_dir}", {"robot": robot.name, "depth (mm)": args.depth,
+                                                                        "speed (rev/min)": plan.speed_rpm})
+        path_sections(page, plan, {args.schedule: cuts})
+        page.write(report)
+        summary["report"] = str(report)
+    if args.json:
+        print_json(summary)
+        return 0
+    agree = "none clear of it" if summary["agreement"] is None else f"{100 * summary['agreement']:.0f} % as planned"
+    print(f"{summary['cuts']} cuts of the {args.schedule} schedule at {args.depth:g} mm: {summary['chatter']} chatter "
+          f"({summary['expected_chatter']} expected); {summary['decided']} clear of the predicted depth's ±10 %: {agree}; "
+          f"{summary['inside_band']} inside it")
     if report is not None:
         print(f"wrote {report}")
     return 0

@@ -27,7 +27,7 @@ from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise
 from rmbench.path.reach import Reach, reach_grid
 from rmbench.stability.cutting import ALUMINIUM_6061, Cutting
 
-__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band"]
+__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band", "save_plan", "load_plan"]
 
 
 @dataclass(frozen=True)
@@ -174,6 +174,81 @@ class PathPlan:
         tmp.write_text("\n".join(rows) + "\n")
         tmp.replace(path)
         return path
+
+
+_FORMAT = "rmbench path plan 1"
+
+
+def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None, predictor: str = "") -> Path:
+    """Write a plan to one ``.npz`` (arrays and JSON metadata, no pickle), atomically: what
+    :func:`load_plan` (and ``rmbench path mill``) reads back. ``robot``, ``tool`` and ``predictor``
+    name what it was planned with."""
+    import json
+
+    tp, r, d = plan.toolpath, plan.reach, plan.depths
+    arrays = {"tp/xy": tp.xy, "tp/z": tp.z, "tp/feed": tp.feed, "tp/rpm": tp.rpm, "tp/cutting": tp.cutting,
+              "tp/line": tp.line, "reach/theta": r.theta, "reach/q": r.q, "reach/ok": r.ok,
+              "reach/limit_margin": r.limit_margin, "reach/sigma_min": r.sigma_min, "depths/a_lim": d.a_lim,
+              "depths/outside_hull": d.outside_hull}
+    arrays |= {f"depths/band/{b}": v for b, v in d.by_band.items()}
+    for k in ("planned", "fixed", "pointwise"):
+        sch = getattr(plan, k)
+        arrays |= {f"{k}/index": sch.index, f"{k}/theta": sch.theta, f"{k}/margin": sch.margin}
+    if plan.hull_distance is not None:
+        arrays["hull_distance"] = plan.hull_distance
+    if plan.band is not None:
+        arrays |= {"band/lower": plan.band.lower, "band/upper": plan.band.upper}
+    meta = {"format": _FORMAT, "robot": robot, "tool": tool, "predictor": predictor, "source": tp.source,
+            "speed_rpm": plan.speed_rpm, "depth": plan.depth, "seconds": plan.seconds,
+            "depths_speed_rpm": d.speed_rpm, "bands": list(d.by_band),
+            "feasible": {k: bool(getattr(plan, k).feasible) for k in ("planned", "fixed", "pointwise")},
+            "band": None if plan.band is None else {"scale": plan.band.scale, "n": plan.band.n_calibration,
+                                                    "level": plan.band_level}}
+    path = Path(path)
+    tmp = path.with_name(path.name + ".part.npz")
+    np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
+    tmp.replace(path)
+    return path
+
+
+def load_plan(path) -> tuple[PathPlan, dict]:
+    """A plan saved by :func:`save_plan`, and its metadata (``robot``, ``tool``, ``predictor``).
+
+    Raises
+    ------
+    InputError
+        The file is missing or not a saved plan.
+    """
+    import json
+    import zipfile
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"plan not found: {path}")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            a = {k: z[k] for k in z.files}
+        meta = json.loads(str(a["meta"]))
+        if meta.get("format") != _FORMAT:
+            raise ValueError
+        tp = ToolPath(a["tp/xy"], a["tp/z"], a["tp/feed"], a["tp/rpm"], a["tp/cutting"].astype(bool),
+                      a["tp/line"].astype(int), str(meta.get("source", "")))
+        reach = Reach(a["reach/theta"], a["reach/q"], a["reach/ok"].astype(bool), a["reach/limit_margin"],
+                      a["reach/sigma_min"])
+        depths = DepthGrid(a["depths/a_lim"], {b: a[f"depths/band/{b}"] for b in meta["bands"]},
+                           a["depths/outside_hull"].astype(bool), float(meta["depths_speed_rpm"]))
+        sch = {k: Schedule(a[f"{k}/index"].astype(int), a[f"{k}/theta"], a[f"{k}/margin"], bool(meta["feasible"][k]), k)
+               for k in ("planned", "fixed", "pointwise")}
+        band, level = None, 0.95
+        if meta.get("band"):
+            band = DepthBand(sch["planned"].margin, a["band/lower"], a["band/upper"], float(meta["band"]["scale"]),
+                             int(meta["band"]["n"]))
+            level = float(meta["band"]["level"])
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile):
+        raise InputError(f"{path} is not a saved path plan (write one with: rmbench path plan ... --out DIR)") from None
+    plan = PathPlan(tp, reach, depths, sch["planned"], sch["fixed"], sch["pointwise"], meta["depth"],
+                    float(meta["speed_rpm"]), meta["seconds"], a.get("hull_distance"), band, level)
+    return plan, meta
 
 
 def _check_reach(tp: ToolPath, reach: Reach) -> None:
