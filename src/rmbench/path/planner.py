@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from rmbench.errors import InputError
+from rmbench.io.npz_file import read_npz, write_npz
 from rmbench.io.toolpath import ToolPath
 from rmbench.path.margin import DepthBand, DepthGrid, depth_band, predicted_depths
 from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise_schedule
@@ -183,8 +184,6 @@ def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None,
     """Write a plan to one ``.npz`` (arrays and JSON metadata, no pickle), atomically: what
     :func:`load_plan` (and ``rmbench path mill``) reads back. ``robot``, ``tool`` and ``predictor``
     name what it was planned with."""
-    import json
-
     tp, r, d = plan.toolpath, plan.reach, plan.depths
     arrays = {"tp/xy": tp.xy, "tp/z": tp.z, "tp/feed": tp.feed, "tp/rpm": tp.rpm, "tp/cutting": tp.cutting,
               "tp/line": tp.line, "reach/theta": r.theta, "reach/q": r.q, "reach/ok": r.ok,
@@ -204,11 +203,7 @@ def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None,
             "feasible": {k: bool(getattr(plan, k).feasible) for k in ("planned", "fixed", "pointwise")},
             "band": None if plan.band is None else {"scale": plan.band.scale, "n": plan.band.n_calibration,
                                                     "level": plan.band_level}}
-    path = Path(path)
-    tmp = path.with_name(path.name + ".part.npz")
-    np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
-    tmp.replace(path)
-    return path
+    return write_npz(path, meta, arrays)
 
 
 def load_plan(path) -> tuple[PathPlan, dict]:
@@ -219,18 +214,11 @@ def load_plan(path) -> tuple[PathPlan, dict]:
     InputError
         The file is missing or not a saved plan.
     """
-    import json
-    import zipfile
-
     path = Path(path)
     if not path.is_file():
         raise InputError(f"plan not found: {path}")
     try:
-        with np.load(path, allow_pickle=False) as z:
-            a = {k: z[k] for k in z.files}
-        meta = json.loads(str(a["meta"]))
-        if meta.get("format") != _FORMAT:
-            raise ValueError
+        meta, a = read_npz(path, _FORMAT)
         tp = ToolPath(a["tp/xy"], a["tp/z"], a["tp/feed"], a["tp/rpm"], a["tp/cutting"].astype(bool),
                       a["tp/line"].astype(int), str(meta.get("source", "")))
         reach = Reach(a["reach/theta"], a["reach/q"], a["reach/ok"].astype(bool), a["reach/limit_margin"],
@@ -244,7 +232,7 @@ def load_plan(path) -> tuple[PathPlan, dict]:
             band = DepthBand(sch["planned"].margin, a["band/lower"], a["band/upper"], float(meta["band"]["scale"]),
                              int(meta["band"]["n"]))
             level = float(meta["band"]["level"])
-    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile):
+    except (ValueError, KeyError, TypeError):
         raise InputError(f"{path} is not a saved path plan (write one with: rmbench path plan ... --out DIR)") from None
     plan = PathPlan(tp, reach, depths, sch["planned"], sch["fixed"], sch["pointwise"], meta["depth"],
                     float(meta["speed_rpm"]), meta["seconds"], a.get("hull_distance"), band, level)

@@ -56,6 +56,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from rmbench._version import __version__
 from rmbench.errors import InputError
+from rmbench.io.npz_file import read_npz, write_npz
 from rmbench.modal.campaign_fit import COORDS, mode_vectors
 from rmbench.modal.mdof import synthesize
 from rmbench.modal.residual import RESIDUAL_TERMS, residual_frf
@@ -451,12 +452,7 @@ class PosturePredictor:
                 "cluster_seconds": self.cluster_seconds_,
                 "pole_clusters": [{"modes": list(map(int, c.modes)), "center": [c.center.real, c.center.imag],
                                    "radius": c.radius} for c in self.pole_clusters_]}
-        arrays["meta"] = np.array(json.dumps(meta))
-        tmp = path.with_name(path.name + ".part")
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
-        tmp.replace(path)
-        return path
+        return write_npz(path, meta, arrays)
 
     @classmethod
     def load(cls, path) -> "PosturePredictor":
@@ -465,11 +461,7 @@ class PosturePredictor:
         if not path.is_file():
             raise InputError(f"predictor not found: {path}")
         try:
-            with np.load(path, allow_pickle=False) as z:
-                a = {k: z[k] for k in z.files}
-            meta = json.loads(str(a.pop("meta")))
-            if not isinstance(meta, dict) or meta.get("format") != _FORMAT:
-                raise ValueError(f"format {meta.get('format') if isinstance(meta, dict) else '?'}")
+            meta, a = read_npz(path, _FORMAT)
             # files written before the gauge learnt the dataset's normalisation
             order = meta.get("order", "frequency")
             self = cls(meta["model"], order, meta.get("vectors", "dataset"),
