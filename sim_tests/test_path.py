@@ -274,6 +274,22 @@ def test_path_mill_mills_a_saved_plan_as_the_plan_says(small_predictor, tmp_path
     assert "Virtual milling along the path" in (tmp_path / "mill.html").read_text()
 
 
+def test_a_speed_range_keeps_the_speed_whose_plan_keeps_the_most_depth(small_predictor, tmp_path, capsys):
+    import json
+
+    from rmbench.cli import main
+
+    code = main(["path", "plan", str(write_cl_csv(_square(), tmp_path / "square.csv")), "--predictor",
+                 str(small_predictor), "--speed-range", "9000,15000", "--speed-step", "1500",
+                 "--theta-range=-40,40", "--theta-step", "40", "--spacing", "40", "--band-draws", "0", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    scan = out["speed_scan"]
+    assert code == 0 and scan["speeds_rpm"] == [9000.0, 10500.0, 12000.0, 13500.0, 15000.0]
+    best = int(np.argmax(scan["min_alim_mm"]))
+    assert out["speed_rpm"] == scan["speeds_rpm"][best]
+    assert out["min_alim_mm"]["planned"] == pytest.approx(scan["min_alim_mm"][best], rel=1e-12)
+
+
 def test_path_mill_refuses_a_directory_without_a_plan(tmp_path, capsys):
     from rmbench.cli import main
 

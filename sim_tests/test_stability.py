@@ -296,3 +296,9 @@ def test_the_vectorised_zero_order_limit_agrees_with_the_lobes_at_one_speed(irb)
         got = zoa_limit(poles, res, ALUMINIUM_6061, speed, freq)
         ref = [zoa_lobes(Structure.from_mode_table(t), ALUMINIUM_6061, np.array([speed]))[0] for t in tables]
         np.testing.assert_allclose(got, ref, rtol=1e-3)
+    # several speeds at once: each one's limit, bit for bit (the eigenvalues are shared, nothing else)
+    from rmbench.stability import zoa_limits
+
+    many = zoa_limits(poles, res, ALUMINIUM_6061, [9000.0, 12000.0, 15000.0], freq)
+    for j, speed in enumerate((9000.0, 12000.0, 15000.0)):
+        np.testing.assert_array_equal(many[:, j], zoa_limit(poles, res, ALUMINIUM_6061, speed, freq))

@@ -16,7 +16,12 @@ def register(sub) -> None:
     p = g.add_parser("plan", help="choose θ along a tool path from a trained posture predictor")
     p.add_argument("toolpath", help="cutter-location CSV or G-code file, or a bundled example: pocket, contour")
     p.add_argument("--predictor", required=True, help="posture predictor (.npz from 'rmbench predict train')")
-    p.add_argument("--speed", type=float, required=True, metavar="RPM", help="spindle speed, rev/min")
+    speed = p.add_mutually_exclusive_group(required=True)
+    speed.add_argument("--speed", type=float, metavar="RPM", help="spindle speed, rev/min")
+    speed.add_argument("--speed-range", metavar="A,B",
+                       help="plan at every --speed-step from A to B rev/min and keep the speed whose plan keeps the "
+                            "largest smallest critical depth")
+    p.add_argument("--speed-step", type=float, default=500.0, metavar="RPM", help="step of --speed-range (default 500)")
     p.add_argument("--depth", type=float, default=None, metavar="MM", help="axial depth of cut, mm (marks the locations at risk)")
     p.add_argument("--robot", default="irb6660", help="the robot that mills: bundled name or MJCF path (default irb6660)")
     p.add_argument("--tool", default=None, help="its tool (default: the robot's own; the predictor's tool is the one that mills)")
@@ -61,6 +66,25 @@ def _theta(args):
     return np.radians(np.arange(a, b + 1e-9, args.theta_step))
 
 
+def _speeds(args):
+    import numpy as np
+
+    if args.speed is not None:
+        if not args.speed > 0:
+            raise InputError(f"--speed must be > 0 rev/min, got {args.speed!r}")
+        return args.speed
+    try:
+        a, b = (float(v) for v in args.speed_range.split(","))
+    except ValueError:
+        raise InputError(f"--speed-range must be A,B in rev/min, got {args.speed_range!r}") from None
+    if not (0 < a < b and args.speed_step > 0):
+        raise InputError("--speed-range needs 0 < A < B and --speed-step > 0")
+    speeds = np.arange(a, b + 1e-6, args.speed_step)
+    if len(speeds) > 200:
+        raise InputError(f"--speed-range with --speed-step {args.speed_step:g} gives {len(speeds)} speeds; at most 200")
+    return speeds
+
+
 def cmd_plan(args) -> int:
     import numpy as np
 
@@ -90,7 +114,7 @@ def cmd_plan(args) -> int:
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
     say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
-    plan = plan_path(robot, predictor, tp, speed_rpm=args.speed,
+    plan = plan_path(robot, predictor, tp, speed_rpm=_speeds(args),
                      depth=None if args.depth is None else 1e-3 * args.depth, settings=settings, progress=say)
     if args.band_draws:
         say(f"the critical depth's 95 % band along the plan from {args.band_draws} draws")
@@ -120,7 +144,7 @@ def cmd_plan(args) -> int:
         from rmbench.report.path import path_sections
 
         page = Page(f"Tool path plan of {args.toolpath}", {"predictor": args.predictor, "robot": args.robot,
-                                                          "speed (rev/min)": args.speed})
+                                                          "speed (rev/min)": plan.speed_rpm})
         path_sections(page, plan, milled)
         page.write(report)
         summary["report"] = str(report)
@@ -128,7 +152,12 @@ def cmd_plan(args) -> int:
         print_json(summary)
         return 0
     a = summary["min_alim_mm"]
-    print(f"{summary['cl_points']} cutter locations at {args.speed:g} rev/min; smallest critical depth "
+    if "speed_scan" in summary:
+        scan = summary["speed_scan"]
+        print(f"best speed of {len(scan['speeds_rpm'])} from {scan['speeds_rpm'][0]:g} to {scan['speeds_rpm'][-1]:g} rev/min: "
+              f"{plan.speed_rpm:g} rev/min (planned smallest critical depth {max(scan['min_alim_mm']):.3f} mm; "
+              f"worst speed {min(scan['min_alim_mm']):.3f} mm)")
+    print(f"{summary['cl_points']} cutter locations at {plan.speed_rpm:g} rev/min; smallest critical depth "
           f"planned {a['planned']:.3f} mm, fixed θ = {args.fixed_theta:g}° {a['fixed']:.3f} mm "
           f"(gain {summary['min_alim_gain']:.2f}x), pointwise best {a['pointwise']:.3f} mm")
     lo, hi = summary["theta_range_deg"]

@@ -18,7 +18,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
-from rmbench.stability.zoa import zoa_limit
+from rmbench.stability.zoa import zoa_limit, zoa_limits
 from rmbench.threads import run_concurrently
 
 __all__ = ["DepthBand", "DepthGrid", "TipModes", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths",
@@ -133,6 +133,26 @@ class TipModes:
         by_band = dict(zip(self.poles, run_concurrently([lambda b=b: band(b) for b in self.poles])))
         a_lim = np.minimum.reduce(list(by_band.values()))
         return DepthGrid(a_lim, by_band, self.outside_hull, float(speed_rpm))
+
+    def depths_at(self, cutting: Cutting, speeds_rpm, *, n_freq: int = N_FREQ) -> list:
+        """:meth:`depths` at each of several speeds, as a list of :class:`DepthGrid`: the
+        receptance and its eigenvalues are computed once (:func:`rmbench.stability.zoa.zoa_limits`)."""
+        speeds = np.atleast_1d(np.asarray(speeds_rpm, float))
+        n, m = self.shape
+
+        def band(b):
+            flat = np.full((n * m, len(speeds)), np.nan)
+            if len(self.where):
+                p = self.poles[b]
+                flat[self.where] = zoa_limits(p, self.residues[b], cutting, speeds, _freq(p, n_freq))
+            return flat
+
+        per = dict(zip(self.poles, run_concurrently([lambda b=b: band(b) for b in self.poles])))
+        out = []
+        for k, sp in enumerate(speeds):
+            by_band = {b: v[:, k].reshape(n, m) for b, v in per.items()}
+            out.append(DepthGrid(np.minimum.reduce(list(by_band.values())), by_band, self.outside_hull, float(sp)))
+        return out
 
 
 def predicted_modes(predictor, xy, theta, *, bands=("low", "high"), chunk: int = 4096) -> TipModes:

@@ -23,7 +23,7 @@ import numpy as np
 from rmbench.errors import InputError
 from rmbench.io.npz_file import read_npz, write_npz
 from rmbench.io.toolpath import ToolPath
-from rmbench.path.margin import DepthBand, DepthGrid, depth_band, predicted_depths
+from rmbench.path.margin import DepthBand, DepthGrid, depth_band, predicted_modes
 from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise_schedule
 from rmbench.path.reach import Reach, reach_grid
 from rmbench.stability.cutting import ALUMINIUM_6061, Cutting
@@ -92,6 +92,9 @@ class PathPlan:
         interpolated between the evaluated locations), None until computed.
     band_level : float
         The band's central probability.
+    speed_scan : dict or None
+        Where several speeds were planned: ``speeds_rpm`` and each one's planned smallest critical
+        depth ``min_alim`` (m); ``speed_rpm`` is the best of them.
     """
 
     toolpath: ToolPath
@@ -106,6 +109,7 @@ class PathPlan:
     hull_distance: np.ndarray | None = None
     band: DepthBand | None = None
     band_level: float = 0.95
+    speed_scan: dict | None = None
 
     @property
     def gain(self) -> float:
@@ -142,6 +146,9 @@ class PathPlan:
                "seconds": self.seconds}
         if self.depth is not None:
             out["at_risk"] = {"planned": len(self.at_risk()), "fixed": len(self.at_risk(self.fixed))}
+        if self.speed_scan is not None:
+            out["speed_scan"] = {"speeds_rpm": self.speed_scan["speeds_rpm"],
+                                 "min_alim_mm": [1e3 * v for v in self.speed_scan["min_alim"]]}
         if self.band is not None:
             out["band"] = {"level": self.band_level, "min_lower_mm": 1e3 * float(np.nanmin(self.band.lower)),
                            "min_upper_mm": 1e3 * float(np.nanmin(self.band.upper))}
@@ -202,7 +209,8 @@ def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None,
             "depths_speed_rpm": d.speed_rpm, "bands": list(d.by_band),
             "feasible": {k: bool(getattr(plan, k).feasible) for k in ("planned", "fixed", "pointwise")},
             "band": None if plan.band is None else {"scale": plan.band.scale, "n": plan.band.n_calibration,
-                                                    "level": plan.band_level}}
+                                                    "level": plan.band_level},
+            "speed_scan": plan.speed_scan}
     return write_npz(path, meta, arrays)
 
 
@@ -235,7 +243,8 @@ def load_plan(path) -> tuple[PathPlan, dict]:
     except (ValueError, KeyError, TypeError):
         raise InputError(f"{path} is not a saved path plan (write one with: rmbench path plan ... --out DIR)") from None
     plan = PathPlan(tp, reach, depths, sch["planned"], sch["fixed"], sch["pointwise"], meta["depth"],
-                    float(meta["speed_rpm"]), meta["seconds"], a.get("hull_distance"), band, level)
+                    float(meta["speed_rpm"]), meta["seconds"], a.get("hull_distance"), band, level,
+                    meta.get("speed_scan"))
     return plan, meta
 
 
@@ -258,7 +267,7 @@ def _evaluated(toolpath: ToolPath, eval_spacing: float) -> np.ndarray:
     return idx
 
 
-def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: float | None = None,
+def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float | None = None,
               cutting: Cutting = ALUMINIUM_6061, settings: PlanSettings = PlanSettings(),
               progress=None) -> PathPlan:
     """Plan θ(s) along a tool path with the critical depth a posture predictor gives.
@@ -270,8 +279,10 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: 
     predictor : rmbench.predict.PosturePredictor
         Trained on this robot with the tool that mills.
     toolpath : ToolPath
-    speed_rpm : float
-        Spindle speed, rev/min.
+    speed_rpm : float or array_like
+        Spindle speed, rev/min; several: each is planned and the one whose planned schedule keeps
+        the largest smallest critical depth is kept (``PathPlan.speed_scan`` holds them all; the
+        tool tip's modes are predicted once, the receptance's eigenvalues computed once for all).
     depth : float, optional
         Axial depth to be cut, m (marks the locations at risk).
     cutting : Cutting
@@ -283,8 +294,9 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: 
         A cutter location no candidate angle reaches (named, with the reach), a speed or depth out
         of range.
     """
-    if not speed_rpm > 0:
-        raise InputError(f"the spindle speed must be > 0 rev/min, got {speed_rpm!r}")
+    speeds = np.atleast_1d(np.asarray(speed_rpm, float))
+    if speeds.ndim != 1 or not len(speeds) or not np.all(speeds > 0):
+        raise InputError(f"spindle speeds must be > 0 rev/min, got {speed_rpm!r}")
     if depth is not None and not depth > 0:
         raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
     say = progress or (lambda msg: None)
@@ -299,22 +311,29 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: 
     t["reach"] = time.perf_counter()
     say(f"{len(tp)} cutter locations reached at {len(theta)} angles")
     at = _evaluated(tp, settings.eval_spacing)
-    coarse = predicted_depths(predictor, tp.xy[at], theta, cutting, speed_rpm)
+    grids = predicted_modes(predictor, tp.xy[at], theta).depths_at(cutting, speeds)
     arc = tp.arc_length()
 
     def spread(a):
         return np.column_stack([np.interp(arc, arc[at], a[:, j]) for j in range(a.shape[1])])
 
-    depths = DepthGrid(spread(coarse.a_lim), {b: spread(v) for b, v in coarse.by_band.items()},
-                       spread(coarse.outside_hull.astype(float)) > 0, coarse.speed_rpm)
     t["depths"] = time.perf_counter()
-    say(f"critical depths predicted at {len(at)} locations x {len(theta)} angles")
-    margin = np.where(reach.ok, depths.a_lim, -np.inf)
+    say(f"critical depths predicted at {len(at)} locations x {len(theta)} angles"
+        + (f" x {len(speeds)} speeds" if len(speeds) > 1 else ""))
     feed = np.where(np.isfinite(tp.feed), tp.feed, settings.default_feed)
     # each move's time at its feed (a rapid's at the cutting feed: slower than it will be, so
     # its joint moves are judged leniently; nothing is cut along it)
     max_dq = settings.max_joint_rate * np.diff(arc) / feed[1:]
-    planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq)
+    best, scan = None, []
+    for coarse in grids:
+        depths = DepthGrid(spread(coarse.a_lim), {b: spread(v) for b, v in coarse.by_band.items()},
+                           spread(coarse.outside_hull.astype(float)) > 0, coarse.speed_rpm)
+        margin = np.where(reach.ok, depths.a_lim, -np.inf)
+        planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq)
+        scan.append(planned.min_margin)
+        if best is None or planned.min_margin > best[1].min_margin:
+            best = (depths, planned, margin)
+    depths, planned, margin = best
     fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
     pointwise = pointwise_schedule(margin, theta)
     t["plan"] = time.perf_counter()
@@ -322,7 +341,10 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm: float, depth: 
     seconds = {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i} | {
         "total": round(t[keys[-1]] - t[keys[0]], 3)}
     hull = predictor.hull_distance(np.column_stack([tp.xy, planned.theta]))
-    return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(speed_rpm), seconds, hull)
+    speed_scan = ({"speeds_rpm": speeds.tolist(), "min_alim": [float(v) for v in scan]} if len(speeds) > 1
+                  else None)
+    return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(depths.speed_rpm), seconds, hull,
+                    speed_scan=speed_scan)
 
 
 def with_band(plan: PathPlan, predictor, *, cutting: Cutting = ALUMINIUM_6061, eval_spacing: float = 20e-3,

@@ -16,8 +16,8 @@ from rmbench.stability.grids import DEPTH_MAX, SPEED_RANGES, benchmark_structure
 from rmbench.stability.lobes import METHODS, Lobes, lobes, lowest_envelope
 from rmbench.stability.sdm import sdm_spectral_radius
 from rmbench.stability.structure import Structure
-from rmbench.stability.zoa import zoa_limit, zoa_lobes
+from rmbench.stability.zoa import zoa_limit, zoa_limits, zoa_lobes
 
 __all__ = ["Cutting", "BENCHMARK", "ALUMINIUM_6061", "Structure", "Lobes", "lobes", "lowest_envelope",
-           "METHODS", "fdm_spectral_radius", "sdm_spectral_radius", "zoa_lobes", "zoa_limit", "speed_grid", "depth_grid",
+           "METHODS", "fdm_spectral_radius", "sdm_spectral_radius", "zoa_lobes", "zoa_limit", "zoa_limits", "speed_grid", "depth_grid",
            "benchmark_structure", "SPEED_RANGES", "DEPTH_MAX"]

@@ -18,7 +18,7 @@ import numpy as np
 from rmbench.stability.cutting import Cutting
 from rmbench.stability.structure import Structure
 
-__all__ = ["zoa_lobes", "zoa_limit"]
+__all__ = ["zoa_lobes", "zoa_limit", "zoa_limits"]
 
 
 def zoa_lobes(structure: Structure, cutting: Cutting, speeds_rpm: np.ndarray, *, a_max: float = np.inf,
@@ -90,13 +90,19 @@ def zoa_limit(poles, residues, cutting: Cutting, speed_rpm: float, freq, *, chun
     ndarray, shape (n,), m
         inf where no lobe crosses the speed (stable at any depth by this method).
     """
+    return zoa_limits(poles, residues, cutting, [speed_rpm], freq, chunk=chunk)[:, 0]
+
+
+def zoa_limits(poles, residues, cutting: Cutting, speeds_rpm, freq, *, chunk: int = 256) -> np.ndarray:
+    """:func:`zoa_limit` at several spindle speeds, shape (n, n_speeds), m: the receptance and its
+    eigenvalues are the speeds' common part and are computed once."""
     poles = np.asarray(poles, complex)
     residues = np.asarray(residues, complex)
     freq = np.asarray(freq, float)
+    speeds = np.atleast_1d(np.asarray(speeds_rpm, float))
     h0 = cutting.average_directional()
-    tooth = 60.0 / (cutting.teeth * float(speed_rpm))
     omega = 2 * np.pi * freq
-    out = np.full(len(poles), np.inf)
+    out = np.full((len(poles), len(speeds)), np.inf)
     for a0 in range(0, len(poles), chunk):
         sl = slice(a0, a0 + chunk)
         lam_m = poles[sl]
@@ -118,13 +124,15 @@ def zoa_limit(poles, residues, cutting: Cutting, speed_rpm: float, freq, *, chun
                 depth = lam.real * (1 + kappa ** 2) / 2
                 psi = np.arctan2(1.0, kappa)
             ok = (lam.real > 0) & np.isfinite(depth)
-            u = (omega[None] * tooth - 2 * psi) / (2 * np.pi)
-            k0, k1 = np.floor(u[:, :-1]), np.floor(u[:, 1:])
-            cross = ok[:, :-1] & ok[:, 1:] & (k0 != k1) & (np.maximum(k0, k1) >= 0)
-            # the integer crossed, and the fraction of the step where u reaches it
-            k = np.maximum(k0, k1)
-            du = u[:, 1:] - u[:, :-1]
-            t = np.where(cross & (du != 0), (k - u[:, :-1]) / np.where(du != 0, du, 1.0), 0.0)
-            val = np.where(cross, depth[:, :-1] + t * (depth[:, 1:] - depth[:, :-1]), np.inf)
-            out[sl] = np.minimum(out[sl], val.min(axis=1))
+            for j, speed in enumerate(speeds):
+                tooth = 60.0 / (cutting.teeth * float(speed))
+                u = (omega[None] * tooth - 2 * psi) / (2 * np.pi)
+                k0, k1 = np.floor(u[:, :-1]), np.floor(u[:, 1:])
+                cross = ok[:, :-1] & ok[:, 1:] & (k0 != k1) & (np.maximum(k0, k1) >= 0)
+                # the integer crossed, and the fraction of the step where u reaches it
+                k = np.maximum(k0, k1)
+                du = u[:, 1:] - u[:, :-1]
+                t = np.where(cross & (du != 0), (k - u[:, :-1]) / np.where(du != 0, du, 1.0), 0.0)
+                val = np.where(cross, depth[:, :-1] + t * (depth[:, 1:] - depth[:, :-1]), np.inf)
+                out[sl, j] = np.minimum(out[sl, j], val.min(axis=1))
     return out
