@@ -37,7 +37,7 @@ def register(sub) -> None:
     p.add_argument("--mill", type=int, default=0, metavar="N",
                    help="check the plan by virtual milling at --depth at N locations of the planned and of the "
                         "fixed-angle schedule (a few seconds a cut)")
-    p.add_argument("--out", default=None, help="directory for plan.csv, fixed.csv and plan.json")
+    p.add_argument("--out", default=None, help="directory for plan.csv, fixed.csv, plan.json and plan.npz (what path mill reads)")
     p.add_argument("--json", action="store_true", help="print the plan's summary as JSON")
     add_report_option(p, "the path coloured by its critical depth, θ and the depth along it")
     p.set_defaults(func=cmd_plan)
