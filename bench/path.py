@@ -16,7 +16,8 @@ posture predictor, against θ held fixed and against a plan from the exact model
    the exact depth, at the evaluated locations, at the speed with the largest exact gain; beside it
    the conformal band (``conformal=True``: the draws' spread scaled by the training postures'
    left-out depths).
-6. Virtual milling along the plan (``mill_schedule``) at the first speed, where the impact bands'
+6. Virtual milling along the plan (``mill_schedule``, the robot moving along the path at the
+   pocket's feed through each cut) at the first speed, where the impact bands'
    modes limit (above ~12 krpm the tool on its holder, outside the bands, does): ``--mill`` evenly
    spaced locations of the planned and of the fixed-θ schedule, each cut at three depths along the
    whole path (0.8 times the smallest predicted critical depth of the two schedules, their median,

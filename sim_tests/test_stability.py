@@ -302,3 +302,45 @@ def test_the_vectorised_zero_order_limit_agrees_with_the_lobes_at_one_speed(irb)
     many = zoa_limits(poles, res, ALUMINIUM_6061, [9000.0, 12000.0, 15000.0], freq)
     for j, speed in enumerate((9000.0, 12000.0, 15000.0)):
         np.testing.assert_array_equal(many[:, j], zoa_limit(poles, res, ALUMINIUM_6061, speed, freq))
+
+
+def _follow(a, motion, feed_forward: bool) -> float:
+    """Largest tip distance (m) from a motion's moving equilibrium while the servos follow it."""
+    import mujoco
+
+    from rmbench.robot.simulate import stable_step, stepping_model
+
+    dt = stable_step(a)
+    m, d = stepping_model(a, dt=dt)
+    t = np.arange(int(motion.t[-1] / dt) + 1) * dt
+    qpos, qvel, ctrl, rows = motion.sample(m, t)
+    if not feed_forward:
+        ctrl = np.column_stack([np.interp(t, motion.t, motion.ctrl[:, j]) for j in range(m.nu)])
+    d.qpos[:], d.qvel[:] = qpos[0], qvel[0]
+    err = 0.0
+    for i in range(len(t) - 1):
+        d.ctrl[:] = ctrl[i]
+        mujoco.mj_step(m, d)
+        err = max(err, float(np.abs(rows[i + 1] @ (d.qpos - qpos[i + 1])).max()))
+    return err
+
+
+def test_servos_follow_a_motion_on_its_equilibrium_with_the_velocity_feed_forward(irb):
+    """A cut on the moving robot is read from the equilibrium its servos are commanded through:
+    10 mm of path in 0.2 s (a 3 m/min milling feed). With the feed-forward the tip keeps within
+    3 µm of it (1.7 µm measured: a slow sway in the arm's lowest modes, far below the tooth-passing
+    frequencies a chatter verdict reads); without, the servos' damping holds the arm back by
+    kv v / kp, 80 µm at the tip, and each cut would start with a jerk."""
+    from rmbench.stability.milling import Motion
+
+    a, b = (irb.at(Posture.from_mm_deg(x, 0, 0)) for x in (1600, 1610))
+    motion = Motion.through([a, b], [0.0, 0.2])
+    assert _follow(a, motion, feed_forward=True) < 3e-6
+    assert _follow(a, motion, feed_forward=False) > 20e-6
+
+
+def test_a_motion_needs_two_knots_at_increasing_times_from_zero(irb_op):
+    from rmbench.stability.milling import Motion
+
+    with pytest.raises(InputError, match="two knots"):
+        Motion.through([irb_op, irb_op], [0.0, 0.0])

@@ -1,10 +1,13 @@
 """Virtual milling along a planned path: does the cut chatter where the plan says it will?
 
-At locations sampled along a schedule the robot is posed as planned (its joint commands) and the
-simulator mills there at the depth to be cut (:func:`rmbench.stability.milling.mill`: every mode
-of the MuJoCo model, the regenerative force in the time domain). Each cut holds its posture: in
-the few hundred milliseconds a verdict takes the arm moves a few millimetres, where its modes
-change over hundreds.
+At locations sampled along a schedule the simulator mills at the depth to be cut
+(:func:`rmbench.stability.milling.mill`: every mode of the MuJoCo model, the regenerative force in
+the time domain) while the robot moves along the path: its servos follow the schedule's joint
+commands at the path's feed through the cutter locations around the sampled one (a cut of
+``periods`` tooth periods covers ``feed × duration`` of path, centred on it where the path allows),
+with the deflected equilibria of those locations as the reference the vibration is measured from.
+``moving=False`` holds each sampled posture instead (the arm moves a few millimetres during a
+cut, where its modes change over hundreds, so the two agree; the bench shows by how much).
 
 A location is *decided* when the depth lies more than ``band`` (10 %) from the plan's predicted
 critical depth there: the plan then says "stable" or "chatter", and the cut agrees or not. The
@@ -22,7 +25,7 @@ import numpy as np
 from rmbench.errors import InputError
 from rmbench.path.margin import N_FREQ, _freq
 from rmbench.stability.cutting import Cutting
-from rmbench.stability.milling import mill
+from rmbench.stability.milling import Motion, mill
 from rmbench.stability.zoa import zoa_limit
 
 __all__ = ["PathMilling", "mill_schedule", "sample_locations"]
@@ -53,6 +56,8 @@ class PathMilling:
         Relative half-width around the predicted depth inside which a cut is not scored.
     amplitude : ndarray, shape (k,), m, or None
         Peak-to-peak tool-tip vibration over each cut's last third.
+    moving : bool
+        The robot moved along the path during each cut (else it held the sampled posture).
     """
 
     schedule: str
@@ -66,6 +71,7 @@ class PathMilling:
     kind: tuple
     band: float = 0.1
     amplitude: np.ndarray | None = None
+    moving: bool = False
 
     @property
     def decided(self) -> np.ndarray:
@@ -86,7 +92,7 @@ class PathMilling:
     def summary(self) -> dict:
         d = self.decided
         return {"schedule": self.schedule, "cuts": len(self.index), "depth_mm": 1e3 * self.depth,
-                "speed_rpm": self.speed_rpm, "decided": int(d.sum()), "inside_band": int((~d).sum()),
+                "speed_rpm": self.speed_rpm, "moving": self.moving, "decided": int(d.sum()), "inside_band": int((~d).sum()),
                 "agreement": self.agreement, "chatter": int(self.chatter.sum()),
                 "expected_chatter": int(self.expected.sum()),
                 "exact_agreement": (float(np.mean(self.chatter[d] == (self.depth > self.exact[d])))
@@ -111,9 +117,20 @@ def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands) -> float:
     return min(per)
 
 
+def _window(arc: np.ndarray, k: int, travel: float) -> tuple[int, int]:
+    """First and last cutter location of a cut travelling ``travel`` (m) of path around location
+    ``k``: centred on it, shifted inwards at the path's ends; the locations just beyond included,
+    so that the motion covers the whole cut."""
+    lo = min(max(arc[k] - travel / 2, arc[0]), max(arc[-1] - travel, arc[0]))
+    a = int(np.searchsorted(arc, lo, side="right")) - 1
+    b = int(np.searchsorted(arc, arc[a] + travel, side="left"))
+    return max(a, 0), min(max(b, a + 1), len(arc) - 1)
+
+
 def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutting: Cutting | None = None,
                   locations=None, n: int = 40, periods: int = 90, band: float = 0.1,
-                  bands=("low", "high"), progress=None) -> PathMilling:
+                  bands=("low", "high"), moving: bool = True, feed: float = 0.05,
+                  progress=None) -> PathMilling:
     """Mill at sampled locations of one of a plan's schedules.
 
     Parameters
@@ -133,6 +150,10 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         Tooth periods per cut (:func:`rmbench.stability.milling.mill`).
     band : float
         Cuts within this relative distance of the predicted critical depth are not scored.
+    moving : bool
+        Move the robot along the path during each cut (module notes); else hold the posture.
+    feed : float
+        Feed, m/s, where the path programs none (the planner's default).
     progress : callable, optional
         Called with each finished cut's position (0-based).
     """
@@ -151,13 +172,22 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     q = plan.reach.q[idx, s.index[idx]]
     predicted = plan.depths.a_lim[idx, s.index[idx]]
     exact, chatter, kind, amplitude = np.empty(len(idx)), np.empty(len(idx), bool), [], np.empty(len(idx))
+    tp = plan.toolpath
+    arc = tp.arc_length()
+    speed = np.where(np.isfinite(tp.feed), tp.feed, feed)
+    duration = periods * 60.0 / (cutting.teeth * plan.speed_rpm)
     for k in range(len(idx)):
         op = robot.at(q[k])
         exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
-        run = mill(op, cutting, plan.speed_rpm, depth, periods=periods)
+        motion, first = None, op
+        if moving:
+            a, b = _window(arc, int(idx[k]), speed[idx[k]] * duration)
+            ops = [op if j == idx[k] else robot.at(plan.reach.q[j, s.index[j]]) for j in range(a, b + 1)]
+            motion, first = Motion.through(ops, (arc[a:b + 1] - arc[a]) / speed[idx[k]]), ops[0]
+        run = mill(first, cutting, plan.speed_rpm, depth, periods=periods, motion=motion)
         chatter[k], amplitude[k] = run.chatter, run.amplitude
         kind.append(run.kind)
         if progress is not None:
             progress(k)
     return PathMilling(schedule, idx, s.theta[idx], float(depth), plan.speed_rpm, predicted, exact, chatter,
-                       tuple(kind), float(band), amplitude)
+                       tuple(kind), float(band), amplitude, bool(moving))

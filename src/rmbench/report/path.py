@@ -35,6 +35,23 @@ def path_sections(page: Page, plan, milling: dict | None = None) -> None:
                        "name": "at risk", "marker": {"symbol": "x", "color": "#d62728", "size": 7}})
     sec.figure({"data": traces, "layout": {"height": 480, "xaxis": {"title": {"text": "x (mm)"}},
                                            "yaxis": {"title": {"text": "y (mm)"}, "scaleanchor": "x"}}})
+    sec = page.section("Tool path in 3-D", "The cutter locations in space (mm; z as programmed, the tool axis "
+                       "vertical), coloured by the critical depth along the planned schedule (mm); crosses: at risk. "
+                       "Drag to turn.")
+    xyz = 1e3 * np.column_stack([tp.xy, tp.z])
+    traces = [{"type": "scatter3d", "mode": "markers", "x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2],
+               "name": "planned", "marker": {"size": 2.5, "color": _mm(plan.planned.margin), "colorscale": "Viridis",
+                                            "colorbar": {"title": {"text": "a_lim (mm)"}}}}]
+    if len(risk):
+        traces.append({"type": "scatter3d", "mode": "markers", "x": xyz[risk, 0], "y": xyz[risk, 1],
+                       "z": xyz[risk, 2], "name": "at risk",
+                       "marker": {"symbol": "x", "color": "#d62728", "size": 4}})
+    span = np.ptp(xyz[:, :2], axis=0)
+    span = span / max(span.max(), 1e-9)
+    sec.figure({"data": traces, "layout": {
+        "height": 520, "scene": {"xaxis": {"title": {"text": "x (mm)"}}, "yaxis": {"title": {"text": "y (mm)"}},
+                                 "zaxis": {"title": {"text": "z (mm)"}}, "aspectmode": "manual",
+                                 "aspectratio": {"x": max(span[0], 0.05), "y": max(span[1], 0.05), "z": 0.3}}}})
     sec = page.section("Redundant angle along the path", "θ per cutter location for each schedule.")
     sec.figure({"data": [{"type": "scatter", "mode": "lines", "x": s_mm, "y": np.degrees(s.theta), "name": k,
                           "line": {"color": _COLORS[k], "width": 1.5}} for k, s in schedules.items()],
@@ -70,8 +87,11 @@ def path_sections(page: Page, plan, milling: dict | None = None) -> None:
 def _milling_section(page: Page, plan, milling: dict) -> None:
     s_mm = 1e3 * plan.toolpath.arc_length()
     sec = page.section("Virtual milling along the path",
-                       "Each cut in the simulator at the plan's joint commands and the depth cut: the tool tip's "
-                       "peak-to-peak vibration over the cut's last third (µm); filled: chatter, open: stable.")
+                       "Each cut in the simulator at the plan's joint commands and the depth cut, the robot "
+                       + ("moving along the path at its feed" if all(m.moving for m in milling.values())
+                          else "holding each posture")
+                       + ": the tool tip's peak-to-peak vibration over the cut's last third (µm); filled: "
+                       "chatter, open: stable.")
     traces = []
     for k, m in milling.items():
         amp = np.full(len(m.index), np.nan) if m.amplitude is None else 1e6 * np.asarray(m.amplitude, float)

@@ -13,6 +13,13 @@ act at the tool tip (as generalised forces through the tip's Jacobian at the equ
 starts from the static deflection under the mean cutting force with a small velocity kick, so that
 what follows is the regenerative dynamics rather than the robot's slow settling.
 
+The robot may also move through the cut (:class:`Motion`): its servos then follow commands
+interpolated between the deflected equilibria of operating points along a path, with the velocity
+feed-forward a position servo needs to follow without lag, and the tool tip's vibration is measured
+from the moving equilibrium. A slow drift of that equilibrium (the path between the points is
+straight in joint space; the static deflection changes with the posture) is removed by a quadratic
+trend before the chatter metrics, so that it is not read as non-periodic motion.
+
 Chatter (Honeycutt & Schmitz 2016): the tip displacement sampled once per tooth period repeats in
 stable cutting and wanders in chatter. ``metric`` is the mean distance between consecutive samples
 over the last third of the run divided by the tip's vibration amplitude there; ``growth`` the ratio
@@ -33,7 +40,7 @@ from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
 from rmbench.threads import worker_init
 
-__all__ = ["MillingRun", "mill", "chatter_metrics", "mill_grid"]
+__all__ = ["MillingRun", "Motion", "mill", "chatter_metrics", "mill_grid"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +81,68 @@ class MillingRun:
         return cls(**{k: (np.inf if k in unbounded else np.nan) if v is None else v for k, v in d.items()})
 
 
+@dataclass(frozen=True)
+class Motion:
+    """The robot moving through a cut: what its servos hold, against time.
+
+    Between knots the equilibria and the servo commands follow a monotone cubic in time (PCHIP,
+    as :class:`rmbench.control.trajectory.Trajectory` does): the velocity stays continuous where
+    the path turns, as a machine's look-ahead blends a corner, instead of stepping and striking
+    the arm; the tip rows are interpolated linearly. After the last knot the robot holds it.
+
+    Attributes
+    ----------
+    t : ndarray, shape (m,)
+        Knot times, s, strictly increasing from 0.
+    qpos : ndarray, shape (m, nq)
+        The deflected static equilibrium at each knot (rad, m).
+    ctrl : ndarray, shape (m, nu)
+        The servo commands that hold it.
+    rows : ndarray, shape (m, 2, nv)
+        The tool tip's X and Y per generalised coordinate there (``OperatingPoint.coordinate_map``).
+    """
+
+    t: np.ndarray
+    qpos: np.ndarray
+    ctrl: np.ndarray
+    rows: np.ndarray
+
+    def __post_init__(self):
+        if len(self.t) < 2 or self.t[0] != 0 or np.any(np.diff(self.t) <= 0):
+            raise InputError("a motion needs at least two knots at strictly increasing times from 0 s")
+
+    @classmethod
+    def through(cls, ops, times) -> Motion:
+        """The motion through operating points ``ops`` of one robot reached at ``times`` (s)."""
+        return cls(np.asarray(times, float), np.array([op.data.qpos for op in ops]),
+                   np.array([op.data.ctrl for op in ops]),
+                   np.array([op.coordinate_map(("1X", "1Y")) for op in ops]))
+
+    def sample(self, model: mujoco.MjModel, times: np.ndarray):
+        """Equilibrium ``qpos`` and its velocity, servo commands and tip rows at ``times`` (s).
+
+        The commands of position-like servos carry the velocity feed-forward
+        ``−b₂ v / g`` (bias and gain of the actuator, ``v`` its joint's speed along the motion):
+        without it the servo's damping would hold the arm back and start the cut with a jerk.
+        """
+        from scipy.interpolate import PchipInterpolator
+
+        tt = np.minimum(np.asarray(times, float), self.t[-1])
+        path = PchipInterpolator(self.t, self.qpos, axis=0)
+        qpos = path(tt)
+        qvel = np.where((np.asarray(times) < self.t[-1])[:, None], path.derivative()(tt), 0.0)
+        ctrl = PchipInterpolator(self.t, self.ctrl, axis=0)(tt)
+        for a in range(model.nu):
+            if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
+                dof = model.jnt_dofadr[model.actuator_trnid[a, 0]]
+                gear = model.actuator_gear[a, 0]
+                ctrl[:, a] -= model.actuator_biasprm[a, 2] * gear * qvel[:, dof] / model.actuator_gainprm[a, 0]
+        seg = np.clip(np.searchsorted(self.t, tt, side="right") - 1, 0, len(self.t) - 2)
+        w = ((tt - self.t[seg]) / (self.t[seg + 1] - self.t[seg]))[:, None]
+        rows = self.rows[seg] * (1 - w[..., None]) + self.rows[seg + 1] * w[..., None]
+        return qpos, qvel, ctrl, rows
+
+
 def chatter_metrics(q: np.ndarray, dt: float, period: float) -> dict:
     """Once-per-period metrics of a tip displacement history ``q`` (n_step, 2) sampled every ``dt``."""
     t = np.arange(len(q)) * dt
@@ -101,7 +170,8 @@ def chatter_metrics(q: np.ndarray, dt: float, period: float) -> dict:
 
 
 def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: float = 0.05e-3,
-         periods: int = 90, dt: float | None = None, kick: float = 1e-3, runaway: float = 5e-3) -> MillingRun:
+         periods: int = 90, dt: float | None = None, kick: float = 1e-3, runaway: float = 5e-3,
+         motion: Motion | None = None) -> MillingRun:
     """Mill at one speed and depth and judge chatter.
 
     Parameters
@@ -124,6 +194,9 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
     runaway : float
         Tip displacement, m, beyond which the run stops as ``"runaway"`` chatter (a real tool would
         break or be stopped; the small-motion cutting model no longer holds).
+    motion : Motion, optional
+        The robot moving through the cut, ``op`` its first knot (whose model, stiffness and
+        fastest mode set the run up). Default: held at ``op``.
     """
     from rmbench.robot.simulate import stable_step
 
@@ -161,14 +234,24 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
     f_mean = np.mean([force(p, np.zeros(2)) for p in ph], axis=0)
     dq_static = np.linalg.solve(op.linear.K, rows.T @ f_mean)
     mujoco.mj_setState(m, d, _state(op), mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    d.qpos[:] = q_eq + dq_static
-    d.qvel[:] = np.linalg.pinv(rows) @ np.array([kick, kick])
-    d.ctrl[:] = op.data.ctrl
     n = int(np.ceil(periods * period / dt))
+    if motion is None:
+        q_eq_t = ctrl_t = rows_t = None
+        q_eq, v_eq, ctrl0, rows = q_eq, np.zeros(m.nv), op.data.ctrl, rows
+    else:
+        # the state after each step is read against the equilibrium at that step's time
+        q_eq_t, v_eq_t, ctrl_t, rows_t = motion.sample(m, np.arange(n + 1) * dt)
+        q_eq, v_eq, ctrl0, rows = q_eq_t[0], v_eq_t[0], ctrl_t[0], rows_t[0]
+    d.qpos[:] = q_eq + dq_static
+    d.qvel[:] = v_eq + np.linalg.pinv(rows) @ np.array([kick, kick])
+    d.ctrl[:] = ctrl0
     lag = period / dt
     q = np.empty((n, 2))
     q0 = rows @ dq_static
     for i in range(n):
+        if motion is not None:
+            q_eq, rows = q_eq_t[i], rows_t[i]
+            d.ctrl[:] = ctrl_t[i]
         qi = rows @ (d.qpos - q_eq)
         q[i] = qi
         k = i - lag
@@ -189,6 +272,10 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
         if abs(qi).max() > runaway:
             return MillingRun(float(rpm), float(depth), True, "runaway", np.inf, np.inf, 1.0,
                               float(np.max(np.ptp(q[:i + 1], axis=0))))
+    if motion is not None:
+        # the moving equilibrium's slow drift is not vibration (module notes)
+        t = np.arange(n) * dt
+        q = q - np.polynomial.polynomial.polyval(t, np.polynomial.polynomial.polyfit(t, q, 2)).T
     met = chatter_metrics(q - q.mean(axis=0), dt, period)
     chatter = met["growth"] > 1.0 or met["off_harmonic"] > 0.5
     kind = "stable" if not chatter else ("flip" if met["flip_ratio"] < 0.3 else "hopf")
