@@ -197,17 +197,23 @@ def plan_9000(irb, small_predictor):
     return plan_path(irb, PosturePredictor.load(small_predictor), _square(), speed_rpm=9000, settings=settings)
 
 
-def test_virtual_milling_along_the_plan_chatters_above_its_predicted_depth_and_not_below(irb, plan_9000):
+@pytest.fixture(scope="module")
+def cuts_at_5(irb, plan_9000):
+    """Location 5 of the planned schedule milled 30 % below and 30 % above its predicted depth, the
+    robot moving along the path: ``{0.7: PathMilling, 1.3: PathMilling}``."""
+    from rmbench.path import mill_schedule
+
+    a = plan_9000.planned.margin[5]
+    return {f: mill_schedule(irb, plan_9000, depth=f * a, locations=[5]) for f in (0.7, 1.3)}
+
+
+def test_virtual_milling_along_the_plan_chatters_above_its_predicted_depth_and_not_below(plan_9000, cuts_at_5):
     """At 9000 rev/min the impact bands' modes set the limit (the tool on its holder, outside them,
     only above ~12 krpm), so the simulator's cut at the planned pose follows the plan's critical
     depth: stable 30 % below it, chatter 30 % above (margins over this 12-posture predictor's few
     per cent and the zero-order method's, in slot milling). The robot moves along the path."""
-    from rmbench.path import mill_schedule
-
-    plan = plan_9000
-    a = plan.planned.margin[5]
-    below = mill_schedule(irb, plan, depth=0.7 * a, locations=[5])
-    above = mill_schedule(irb, plan, depth=1.3 * a, locations=[5])
+    a = plan_9000.planned.margin[5]
+    below, above = cuts_at_5[0.7], cuts_at_5[1.3]
     assert below.predicted[0] == a and below.decided.all() and above.decided.all()
     assert not below.chatter[0] and above.chatter[0]
     assert below.agreement == above.agreement == 1.0
@@ -218,19 +224,41 @@ def test_virtual_milling_along_the_plan_chatters_above_its_predicted_depth_and_n
     assert below.moving and above.moving
 
 
-def test_a_cut_on_the_moving_robot_gives_the_held_postures_verdict(irb, plan_9000):
+def test_a_cut_on_the_moving_robot_gives_the_held_postures_verdict(irb, plan_9000, cuts_at_5):
     """During a cut (0.2 s at 3 m/min) the arm moves ~10 mm, where its modes change over hundreds:
     the verdict is the held posture's and the vibration within 20 % of it (measured here 1-4 %, 16 %
     at worst at the square's corner: the moving cut starts from a pose 5 mm earlier and has its
     slow drift removed)."""
     from rmbench.path import mill_schedule
 
-    a = plan_9000.planned.margin[5]
-    for depth in (0.7 * a, 1.3 * a):
-        moving = mill_schedule(irb, plan_9000, depth=depth, locations=[5])
-        held = mill_schedule(irb, plan_9000, depth=depth, locations=[5], moving=False)
+    for f, moving in cuts_at_5.items():
+        held = mill_schedule(irb, plan_9000, depth=moving.depth, locations=[5], moving=False)
+        assert not held.moving
         assert moving.chatter[0] == held.chatter[0]
         assert moving.amplitude[0] == pytest.approx(held.amplitude[0], rel=0.2)
+
+
+def test_a_moving_cut_stays_on_its_straight_stretch_and_holds_where_the_stretch_is_too_short():
+    """A raster: 300 mm along X, a 10 mm stepover, back along X (locations 5 mm apart). A chatter
+    verdict is about steady cutting, so a 15 mm cut near a corner is shifted along its pass rather
+    than carried round it, and a cut on the stepover, shorter than itself, holds its posture."""
+    from rmbench.path.milling import _stretch, _window
+
+    x = np.arange(0.0, 0.3001, 0.005)
+    xy = np.vstack([np.column_stack([x, np.zeros_like(x)]), [[0.3, 0.005], [0.3, 0.01]],
+                    np.column_stack([x[::-1][1:], np.full(len(x) - 1, 0.01)])])
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    first_pass, stepover = (0, 60), (60, 62)
+    assert _stretch(xy, 30) == first_pass and _stretch(xy, 59) == first_pass
+    assert _stretch(xy, 61) == stepover
+    # centred on the location, covering the cut, at most a spacing beyond it at each end
+    a, b = _window(arc, 30, 0.015, first_pass)
+    assert a < 30 < b and 0.015 <= arc[b] - arc[a] <= 0.025 + 1e-9
+    assert abs(0.5 * (arc[a] + arc[b]) - arc[30]) <= 0.005
+    # near the corner: shifted back along the pass, ending at the corner
+    a, b = _window(arc, 59, 0.015, first_pass)
+    assert b == 60 and arc[b] - arc[a] >= 0.015
+    assert _window(arc, 61, 0.015, stepover) is None              # held
 
 
 @pytest.mark.parametrize("kw, message", [({"schedule": "best", "depth": 1e-3}, "unknown schedule"),

@@ -6,6 +6,10 @@ the time domain) while the robot moves along the path: its servos follow the sch
 commands at the path's feed through the cutter locations around the sampled one (a cut of
 ``periods`` tooth periods covers ``feed × duration`` of path, centred on it where the path allows),
 with the deflected equilibria of those locations as the reference the vibration is measured from.
+A cut stays on the straight stretch of path it lies on (shifted along it where the location is
+near a corner): a verdict is about steady cutting, and a machine turning a sharp corner at full
+feed would strike the arm, a transient no chatter test should read. Where the stretch is shorter
+than a cut (a raster's stepover) the cut holds the posture, and is counted so (``moved``).
 ``moving=False`` holds each sampled posture instead (the arm moves a few millimetres during a
 cut, where its modes change over hundreds, so the two agree; the bench shows by how much).
 
@@ -57,7 +61,9 @@ class PathMilling:
     amplitude : ndarray, shape (k,), m, or None
         Peak-to-peak tool-tip vibration over each cut's last third.
     moving : bool
-        The robot moved along the path during each cut (else it held the sampled posture).
+        The cuts were asked to move along the path (else each held its sampled posture).
+    moved : ndarray of bool, shape (k,), or None
+        Which cuts moved (a cut on a stretch shorter than itself holds its posture).
     """
 
     schedule: str
@@ -72,6 +78,7 @@ class PathMilling:
     band: float = 0.1
     amplitude: np.ndarray | None = None
     moving: bool = False
+    moved: np.ndarray | None = None
 
     @property
     def decided(self) -> np.ndarray:
@@ -92,7 +99,8 @@ class PathMilling:
     def summary(self) -> dict:
         d = self.decided
         return {"schedule": self.schedule, "cuts": len(self.index), "depth_mm": 1e3 * self.depth,
-                "speed_rpm": self.speed_rpm, "moving": self.moving, "decided": int(d.sum()), "inside_band": int((~d).sum()),
+                "speed_rpm": self.speed_rpm, "moving": self.moving,
+                "held_cuts": int(len(self.index) - (0 if self.moved is None else np.sum(self.moved))), "decided": int(d.sum()), "inside_band": int((~d).sum()),
                 "agreement": self.agreement, "chatter": int(self.chatter.sum()),
                 "expected_chatter": int(self.expected.sum()),
                 "exact_agreement": (float(np.mean(self.chatter[d] == (self.depth > self.exact[d])))
@@ -117,14 +125,42 @@ def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands) -> float:
     return min(per)
 
 
-def _window(arc: np.ndarray, k: int, travel: float) -> tuple[int, int]:
+def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(1.0)) -> tuple[int, int]:
+    """First and last location of the straight stretch of path through location ``k`` (the
+    longer one where ``k`` is a corner): consecutive moves within ``tol`` of one direction."""
+    d = np.diff(xy, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    ang = np.arctan2(d[:, 1], d[:, 0])
+
+    def same(i, j):
+        return length[i] > 1e-9 and abs(np.angle(np.exp(1j * (ang[i] - ang[j])))) < tol
+
+    best = (k, k)
+    for j in (k - 1, k):
+        if not 0 <= j < len(ang) or length[j] <= 1e-9:
+            continue
+        a, b = j, j
+        while a > 0 and same(a - 1, j):
+            a -= 1
+        while b < len(ang) - 1 and same(b + 1, j):
+            b += 1
+        if length[a:b + 1].sum() > length[best[0]:best[1]].sum():
+            best = (a, b + 1)
+    return best
+
+
+def _window(arc: np.ndarray, k: int, travel: float, stretch: tuple[int, int]) -> tuple[int, int] | None:
     """First and last cutter location of a cut travelling ``travel`` (m) of path around location
-    ``k``: centred on it, shifted inwards at the path's ends; the locations just beyond included,
-    so that the motion covers the whole cut."""
-    lo = min(max(arc[k] - travel / 2, arc[0]), max(arc[-1] - travel, arc[0]))
+    ``k``: centred on it, shifted along its straight ``stretch`` near the stretch's ends, the
+    locations just beyond included so that the motion covers the whole cut; None where the
+    stretch is shorter than the cut."""
+    s0, s1 = stretch
+    if arc[s1] - arc[s0] < travel:
+        return None
+    lo = min(max(arc[k] - travel / 2, arc[s0]), arc[s1] - travel)
     a = int(np.searchsorted(arc, lo, side="right")) - 1
     b = int(np.searchsorted(arc, arc[a] + travel, side="left"))
-    return max(a, 0), min(max(b, a + 1), len(arc) - 1)
+    return max(a, s0), min(max(b, a + 1), s1)
 
 
 def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutting: Cutting | None = None,
@@ -172,6 +208,7 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     q = plan.reach.q[idx, s.index[idx]]
     predicted = plan.depths.a_lim[idx, s.index[idx]]
     exact, chatter, kind, amplitude = np.empty(len(idx)), np.empty(len(idx), bool), [], np.empty(len(idx))
+    moved = np.zeros(len(idx), bool)
     tp = plan.toolpath
     arc = tp.arc_length()
     speed = np.where(np.isfinite(tp.feed), tp.feed, feed)
@@ -180,14 +217,16 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         op = robot.at(q[k])
         exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
         motion, first = None, op
-        if moving:
-            a, b = _window(arc, int(idx[k]), speed[idx[k]] * duration)
+        window = _window(arc, int(idx[k]), speed[idx[k]] * duration, _stretch(tp.xy, int(idx[k]))) if moving else None
+        if window is not None:
+            a, b = window
             ops = [op if j == idx[k] else robot.at(plan.reach.q[j, s.index[j]]) for j in range(a, b + 1)]
             motion, first = Motion.through(ops, (arc[a:b + 1] - arc[a]) / speed[idx[k]]), ops[0]
+        moved[k] = motion is not None
         run = mill(first, cutting, plan.speed_rpm, depth, periods=periods, motion=motion)
         chatter[k], amplitude[k] = run.chatter, run.amplitude
         kind.append(run.kind)
         if progress is not None:
             progress(k)
     return PathMilling(schedule, idx, s.theta[idx], float(depth), plan.speed_rpm, predicted, exact, chatter,
-                       tuple(kind), float(band), amplitude, bool(moving))
+                       tuple(kind), float(band), amplitude, bool(moving), moved)

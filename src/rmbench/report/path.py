@@ -84,12 +84,19 @@ def path_sections(page: Page, plan, milling: dict | None = None) -> None:
         _milling_section(page, plan, milling)
 
 
+def _motion_words(milling: dict) -> str:
+    if not all(m.moving for m in milling.values()):
+        return "holding each posture"
+    held = sum(int(np.sum(~m.moved)) for m in milling.values() if m.moved is not None)
+    return "moving along the path at its feed" + (
+        f" ({held} cuts on a straight stretch shorter than a cut held their posture)" if held else "")
+
+
 def _milling_section(page: Page, plan, milling: dict) -> None:
     s_mm = 1e3 * plan.toolpath.arc_length()
     sec = page.section("Virtual milling along the path",
                        "Each cut in the simulator at the plan's joint commands and the depth cut, the robot "
-                       + ("moving along the path at its feed" if all(m.moving for m in milling.values())
-                          else "holding each posture")
+                       + _motion_words(milling)
                        + ": the tool tip's peak-to-peak vibration over the cut's last third (µm); filled: "
                        "chatter, open: stable.")
     traces = []
