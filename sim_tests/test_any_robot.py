@@ -195,12 +195,12 @@ def test_small_campaign_fit_and_mtgp_run_on_the_generated_robot(built, robots, n
 
     _, path = built[name]
     robot = robots[name]
-    # 8 postures: the grid's two middle x and y lines, two angles
+    # 12 postures: the grid's two middle x and y lines, three angles
     xs = sorted({p.x for p in robot.grid()})
     ys = sorted({p.y for p in robot.grid()})
     cfg = load_config(path.with_name(f"{name}_campaign.toml")).with_overrides(
         method="linear", grid={"kind": "product", "x_mm": [1000 * xs[1], 1000 * xs[2]],
-                               "y_mm": [1000 * ys[1], 1000 * ys[2]], "theta_deg": [-20, 20]})
+                               "y_mm": [1000 * ys[1], 1000 * ys[2]], "theta_deg": [-20, 0, 20]})
     run_campaign(cfg, tmp_path / "c.nc", workers=0, progress=False)
     fit = fit_campaign(open_campaign(tmp_path / "c.nc"), workers=0)
     # every posture's fit holds, and its frequencies are the exact ones (linear path: noise only)
