@@ -150,7 +150,7 @@ def main() -> None:
         decided, right = 0, 0
         for sched in ("planned", "fixed"):
             for depth in (lo_d, mid_d, hi_d):
-                cuts = mill_schedule(robot, plan, depth=depth, schedule=sched, n=args.mill)
+                cuts = mill_schedule(robot, plan, depth=depth, schedule=sched, n=args.mill, moving=True)
                 d = cuts.decided
                 decided += int(d.sum())
                 right += int(np.sum(cuts.chatter[d] == cuts.expected[d]))

@@ -204,7 +204,7 @@ def cuts_at_5(irb, plan_9000):
     from rmbench.path import mill_schedule
 
     a = plan_9000.planned.margin[5]
-    return {f: mill_schedule(irb, plan_9000, depth=f * a, locations=[5]) for f in (0.7, 1.3)}
+    return {f: mill_schedule(irb, plan_9000, depth=f * a, locations=[5], moving=True) for f in (0.7, 1.3)}
 
 
 def test_virtual_milling_along_the_plan_chatters_above_its_predicted_depth_and_not_below(plan_9000, cuts_at_5):
@@ -232,16 +232,17 @@ def test_a_cut_on_the_moving_robot_gives_the_held_postures_verdict(irb, plan_900
     from rmbench.path import mill_schedule
 
     for f, moving in cuts_at_5.items():
-        held = mill_schedule(irb, plan_9000, depth=moving.depth, locations=[5], moving=False)
+        held = mill_schedule(irb, plan_9000, depth=moving.depth, locations=[5])
         assert not held.moving
         assert moving.chatter[0] == held.chatter[0]
         assert moving.amplitude[0] == pytest.approx(held.amplitude[0], rel=0.2)
 
 
-def test_a_moving_cut_stays_on_its_straight_stretch_and_holds_where_the_stretch_is_too_short():
+def test_a_moving_cut_stays_on_its_smooth_stretch_and_holds_where_the_stretch_is_too_short():
     """A raster: 300 mm along X, a 10 mm stepover, back along X (locations 5 mm apart). A chatter
-    verdict is about steady cutting, so a 15 mm cut near a corner is shifted along its pass rather
-    than carried round it, and a cut on the stepover, shorter than itself, holds its posture."""
+    verdict is about steady cutting, so a 15 mm cut near a right-angle corner is shifted along its
+    pass rather than carried round it, and a cut on the stepover, shorter than itself, holds its
+    posture. A rounded corner (10° per move) is steady cutting and does not end a stretch."""
     from rmbench.path.milling import _stretch, _window
 
     x = np.arange(0.0, 0.3001, 0.005)
@@ -259,6 +260,11 @@ def test_a_moving_cut_stays_on_its_straight_stretch_and_holds_where_the_stretch_
     a, b = _window(arc, 59, 0.015, first_pass)
     assert b == 60 and arc[b] - arc[a] >= 0.015
     assert _window(arc, 61, 0.015, stepover) is None              # held
+    # a quarter circle of 9 moves: one stretch with the passes on either side
+    phi = np.radians(np.arange(0, 91, 10.0))
+    bend = np.vstack([np.column_stack([np.arange(-0.05, 0.0, 0.01), np.zeros(5)]),
+                      np.column_stack([0.05 * np.sin(phi), 0.05 * (1 - np.cos(phi))])])
+    assert _stretch(bend, 8) == (0, len(bend) - 1)
 
 
 @pytest.mark.parametrize("kw, message", [({"schedule": "best", "depth": 1e-3}, "unknown schedule"),
@@ -312,7 +318,7 @@ def test_path_plan_writes_the_schedule_and_strict_json(planned_cli):
     assert json.loads((tmp_path / "plan" / "plan.json").read_text())["cl_points"] == out["cl_points"]
     html = (tmp_path / "plan.html").read_text()
     assert "Redundant angle along the path" in html and "Critical depth along the path" in html
-    assert "Virtual milling along the path" in html and "moving along the path at its feed" in html
+    assert "Virtual milling along the path" in html and "holding each posture" in html
     assert "Tool path in 3-D" in html and '"scatter3d"' in html
 
 
@@ -348,7 +354,7 @@ def test_path_mill_mills_a_saved_plan_as_the_plan_says(small_predictor, tmp_path
     assert meta["robot"] == "irb6660" and len(plan.toolpath) == plan_out["cl_points"]
     assert 1e3 * plan.planned.min_margin == pytest.approx(plan_out["min_alim_mm"]["planned"], rel=1e-12)
     depth = 0.7 * plan_out["min_alim_mm"]["planned"]          # 30 % below every planned limit: stable
-    code = main(["path", "mill", str(tmp_path / "plan"), "--depth", f"{depth}", "-n", "2", "--json",
+    code = main(["path", "mill", str(tmp_path / "plan"), "--depth", f"{depth}", "-n", "2", "--json", "--moving",
                  "--report", str(tmp_path / "mill.html")])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["cuts"] == 2 and out["chatter"] == 0 and out["agreement"] == 1.0

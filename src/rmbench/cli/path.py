@@ -49,8 +49,8 @@ def register(sub) -> None:
     m.add_argument("-n", type=int, default=10, metavar="N", help="locations milled, evenly spaced along the path (default 10)")
     m.add_argument("--robot", default=None, help="the robot that mills (default: the plan's; a 'real' robot checks the plan against it)")
     m.add_argument("--tool", default=None, help="its tool (default: the plan's)")
-    m.add_argument("--held", action="store_true",
-                   help="hold each sampled posture during its cut (default: the robot moves along the path at its feed)")
+    m.add_argument("--moving", action="store_true",
+                   help="move the robot along the path at its feed through each cut (default: hold each sampled posture)")
     m.add_argument("--json", action="store_true", help="print the cuts' summary as JSON")
     add_report_option(m, "the plan and the cuts' vibration along the path")
     m.set_defaults(func=cmd_mill)
@@ -203,9 +203,9 @@ def cmd_mill(args) -> int:
                        tool=args.tool if args.tool is not None else meta.get("tool"))
     say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
     say(f"milling {args.n} locations of the {args.schedule} schedule at {args.depth:g} mm, "
-        f"{plan.speed_rpm:g} rev/min, the robot {'holding each posture' if args.held else 'moving along the path'}")
+        f"{plan.speed_rpm:g} rev/min, the robot {'moving along the path' if args.moving else 'holding each posture'}")
     cuts = mill_schedule(robot, plan, depth=1e-3 * args.depth, schedule=args.schedule, n=args.n,
-                         moving=not args.held, progress=lambda k: say(f"cut {k + 1} of {min(args.n, len(plan.toolpath))}"))
+                         moving=args.moving, progress=lambda k: say(f"cut {k + 1} of {min(args.n, len(plan.toolpath))}"))
     summary = cuts.summary() | {"cuts_at": [{"location": int(i), "theta_deg": float(t), "predicted_mm": 1e3 * float(a),
                                              "exact_mm": 1e3 * float(e), "chatter": bool(c), "kind": k,
                                              "vibration_um": 1e6 * float(v)}

@@ -2,16 +2,23 @@
 
 At locations sampled along a schedule the simulator mills at the depth to be cut
 (:func:`rmbench.stability.milling.mill`: every mode of the MuJoCo model, the regenerative force in
-the time domain) while the robot moves along the path: its servos follow the schedule's joint
-commands at the path's feed through the cutter locations around the sampled one (a cut of
-``periods`` tooth periods covers ``feed × duration`` of path, centred on it where the path allows),
-with the deflected equilibria of those locations as the reference the vibration is measured from.
-A cut stays on the straight stretch of path it lies on (shifted along it where the location is
-near a corner): a verdict is about steady cutting, and a machine turning a sharp corner at full
-feed would strike the arm, a transient no chatter test should read. Where the stretch is shorter
-than a cut (a raster's stepover) the cut holds the posture, and is counted so (``moved``).
-``moving=False`` holds each sampled posture instead (the arm moves a few millimetres during a
-cut, where its modes change over hundreds, so the two agree; the bench shows by how much).
+the time domain). By default each cut holds its posture (the robot posed with the plan's joint
+commands): in the fraction of a second a verdict takes the arm moves millimetres, where its modes
+change over hundreds. With ``moving=True`` the robot moves along the path instead: its servos
+follow the schedule's joint commands at the path's feed through the cutter locations around the
+sampled one (a cut of ``periods`` tooth periods covers ``feed × duration`` of path, centred on it
+where the path allows), with the deflected equilibria of those locations as the reference the
+vibration is measured from. A moving cut stays on the smooth stretch of path it lies on (shifted
+along it where the location is near a sharp corner): a verdict is about steady cutting, and a
+machine turning a sharp corner at full feed would strike the arm, a transient no chatter test
+should read. Where the stretch is shorter than a cut (a raster's stepover) the cut holds the
+posture, and is counted so (``moved``).
+
+The moving reference is interpolated between the locations' equilibria (PCHIP). Where the joint
+path's curvature changes along the cut (a rounded corner running into a straight) the arm sways
+about it by tens of µm with no cut at all (29 µm on the bundled contour, enough for a false "hopf"
+verdict), so the moving cut is an option, not the default, until the reference is taken from a
+run without the cut.
 
 A location is *decided* when the depth lies more than ``band`` (10 %) from the plan's predicted
 critical depth there: the plan then says "stable" or "chatter", and the cut agrees or not. The
@@ -63,7 +70,7 @@ class PathMilling:
     moving : bool
         The cuts were asked to move along the path (else each held its sampled posture).
     moved : ndarray of bool, shape (k,), or None
-        Which cuts moved (a cut on a stretch shorter than itself holds its posture).
+        Which cuts moved (a cut on a smooth stretch shorter than itself holds its posture).
     """
 
     schedule: str
@@ -125,24 +132,25 @@ def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands) -> float:
     return min(per)
 
 
-def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(1.0)) -> tuple[int, int]:
-    """First and last location of the straight stretch of path through location ``k`` (the
-    longer one where ``k`` is a corner): consecutive moves within ``tol`` of one direction."""
+def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(20.0)) -> tuple[int, int]:
+    """First and last location of the smooth stretch of path through location ``k`` (the longer
+    one where ``k`` is a corner): consecutive moves turning by less than ``tol`` each (an arc of
+    a few of the spacings' radius continues it; a raster's right-angle corner ends it)."""
     d = np.diff(xy, axis=0)
     length = np.hypot(d[:, 0], d[:, 1])
     ang = np.arctan2(d[:, 1], d[:, 0])
 
-    def same(i, j):
-        return length[i] > 1e-9 and abs(np.angle(np.exp(1j * (ang[i] - ang[j])))) < tol
+    def smooth(i, j):
+        return length[i] > 1e-9 and length[j] > 1e-9 and abs(np.angle(np.exp(1j * (ang[i] - ang[j])))) < tol
 
     best = (k, k)
     for j in (k - 1, k):
         if not 0 <= j < len(ang) or length[j] <= 1e-9:
             continue
         a, b = j, j
-        while a > 0 and same(a - 1, j):
+        while a > 0 and smooth(a - 1, a):
             a -= 1
-        while b < len(ang) - 1 and same(b + 1, j):
+        while b < len(ang) - 1 and smooth(b + 1, b):
             b += 1
         if length[a:b + 1].sum() > length[best[0]:best[1]].sum():
             best = (a, b + 1)
@@ -165,7 +173,7 @@ def _window(arc: np.ndarray, k: int, travel: float, stretch: tuple[int, int]) ->
 
 def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutting: Cutting | None = None,
                   locations=None, n: int = 40, periods: int = 90, band: float = 0.1,
-                  bands=("low", "high"), moving: bool = True, feed: float = 0.05,
+                  bands=("low", "high"), moving: bool = False, feed: float = 0.05,
                   progress=None) -> PathMilling:
     """Mill at sampled locations of one of a plan's schedules.
 
@@ -187,7 +195,7 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     band : float
         Cuts within this relative distance of the predicted critical depth are not scored.
     moving : bool
-        Move the robot along the path during each cut (module notes); else hold the posture.
+        Move the robot along the path during each cut (module notes); default: hold the posture.
     feed : float
         Feed, m/s, where the path programs none (the planner's default).
     progress : callable, optional

@@ -89,7 +89,7 @@ def _motion_words(milling: dict) -> str:
         return "holding each posture"
     held = sum(int(np.sum(~m.moved)) for m in milling.values() if m.moved is not None)
     return "moving along the path at its feed" + (
-        f" ({held} cuts on a straight stretch shorter than a cut held their posture)" if held else "")
+        f" ({held} cuts on a stretch between sharp corners shorter than a cut held their posture)" if held else "")
 
 
 def _milling_section(page: Page, plan, milling: dict) -> None:
