@@ -339,8 +339,9 @@ def test_servos_follow_a_motion_on_its_equilibrium_with_the_velocity_feed_forwar
     assert _follow(a, motion, feed_forward=False) > 20e-6
 
 
-def test_a_motion_needs_two_knots_at_increasing_times_from_zero(irb_op):
+@pytest.mark.parametrize("times", [[0.0, 0.0], [0.1, 0.2], [-0.2, -0.1]], ids=["equal", "late", "early"])
+def test_a_motion_needs_two_knots_at_increasing_times_spanning_zero(irb_op, times):
     from rmbench.stability.milling import Motion
 
     with pytest.raises(InputError, match="two knots"):
-        Motion.through([irb_op, irb_op], [0.0, 0.0])
+        Motion.through([irb_op, irb_op], times)

@@ -107,7 +107,8 @@ class PathMilling:
         d = self.decided
         return {"schedule": self.schedule, "cuts": len(self.index), "depth_mm": 1e3 * self.depth,
                 "speed_rpm": self.speed_rpm, "moving": self.moving,
-                "held_cuts": int(len(self.index) - (0 if self.moved is None else np.sum(self.moved))), "decided": int(d.sum()), "inside_band": int((~d).sum()),
+                "held_cuts": int(len(self.index) - (0 if self.moved is None else np.sum(self.moved))),
+                "decided": int(d.sum()), "inside_band": int((~d).sum()),
                 "agreement": self.agreement, "chatter": int(self.chatter.sum()),
                 "expected_chatter": int(self.expected.sum()),
                 "exact_agreement": (float(np.mean(self.chatter[d] == (self.depth > self.exact[d])))
@@ -132,12 +133,15 @@ def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands) -> float:
     return min(per)
 
 
-def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(20.0)) -> tuple[int, int]:
-    """First and last location of the smooth stretch of path through location ``k`` (the longer
-    one where ``k`` is a corner): consecutive moves turning by less than ``tol`` each (an arc of
-    a few of the spacings' radius continues it; a raster's right-angle corner ends it)."""
+def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(20.0), cutting=None) -> tuple[int, int]:
+    """First and last location of the smooth stretch of cutting path through location ``k`` (the
+    longer one where ``k`` is a corner): consecutive cutting moves turning by less than ``tol``
+    each (an arc of a few of the spacings' radius continues it; a raster's right-angle corner, a
+    rapid or a plunge ends it). ``cutting``: bool per location, whether the move to it cuts."""
     d = np.diff(xy, axis=0)
     length = np.hypot(d[:, 0], d[:, 1])
+    if cutting is not None:
+        length = np.where(np.asarray(cutting, bool)[1:], length, 0.0)      # a rapid is no cut
     ang = np.arctan2(d[:, 1], d[:, 0])
 
     def smooth(i, j):
@@ -158,17 +162,18 @@ def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(20.0)) -> tuple[int
 
 
 def _window(arc: np.ndarray, k: int, travel: float, stretch: tuple[int, int]) -> tuple[int, int] | None:
-    """First and last cutter location of a cut travelling ``travel`` (m) of path around location
-    ``k``: centred on it, shifted along its straight ``stretch`` near the stretch's ends, the
-    locations just beyond included so that the motion covers the whole cut; None where the
-    stretch is shorter than the cut."""
+    """The cut travelling ``travel`` (m) of path around location ``k``: centred on it, shifted
+    along its smooth ``stretch`` near the stretch's ends. Returns ``(start, a, b)``: the arc
+    length where the cut starts, m, and the first and last cutter location of the motion (the
+    locations at or beyond the cut's ends, so that the motion spans it); None where the stretch is
+    shorter than the cut."""
     s0, s1 = stretch
     if arc[s1] - arc[s0] < travel:
         return None
-    lo = min(max(arc[k] - travel / 2, arc[s0]), arc[s1] - travel)
-    a = int(np.searchsorted(arc, lo, side="right")) - 1
-    b = int(np.searchsorted(arc, arc[a] + travel, side="left"))
-    return max(a, s0), min(max(b, a + 1), s1)
+    start = min(max(arc[k] - travel / 2, arc[s0]), arc[s1] - travel)
+    a = max(int(np.searchsorted(arc, start, side="right")) - 1, s0)
+    b = min(int(np.searchsorted(arc, start + travel, side="left")), s1)
+    return float(start), a, max(b, a + 1)
 
 
 def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutting: Cutting | None = None,
@@ -205,6 +210,8 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
 
     if schedule not in ("planned", "fixed", "pointwise"):
         raise InputError(f"unknown schedule {schedule!r}; use planned, fixed or pointwise")
+    if not feed > 0:
+        raise InputError(f"the feed must be > 0 m/s, got {feed!r}")
     if not depth > 0:
         raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
     cutting = ALUMINIUM_6061 if cutting is None else cutting
@@ -225,11 +232,14 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         op = robot.at(q[k])
         exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
         motion, first = None, op
-        window = _window(arc, int(idx[k]), speed[idx[k]] * duration, _stretch(tp.xy, int(idx[k]))) if moving else None
+        window = (_window(arc, int(idx[k]), speed[idx[k]] * duration, _stretch(tp.xy, int(idx[k]), cutting=tp.cutting))
+                  if moving else None)
         if window is not None:
-            a, b = window
+            start, a, b = window
             ops = [op if j == idx[k] else robot.at(plan.reach.q[j, s.index[j]]) for j in range(a, b + 1)]
-            motion, first = Motion.through(ops, (arc[a:b + 1] - arc[a]) / speed[idx[k]]), ops[0]
+            # the clock starts with the cut, between locations a and a + 1
+            motion = Motion.through(ops, (arc[a:b + 1] - start) / speed[idx[k]])
+            first = ops[int(np.argmin(np.abs(arc[a:b + 1] - start)))]
         moved[k] = motion is not None
         run = mill(first, cutting, plan.speed_rpm, depth, periods=periods, motion=motion)
         chatter[k], amplitude[k] = run.chatter, run.amplitude

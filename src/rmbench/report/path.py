@@ -35,10 +35,10 @@ def path_sections(page: Page, plan, milling: dict | None = None) -> None:
                        "name": "at risk", "marker": {"symbol": "x", "color": "#d62728", "size": 7}})
     sec.figure({"data": traces, "layout": {"height": 480, "xaxis": {"title": {"text": "x (mm)"}},
                                            "yaxis": {"title": {"text": "y (mm)"}, "scaleanchor": "x"}}})
-    sec = page.section("Tool path in 3-D", "The cutter locations in space (mm; z as programmed, the tool axis "
-                       "vertical), coloured by the critical depth along the planned schedule (mm); crosses: at risk. "
+    sec = page.section("Tool path in 3-D", "The cutter locations in space (mm; z as programmed, 0 where it "
+                       "never was; the tool axis vertical), coloured by the critical depth along the planned schedule (mm); crosses: at risk. "
                        "Drag to turn.")
-    xyz = 1e3 * np.column_stack([tp.xy, tp.z])
+    xyz = 1e3 * np.column_stack([tp.xy, np.nan_to_num(tp.z)])          # z never programmed: drawn at 0
     traces = [{"type": "scatter3d", "mode": "markers", "x": xyz[:, 0], "y": xyz[:, 1], "z": xyz[:, 2],
                "name": "planned", "marker": {"size": 2.5, "color": _mm(plan.planned.margin), "colorscale": "Viridis",
                                             "colorbar": {"title": {"text": "a_lim (mm)"}}}}]
@@ -85,8 +85,11 @@ def path_sections(page: Page, plan, milling: dict | None = None) -> None:
 
 
 def _motion_words(milling: dict) -> str:
-    if not all(m.moving for m in milling.values()):
+    if not any(m.moving for m in milling.values()):
         return "holding each posture"
+    if not all(m.moving for m in milling.values()):
+        return "moving along the path at its feed for " + ", ".join(k for k, m in milling.items() if m.moving) + \
+            " (the others holding each posture)"
     held = sum(int(np.sum(~m.moved)) for m in milling.values() if m.moved is not None)
     return "moving along the path at its feed" + (
         f" ({held} cuts on a stretch between sharp corners shorter than a cut held their posture)" if held else "")

@@ -17,8 +17,8 @@ The robot may also move through the cut (:class:`Motion`): its servos then follo
 interpolated between the deflected equilibria of operating points along a path, with the velocity
 feed-forward a position servo needs to follow without lag, and the tool tip's vibration is measured
 from the moving equilibrium. A slow drift of that equilibrium (the path between the points is
-straight in joint space; the static deflection changes with the posture) is removed by a quadratic
-trend before the chatter metrics, so that it is not read as non-periodic motion.
+interpolated; the static deflection changes with the posture) is removed by a quadratic trend
+before the chatter metrics, so that it is not read as non-periodic motion.
 
 Chatter (Honeycutt & Schmitz 2016): the tip displacement sampled once per tooth period repeats in
 stable cutting and wanders in chatter. ``metric`` is the mean distance between consecutive samples
@@ -85,7 +85,8 @@ class MillingRun:
 class Motion:
     """The robot moving through a cut: what its servos hold, against time.
 
-    Between knots the equilibria and the servo commands follow a monotone cubic in time (PCHIP,
+    The cut runs from time 0; knots may start before it (the cut then begins between two of
+    them). Between knots the equilibria and the servo commands follow a monotone cubic in time (PCHIP,
     as :class:`rmbench.control.trajectory.Trajectory` does): the velocity stays continuous where
     the path turns, as a machine's look-ahead blends a corner, instead of stepping and striking
     the arm; the tip rows are interpolated linearly. After the last knot the robot holds it.
@@ -93,13 +94,15 @@ class Motion:
     Attributes
     ----------
     t : ndarray, shape (m,)
-        Knot times, s, strictly increasing from 0.
+        Knot times, s, strictly increasing, the first at or before 0.
     qpos : ndarray, shape (m, nq)
-        The deflected static equilibrium at each knot (rad, m).
+        The deflected static equilibrium at each knot (rad, m). Hinge and slide joints only
+        (nq = nv), as every rmbench robot.
     ctrl : ndarray, shape (m, nu)
-        The servo commands that hold it.
+        The servo commands that hold it (the actuators' units: rad for a position servo).
     rows : ndarray, shape (m, 2, nv)
-        The tool tip's X and Y per generalised coordinate there (``OperatingPoint.coordinate_map``).
+        The tool tip's X and Y per generalised coordinate there, m per unit
+        (``OperatingPoint.coordinate_map``).
     """
 
     t: np.ndarray
@@ -108,8 +111,11 @@ class Motion:
     rows: np.ndarray
 
     def __post_init__(self):
-        if len(self.t) < 2 or self.t[0] != 0 or np.any(np.diff(self.t) <= 0):
-            raise InputError("a motion needs at least two knots at strictly increasing times from 0 s")
+        if len(self.t) < 2 or self.t[0] > 0 or self.t[-1] <= 0 or np.any(np.diff(self.t) <= 0):
+            raise InputError("a motion needs at least two knots at strictly increasing times, the first at "
+                             "or before 0 s and the last after it")
+        if not (len(self.qpos) == len(self.ctrl) == len(self.rows) == len(self.t)):
+            raise InputError("a motion needs one equilibrium, command and tip map per knot")
 
     @classmethod
     def through(cls, ops, times) -> Motion:
@@ -121,9 +127,11 @@ class Motion:
     def sample(self, model: mujoco.MjModel, times: np.ndarray):
         """Equilibrium ``qpos`` and its velocity, servo commands and tip rows at ``times`` (s).
 
-        The commands of position-like servos carry the velocity feed-forward
-        ``−b₂ v / g`` (bias and gain of the actuator, ``v`` its joint's speed along the motion):
-        without it the servo's damping would hold the arm back and start the cut with a jerk.
+        The commands of joint actuators carry the velocity feed-forward ``−b₂ v / g`` (bias and
+        gain of the actuator, ``v`` its joint's speed along the motion; zero for an actuator
+        without velocity bias): without it a position servo's damping would hold the arm back and
+        start the cut with a jerk. After the last knot the motion stops at once (the velocity
+        steps to zero): a motion should outlast the cut.
         """
         from scipy.interpolate import PchipInterpolator
 
@@ -195,8 +203,8 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
         Tip displacement, m, beyond which the run stops as ``"runaway"`` chatter (a real tool would
         break or be stopped; the small-motion cutting model no longer holds).
     motion : Motion, optional
-        The robot moving through the cut, ``op`` its first knot (whose model, stiffness and
-        fastest mode set the run up). Default: held at ``op``.
+        The robot moving through the cut (from time 0), ``op`` the operating point nearest its
+        start (whose model, stiffness and fastest mode set the run up). Default: held at ``op``.
     """
     from rmbench.robot.simulate import stable_step
 
@@ -236,7 +244,6 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
     mujoco.mj_setState(m, d, _state(op), mujoco.mjtState.mjSTATE_FULLPHYSICS)
     n = int(np.ceil(periods * period / dt))
     if motion is None:
-        q_eq_t = ctrl_t = rows_t = None
         q_eq, v_eq, ctrl0, rows = q_eq, np.zeros(m.nv), op.data.ctrl, rows
     else:
         # the state after each step is read against the equilibrium at that step's time
