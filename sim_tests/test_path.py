@@ -366,7 +366,7 @@ def test_path_mill_mills_a_saved_plan_as_the_plan_says(small_predictor, tmp_path
                  "--report", str(tmp_path / "mill.html")])
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["cuts"] == 2 and out["chatter"] == 0 and out["agreement"] == 1.0
-    assert out["moving"] is True and out["held_cuts"] == 0
+    assert out["moving"] is True and out["held_cuts"] == 0 and all(c["moved"] for c in out["cuts_at"])
     assert [c["location"] for c in out["cuts_at"]] == [0, len(plan.toolpath) - 1]
     assert "Virtual milling along the path" in (tmp_path / "mill.html").read_text()
 

@@ -208,9 +208,10 @@ def cmd_mill(args) -> int:
                          moving=args.moving, progress=lambda k: say(f"cut {k + 1} of {min(args.n, len(plan.toolpath))}"))
     summary = cuts.summary() | {"cuts_at": [{"location": int(i), "theta_deg": float(t), "predicted_mm": 1e3 * float(a),
                                              "exact_mm": 1e3 * float(e), "chatter": bool(c), "kind": k,
-                                             "vibration_um": 1e6 * float(v)}
-                                            for i, t, a, e, c, k, v in zip(cuts.index, np.degrees(cuts.theta), cuts.predicted,
-                                                                           cuts.exact, cuts.chatter, cuts.kind, cuts.amplitude)]}
+                                             "vibration_um": 1e6 * float(v), "moved": bool(mv)}
+                                            for i, t, a, e, c, k, v, mv in zip(cuts.index, np.degrees(cuts.theta), cuts.predicted,
+                                                                               cuts.exact, cuts.chatter, cuts.kind, cuts.amplitude,
+                                                                               cuts.moved)]}
     if report is not None:
         from rmbench.report import Page
         from rmbench.report.path import path_sections
