@@ -1,9 +1,11 @@
-"""Shared fixtures: the bundled robots at a few operating points (built once per session)."""
+"""Shared fixtures: the bundled robots at a few operating points (built once per session), and one
+headless Chromium per test module for the report tests."""
 
 import os
 
 import pytest
 
+from rmbench.report.browser import Browser, find_chromium
 from rmbench.robot import Posture, Robot
 from rmbench.threads import available_cores, limit_threads
 
@@ -86,3 +88,24 @@ def cli(capsys):
         return code, cap.out, cap.err
 
     return run
+
+
+def _missing(why: str):
+    """Skip, except where the run demands the browser (.ci/run sets RMBENCH_REQUIRE_BROWSER)."""
+    if os.environ.get("RMBENCH_REQUIRE_BROWSER"):
+        pytest.fail(why)
+    pytest.skip(why)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    """One Chromium for the module's pages (through Playwright), or a skip that says what is
+    missing (CI installs both)."""
+    if find_chromium() is None:
+        _missing("Chromium not found: install Debian's chromium package (.ci/run does) to render reports")
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        _missing("playwright not installed: pip install -e '.[test]'")
+    with Browser() as b:
+        yield b

@@ -326,21 +326,10 @@ def test_path_plan_writes_the_schedule_and_strict_json(planned_cli):
     assert "Tool path in 3-D" in html and '"scatter3d"' in html
 
 
-def test_the_path_report_renders_its_3d_view_and_every_plot(planned_cli, tmp_path):
+def test_the_path_report_renders_its_3d_view_and_every_plot(browser, planned_cli, tmp_path):
     """The plan's report, the 3-D path (WebGL) included, draws in headless Chromium with a clean
     console (the report tests' criterion)."""
-    from test_report import _missing
-
-    from rmbench.report.browser import Browser, find_chromium
-
-    if find_chromium() is None:
-        _missing("Chromium not found: install Debian's chromium package (.ci/run does) to render reports")
-    try:
-        import playwright.sync_api  # noqa: F401
-    except ImportError:
-        _missing("playwright not installed: pip install -e '.[test]'")
-    with Browser() as b:
-        r = b.render(planned_cli[2] / "plan.html", screenshot=tmp_path / "plan.png")
+    r = browser.render(planned_cli[2] / "plan.html", screenshot=tmp_path / "plan.png")
     assert r.console_errors == () and r.undrawn == ()
     assert r.n_plots >= 5       # the plane and 3-D views, θ, the critical depth, the milling
 

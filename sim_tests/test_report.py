@@ -3,7 +3,6 @@ the page is self-contained; the data the page decodes are the file's; user strin
 markup; bad input gets one line."""
 
 import json
-import os
 import re
 import warnings
 
@@ -12,7 +11,6 @@ import pytest
 import xarray as xr
 
 from rmbench.impact import open_campaign, parse_config, run_campaign
-from rmbench.report.browser import Browser, find_chromium
 from rmbench.report.page import Page, script_json
 
 SMALL = """
@@ -26,27 +24,6 @@ x_mm = [1600, 1800]
 y_mm = [-100, 100]
 theta_deg = [0, 20]
 """
-
-def _missing(why: str):
-    """Skip, except where the run demands the browser (.ci/run sets RMBENCH_REQUIRE_BROWSER)."""
-    if os.environ.get("RMBENCH_REQUIRE_BROWSER"):
-        pytest.fail(why)
-    pytest.skip(why)
-
-
-@pytest.fixture(scope="module")
-def browser():
-    """One Chromium for the module's pages (through Playwright), or a skip that says what is
-    missing (CI installs both)."""
-    if find_chromium() is None:
-        _missing("Chromium not found: install Debian's chromium package (.ci/run does) to render reports")
-    try:
-        import playwright.sync_api  # noqa: F401
-    except ImportError:
-        _missing("playwright not installed: pip install -e '.[test]'")
-    with Browser() as b:
-        yield b
-
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
