@@ -110,6 +110,75 @@ def test_the_plan_reaches_the_largest_smallest_margin_any_allowed_schedule_has()
         assert np.all(np.abs(np.diff(plan.index)) <= step)
 
 
+def _brute_ramped(margin, ramp, max_step):
+    """The best bottleneck over every schedule of holds and θ ramps of ``ramp`` moves (a ramp's
+    inner locations count the smaller margin of its two angles), by enumeration."""
+    n, m = margin.shape
+    best = -np.inf
+
+    def go(s, k, val):
+        nonlocal best
+        if s == n - 1:
+            best = max(best, val)
+            return
+        go(s + 1, k, min(val, margin[s + 1, k]))
+        for d in [d for a in range(1, max_step + 1) for d in (a, -a)]:
+            j = k + d
+            if 0 <= j < m and s + ramp <= n - 1:
+                inner = [min(margin[i, k], margin[i, j]) for i in range(s + 1, s + ramp)]
+                go(s + ramp, j, min([val, margin[s + ramp, j]] + inner))
+
+    for k in range(m):
+        go(0, k, margin[0, k])
+    return best
+
+
+def test_a_ramped_plan_reaches_the_largest_smallest_margin_any_schedule_of_ramps_has():
+    rng = np.random.default_rng(6)
+    for _ in range(120):
+        n, m = int(rng.integers(2, 8)), int(rng.integers(1, 4))
+        ramp, step = int(rng.integers(1, 4)), int(rng.integers(0, 3))
+        margin = rng.normal(size=(n, m))
+        plan = plan_schedule(margin, np.linspace(-1, 1, m), max_step=step, ramp=ramp)
+        rows = np.arange(n)
+        to = plan.index if plan.to is None else plan.to
+        counted = np.minimum(margin[rows, plan.index], margin[rows, to])
+        assert counted.min() == pytest.approx(_brute_ramped(margin, ramp, step), abs=1e-12)
+        # the margin reported along a ramp interpolates its two angles': never below the counted
+        assert np.all(plan.margin >= counted - 1e-12)
+
+
+def test_a_theta_change_is_spread_over_its_ramp_along_a_cycloid():
+    """The best angle changes once: θ leaves the first grid angle and reaches the next over
+    ``ramp`` moves, its fractions the cycloid's (no speed or acceleration at either end)."""
+    from rmbench.path.plan import ramp_profile
+
+    margin = np.array([[1.0, 0.5]] * 10 + [[0.5, 1.0]] * 10)
+    plan = plan_schedule(margin, np.array([0.0, 0.1]), max_step=1, ramp=5)
+    inner = np.flatnonzero(plan.ramping)
+    assert len(inner) == 4 and np.all(np.diff(inner) == 1)
+    np.testing.assert_allclose(plan.frac[inner], ramp_profile(5)[1:5])
+    np.testing.assert_allclose(plan.theta[inner], 0.1 * ramp_profile(5)[1:5])
+    assert np.all(np.diff(plan.theta) >= 0) and plan.theta[0] == 0.0 and plan.theta[-1] == 0.1
+    f = ramp_profile(5)
+    assert np.diff(f)[0] == pytest.approx(np.diff(f)[-1]) and np.diff(f)[0] < 0.05
+
+
+def test_a_ramp_that_would_accelerate_the_joints_beyond_the_limit_is_not_planned():
+    """Two angles 0.5 rad apart in joint space, each tight (0.2) at one end of the path: spread
+    over 4 moves of 0.1 s the change needs about 2π·0.5/0.4² ≈ 20 rad/s². Under a 5 rad/s² limit
+    the plan must stay on one angle and keep 0.2; under 50 rad/s² it changes in the middle."""
+    n = 12
+    margin = np.array([[1.0, 0.2]] * 4 + [[1.0, 1.0]] * 4 + [[0.2, 1.0]] * 4)
+    q = np.zeros((n, 2, 1))
+    q[:, 1, 0] = 0.5
+    kw = dict(q=q, max_step=1, max_dq=1.0, ramp=4, dt=0.1, max_dddq=1e6)
+    slow = plan_schedule(margin, np.array([0.0, 0.1]), max_ddq=5.0, **kw)
+    fast = plan_schedule(margin, np.array([0.0, 0.1]), max_ddq=50.0, **kw)
+    assert len(set(slow.index.tolist())) == 1 and slow.min_margin == 0.2
+    assert fast.index[0] == 0 and fast.index[-1] == 1 and fast.min_margin == 1.0
+
+
 def test_the_plan_never_beats_the_pointwise_best_and_never_loses_to_a_fixed_angle():
     rng = np.random.default_rng(4)
     margin = rng.normal(size=(200, 9)).cumsum(axis=0)
@@ -183,6 +252,9 @@ def test_the_planned_schedule_keeps_at_least_the_fixed_angles_smallest_depth_wit
     dt = np.diff(plan.toolpath.arc_length()) / 0.05
     moves = np.abs(np.diff(plan.joint_trajectory(), axis=0)).max(axis=1)
     assert np.all(moves <= np.radians(60.0) * dt + 1e-12)
+    # the θ ramps add no more acceleration than the limit to the path's own (the fixed angle's)
+    motion, held = plan.joint_motion(), plan.joint_motion(plan.fixed)
+    assert motion["accel"] <= held["accel"] + settings.max_joint_accel
     # critical depths of a few millimetres, as the seed's robot has at this speed
     assert 1e-3 < plan.planned.min_margin < 20e-3
 
@@ -232,7 +304,7 @@ def test_a_cut_on_the_moving_robot_gives_the_held_postures_verdict(irb, plan_900
     from rmbench.path import mill_schedule
 
     for f, moving in cuts_at_5.items():
-        held = mill_schedule(irb, plan_9000, depth=moving.depth, locations=[5])
+        held = mill_schedule(irb, plan_9000, depth=moving.depth, locations=[5], moving=False)
         assert not held.moving
         assert moving.chatter[0] == held.chatter[0]
         assert moving.amplitude[0] == pytest.approx(held.amplitude[0], rel=0.2)
@@ -322,7 +394,7 @@ def test_path_plan_writes_the_schedule_and_strict_json(planned_cli):
     assert json.loads((tmp_path / "plan" / "plan.json").read_text())["cl_points"] == out["cl_points"]
     html = (tmp_path / "plan.html").read_text()
     assert "Redundant angle along the path" in html and "Critical depth along the path" in html
-    assert "Virtual milling along the path" in html and "holding each posture" in html
+    assert "Virtual milling along the path" in html and "moving along the path" in html
     assert "Tool path in 3-D" in html and '"scatter3d"' in html
 
 
@@ -509,3 +581,23 @@ def test_poses_beyond_the_training_postures_are_counted_with_their_distance(irb,
     s_out = plan_path(irb, pred, outside, speed_rpm=15000, settings=settings).summary()
     assert s_in["outside_hull"] == 0 and s_in["hull_distance_max"] == 0.0
     assert s_out["outside_hull"] >= 1 and s_out["hull_distance_max"] > 0.2
+
+
+def test_a_stable_cut_through_the_contours_rounded_corner_reads_stable_on_the_moving_robot(irb, small_predictor):
+    """Location 73 of the bundled contour, θ held at 0, lies where the joint path's curvature
+    changes (a rounded corner running into a straight). Milled at 60 % of its critical depth the
+    cut is stable held, and must read stable moving too: a monotone-cubic reference stepped the
+    servos' acceleration at every 5 mm knot (10 Hz at 3 m/min, the arm's lowest modes) and read a
+    30 µm sway as chatter."""
+    from rmbench.path import PlanSettings, example, mill_schedule, plan_path
+    from rmbench.predict import PosturePredictor
+
+    settings = PlanSettings(theta=(0.0,))
+    plan = plan_path(irb, PosturePredictor.load(small_predictor), example("contour"), speed_rpm=9000,
+                     settings=settings)
+    depth = 0.6 * plan.fixed.margin[73]
+    moving = mill_schedule(irb, plan, depth=depth, schedule="fixed", locations=[73])
+    held = mill_schedule(irb, plan, depth=depth, schedule="fixed", locations=[73], moving=False)
+    assert moving.moved[0] and not held.chatter[0]
+    assert not moving.chatter[0]
+    assert moving.amplitude[0] < 2 * held.amplitude[0]

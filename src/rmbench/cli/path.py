@@ -31,6 +31,10 @@ def register(sub) -> None:
     p.add_argument("--spacing", type=float, default=5.0, metavar="MM", help="cutter-location spacing, mm (default 5)")
     p.add_argument("--max-joint-rate", type=float, default=60.0, metavar="DEG_S",
                    help="largest joint speed while cutting, deg/s (default 60)")
+    p.add_argument("--ramp", type=float, default=50.0, metavar="MM",
+                   help="path length over which θ moves from one grid angle to the next, mm (default 50; 0: within one move)")
+    p.add_argument("--max-joint-accel", type=float, default=57.3, metavar="DEG_S2",
+                   help="largest joint acceleration a θ ramp may add, deg/s² (default 57.3, 1 rad/s²)")
     p.add_argument("--band-draws", type=int, default=64, metavar="N",
                    help="draws of the predictor's calibrated deviations for the 95 %% band of the critical depth "
                         "along the plan (default 64; 0: no band)")
@@ -49,8 +53,11 @@ def register(sub) -> None:
     m.add_argument("-n", type=int, default=10, metavar="N", help="locations milled, evenly spaced along the path (default 10)")
     m.add_argument("--robot", default=None, help="the robot that mills (default: the plan's; a 'real' robot checks the plan against it)")
     m.add_argument("--tool", default=None, help="its tool (default: the plan's)")
-    m.add_argument("--moving", action="store_true",
-                   help="move the robot along the path at its feed through each cut (default: hold each sampled posture)")
+    how = m.add_mutually_exclusive_group()
+    how.add_argument("--moving", dest="moving", action="store_true", default=True,
+                     help="move the robot along the path at its feed through each cut (the default)")
+    how.add_argument("--held", dest="moving", action="store_false",
+                     help="hold each sampled posture instead of moving through it")
     m.add_argument("--json", action="store_true", help="print the cuts' summary as JSON")
     add_report_option(m, "the plan and the cuts' vibration along the path")
     m.set_defaults(func=cmd_mill)
@@ -103,15 +110,18 @@ def cmd_plan(args) -> int:
         raise InputError(f"--band-draws must be 0 (no band) or at least 2, got {args.band_draws}")
     if args.mill < 0 or (args.mill and args.depth is None):
         raise InputError("--mill N needs N >= 0 and a --depth to cut")
-    if not args.spacing > 0 or not args.max_joint_rate > 0:
-        raise InputError("--spacing and --max-joint-rate must be > 0")
+    if not args.spacing > 0 or not args.max_joint_rate > 0 or not args.max_joint_accel > 0:
+        raise InputError("--spacing, --max-joint-rate and --max-joint-accel must be > 0")
+    if not args.ramp >= 0:
+        raise InputError(f"--ramp must be >= 0 mm, got {args.ramp!r}")
     tp = example(args.toolpath) if args.toolpath in EXAMPLES else read_toolpath(args.toolpath)
     if not Path(args.predictor).is_file():
         raise InputError(f"predictor not found: {args.predictor}")
     predictor = PosturePredictor.load(args.predictor)
     robot = Robot.load(args.robot, tool=args.tool)
     settings = PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
-                            spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)))
+                            spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)),
+                            ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)))
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)

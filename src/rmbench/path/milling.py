@@ -2,23 +2,18 @@
 
 At locations sampled along a schedule the simulator mills at the depth to be cut
 (:func:`rmbench.stability.milling.mill`: every mode of the MuJoCo model, the regenerative force in
-the time domain). By default each cut holds its posture (the robot posed with the plan's joint
-commands): in the fraction of a second a verdict takes the arm moves millimetres, where its modes
-change over hundreds. With ``moving=True`` the robot moves along the path instead: its servos
-follow the schedule's joint commands at the path's feed through the cutter locations around the
-sampled one (a cut of ``periods`` tooth periods covers ``feed × duration`` of path, centred on it
-where the path allows), with the deflected equilibria of those locations as the reference the
-vibration is measured from. A moving cut stays on the smooth stretch of path it lies on (shifted
-along it where the location is near a sharp corner): a verdict is about steady cutting, and a
-machine turning a sharp corner at full feed would strike the arm, a transient no chatter test
-should read. Where the stretch is shorter than a cut (a raster's stepover) the cut holds the
-posture, and is counted so (``moved``).
-
-The moving reference is interpolated between the locations' equilibria (PCHIP). Where the joint
-path's curvature changes along the cut (a rounded corner running into a straight) the arm sways
-about it by tens of µm with no cut at all (29 µm on the bundled contour, enough for a false "hopf"
-verdict), so the moving cut is an option, not the default, until the reference is taken from a
-run without the cut.
+the time domain) with the robot moving along the path: its servos follow the schedule's joint
+commands at the path's feed through the cutter locations around the sampled one (a cut of
+``periods`` tooth periods covers ``feed × duration`` of path, centred on it where the path allows),
+with the deflected equilibria of those locations as the reference the vibration is measured from
+(less what the same motion does with no cut). A moving cut stays on the smooth stretch of path it
+lies on (shifted along it where the location is near a sharp corner): a verdict is about steady
+cutting, and a machine turning a sharp corner at full feed would strike the arm, a transient no
+chatter test should read. Where the stretch is shorter than a cut (a raster's stepover) the cut
+holds the posture, and is counted so (``moved``). ``moving=False`` holds every sampled posture
+instead (in the fraction of a second a verdict takes the arm moves millimetres, where its modes
+change over hundreds: the two agree on straight passes); only the moving robot shows what the
+schedule's θ changes do to the cut.
 
 A location is *decided* when the depth lies more than ``band`` (10 %) from the plan's predicted
 critical depth there: the plan then says "stable" or "chatter", and the cut agrees or not. The
@@ -178,7 +173,7 @@ def _window(arc: np.ndarray, k: int, travel: float, stretch: tuple[int, int]) ->
 
 def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutting: Cutting | None = None,
                   locations=None, n: int = 40, periods: int = 90, band: float = 0.1,
-                  bands=("low", "high"), moving: bool = False, feed: float = 0.05,
+                  bands=("low", "high"), moving: bool = True, feed: float = 0.05,
                   progress=None) -> PathMilling:
     """Mill at sampled locations of one of a plan's schedules.
 
@@ -200,7 +195,8 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     band : float
         Cuts within this relative distance of the predicted critical depth are not scored.
     moving : bool
-        Move the robot along the path during each cut (module notes); default: hold the posture.
+        Move the robot along the path during each cut (the default; module notes); False: hold
+        each sampled posture.
     feed : float
         Feed, m/s, where the path programs none (the planner's default).
     progress : callable, optional
@@ -220,8 +216,9 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
            else np.asarray(locations, int))
     if np.any((idx < 0) | (idx >= len(s.index))):
         raise InputError(f"cutter locations must lie in 0-{len(s.index) - 1}")
-    q = plan.reach.q[idx, s.index[idx]]
-    predicted = plan.depths.a_lim[idx, s.index[idx]]
+    joints = s.joints(plan.reach.q)
+    q = joints[idx]
+    predicted = s.on(plan.depths.a_lim)[idx]
     exact, chatter, kind, amplitude = np.empty(len(idx)), np.empty(len(idx), bool), [], np.empty(len(idx))
     moved = np.zeros(len(idx), bool)
     tp = plan.toolpath
@@ -236,7 +233,7 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
                   if moving else None)
         if window is not None:
             start, a, b = window
-            ops = [op if j == idx[k] else robot.at(plan.reach.q[j, s.index[j]]) for j in range(a, b + 1)]
+            ops = [op if j == idx[k] else robot.at(joints[j]) for j in range(a, b + 1)]
             # the clock starts with the cut, between locations a and a + 1
             motion = Motion.through(ops, (arc[a:b + 1] - start) / speed[idx[k]])
             first = ops[int(np.argmin(np.abs(arc[a:b + 1] - start)))]

@@ -2,12 +2,21 @@
 
 Given a margin over the (location, θ) grid (a critical depth, or its distance to the depth cut;
 larger is safer; ``-inf`` where a pose cannot be used), a schedule picks one θ per location. Moves
-between neighbouring locations are limited: θ by at most ``max_step`` grid steps, every joint by at
-most ``max_dq`` (the joint-rate limit times the time between locations; an inverse-kinematics
-branch flip is a jump far beyond it). Among the schedules that respect them, the plan
+between neighbouring locations are limited: every joint by at most ``max_dq`` (the joint-rate limit
+times the time between locations; an inverse-kinematics branch flip is a jump far beyond it). A
+change of θ by ``d`` grid steps (``|d| <= max_step``) is a *ramp* spread over ``ramp`` moves along a
+cycloidal profile ``f(τ) = τ - sin(2πτ)/2π``, whose speed and acceleration start and end at zero:
+a θ step taken within one move at full feed sets the joints moving at tens of degrees a second
+from rest, which the servos cannot follow without throwing the tool off its path. Given the moves'
+times, a ramp whose redundancy motion exceeds the joint acceleration or jerk limit is not planned.
+Along a ramp the margin counted is the smaller of its two angles' (the interpolated critical depth
+between them is never below it).
+
+Among the schedules that respect the limits, the plan
 
 1. maximises the smallest margin along the path (a bottleneck path: dynamic programming with
-   ``V_s(k) = min(m_s(k), max_j V_{s-1}(j))`` over allowed moves ``j → k``), then
+   ``V_s(k) = min(m_s(k), max(V_{s-1}(k), V_{s-r}(k - d) ∧ ramp))`` over allowed holds and ramps),
+   then
 2. among those that reach it, maximises the summed margin less a small cost per θ step (a second
    pass with every pose below the bottleneck masked), so that the schedule is not needlessly
    restless where the bottleneck lies elsewhere.
@@ -24,7 +33,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["Schedule", "plan_schedule", "fixed_schedule", "pointwise_schedule"]
+__all__ = ["Schedule", "plan_schedule", "fixed_schedule", "pointwise_schedule", "ramp_profile"]
 
 
 @dataclass(frozen=True)
@@ -34,14 +43,20 @@ class Schedule:
     Attributes
     ----------
     index : ndarray of int, shape (n,)
-        θ grid index per location.
+        θ grid index per location (along a ramp: the angle it leaves).
     theta : ndarray, shape (n,), rad
     margin : ndarray, shape (n,)
-        The margin along the schedule.
+        The margin along the schedule (along a ramp: interpolated between its two angles).
     feasible : bool
         Every pose usable and every move within the limits.
     kind : str
         ``"planned"``, ``"fixed"`` or ``"pointwise"``.
+    to : ndarray of int, shape (n,), optional
+        Along a ramp, the grid index it runs to (elsewhere ``index``); None: no ramps.
+    frac : ndarray, shape (n,), optional
+        How far along its ramp each location lies, 0-1 (the cycloidal profile; 0 off ramps).
+    q : ndarray, shape (n, n_joint), rad, optional
+        Joint commands where they are not the grid's (solved at the ramps' angles); None: the grid's.
     """
 
     index: np.ndarray
@@ -49,22 +64,44 @@ class Schedule:
     margin: np.ndarray
     feasible: bool
     kind: str
+    to: np.ndarray | None = None
+    frac: np.ndarray | None = None
+    q: np.ndarray | None = None
 
     @property
     def min_margin(self) -> float:
         return float(np.min(self.margin))
 
+    @property
+    def ramping(self) -> np.ndarray:
+        """Which locations lie inside a ramp between two grid angles, bool shape (n,)."""
+        if self.to is None:
+            return np.zeros(len(self.index), bool)
+        return (self.to != self.index) & (self.frac > 0)
 
-def _allowed(q, s: int, max_step: int, max_dq, m: int) -> np.ndarray:
-    """Moves from location ``s - 1`` (rows j) to ``s`` (columns k), shape (m, m); ``max_dq`` per
-    move (shape (n - 1,))."""
-    j, k = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
-    ok = np.abs(k - j) <= max_step
-    if q is not None and max_dq is not None:
-        with np.errstate(invalid="ignore"):
-            dq = np.nanmax(np.abs(q[s][None, :, :] - q[s - 1][:, None, :]), axis=2)
-        ok &= np.isfinite(dq) & (dq <= max_dq[s - 1])
-    return ok
+    def on(self, grid) -> np.ndarray:
+        """A quantity over the (location, θ) grid read along the schedule, shape (n,) + trailing:
+        interpolated linearly in θ along ramps."""
+        grid = np.asarray(grid)
+        n = np.arange(len(self.index))
+        a = grid[n, self.index]
+        if self.to is None:
+            return a
+        w = self.frac.reshape((-1,) + (1,) * (a.ndim - 1))
+        b = grid[n, self.to]
+        return np.where(w > 0, a + w * (b - a), a)
+
+    def joints(self, q_grid) -> np.ndarray:
+        """Joint commands along the schedule, rad, shape (n, n_joint): :attr:`q` where solved,
+        else the grid's."""
+        return np.asarray(self.q) if self.q is not None else np.asarray(q_grid)[np.arange(len(self.index)), self.index]
+
+
+def ramp_profile(moves: int) -> np.ndarray:
+    """Fractions of a ramp of ``moves`` moves at its locations, shape (moves + 1,): cycloidal
+    (zero speed and acceleration at both ends), 0 to 1."""
+    t = np.arange(moves + 1) / moves
+    return t - np.sin(2 * np.pi * t) / (2 * np.pi)
 
 
 def _per_move(max_dq, n: int):
@@ -88,8 +125,95 @@ def _check(margin, theta, q) -> tuple[np.ndarray, np.ndarray]:
     return margin, theta
 
 
-def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None,
-                  step_cost: float = 1e-3) -> Schedule:
+def _shift(a: np.ndarray, d: int, fill) -> np.ndarray:
+    """``a[..., k - d]`` at column ``k`` (``fill`` where ``k - d`` is off the grid)."""
+    out = np.full_like(a, fill)
+    m = a.shape[-1]
+    if d >= 0:
+        out[..., d:] = a[..., :m - d]
+    else:
+        out[..., :m + d] = a[..., -d:]
+    return out
+
+
+@dataclass(frozen=True)
+class _Moves:
+    """The allowed moves: ``hold[s, k]`` (location s - 1 to s at angle k) and, per θ step ``d``,
+    ``ramp[d][s, k]`` (the ramp from ``k - d`` at location ``s - r`` to ``k`` at ``s``), with
+    the ramp's smallest margin and summed mean margin over its inner locations."""
+
+    hold: np.ndarray
+    ramp: dict
+    low: dict
+    inner: dict
+
+
+def _moves(margin, q, max_step, max_dq, r, dt, max_ddq, max_dddq) -> _Moves:
+    n, m = margin.shape
+    finite = np.isfinite(margin)
+    hold = np.ones((n, m), bool)
+    if q is not None and max_dq is not None and n > 1:
+        with np.errstate(invalid="ignore"):
+            step = np.max(np.abs(np.diff(q, axis=0)), axis=2)
+        hold[1:] = np.isfinite(step) & (step <= max_dq[:, None])
+    f = ramp_profile(r)
+    ramp, low, inner = {}, {}, {}
+    for d in [d for a in range(1, max_step + 1) for d in (a, -a)]:
+        if d >= m or -d >= m or n <= r:
+            continue
+        ok = np.zeros((n, m), bool)
+        both = np.minimum(_shift(margin, d, -np.inf), margin)        # both angles' smaller margin
+        mean = 0.5 * (_shift(np.where(finite, margin, 0.0), d, 0.0) + np.where(finite, margin, 0.0))
+        lo = np.full((n, m), np.inf)
+        sm = np.zeros((n, m))
+        if r > 1:
+            win = np.lib.stride_tricks.sliding_window_view(both, r - 1, axis=0)   # rows i..i+r-2
+            lo[r:] = win[1:n - r + 1].min(axis=-1)
+            sm[r:] = np.lib.stride_tricks.sliding_window_view(mean, r - 1, axis=0)[1:n - r + 1].sum(axis=-1)
+        ends = np.isfinite(_shift(margin, d, -np.inf))[:n - r] & finite[r:]
+        ok[r:] = ends & (lo[r:] > -np.inf)
+        if q is not None and max_dq is not None:
+            ok[r:] &= _ramp_fits(q, d, r, f, max_dq, dt, max_ddq, max_dddq)
+        ramp[d], low[d], inner[d] = ok, lo, sm
+    return _Moves(hold, ramp, low, inner)
+
+
+def _ramp_fits(q, d, r, f, max_dq, dt, max_ddq, max_dddq) -> np.ndarray:
+    """Whether each ramp of ``r`` moves from angle ``k - d`` to ``k``, ending at location
+    ``s = r .. n - 1``, keeps every joint move within ``max_dq`` and its redundancy motion within
+    the acceleration and jerk limits, shape (n - r, m). The poses along a ramp are taken linear
+    in θ between the grid's (the check; the plan solves them exactly)."""
+    n, m, _ = q.shape
+    qa = np.moveaxis(_shift(np.moveaxis(q, 2, 0), d, np.nan), 0, 2)        # q at k - d
+    rows = np.arange(n - r)[:, None] + np.arange(r + 1)[None, :]              # (S, r + 1)
+    a, b = qa[rows], q[rows]                                                  # (S, r + 1, m, J)
+    delta = b - a
+    pose = a + f[None, :, None, None] * delta
+    with np.errstate(invalid="ignore"):
+        move = np.max(np.abs(np.diff(pose, axis=1)), axis=3)                 # (S, r, m)
+        ok = np.all(np.isfinite(move) & (move <= max_dq[rows[:, :r]][:, :, None]), axis=1)
+    if dt is None or (max_ddq is None and max_dddq is None):
+        return ok
+    # the redundancy motion alone (the path's own accelerations are not the plan's to choose):
+    # at rest before and after the ramp
+    c = f[None, :, None, None] * delta
+    t = dt[rows[:, :r]][:, :, None, None]
+    v = np.diff(c, axis=1) / t                                                # (S, r, m, J)
+    zero = np.zeros_like(v[:, :1])
+    v = np.concatenate([zero, v, zero], axis=1)
+    tm = np.concatenate([t[:, :1], 0.5 * (t[:, 1:] + t[:, :-1]), t[:, -1:]], axis=1)
+    acc = np.diff(v, axis=1) / tm                                             # (S, r + 1, m, J)
+    with np.errstate(invalid="ignore"):
+        if max_ddq is not None:
+            ok &= np.all(np.max(np.abs(acc), axis=3) <= max_ddq, axis=1)
+        if max_dddq is not None:
+            jerk = np.diff(acc, axis=1) / t
+            ok &= np.all(np.max(np.abs(jerk), axis=3) <= max_dddq, axis=1)
+    return ok
+
+
+def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step_cost: float = 1e-3,
+                  ramp: int = 1, dt=None, max_ddq: float | None = None, max_dddq: float | None = None) -> Schedule:
     """The maximin schedule of the module docstring.
 
     Parameters
@@ -98,14 +222,21 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None,
         Margin per location and θ (larger is safer; ``-inf``: unusable).
     theta : array_like, shape (m,), rad
     q : array_like, shape (n, m, n_joint), rad, optional
-        Joint commands per pose, for the joint-step limit.
+        Joint commands per pose, for the joint limits.
     max_step : int
-        Largest θ move between neighbouring locations, in grid steps.
+        Largest θ change of one ramp, in grid steps.
     max_dq : float or array_like of shape (n - 1,), optional
         Largest joint move between neighbouring locations, rad, one for all moves or one per move
         (the joint rate times each move's time; needs ``q``).
     step_cost : float
         Cost of one θ grid step in the second pass, in units of the margin's spread (a tie-breaker).
+    ramp : int
+        Moves a θ change is spread over (1: from one location to the next).
+    dt : float or array_like of shape (n - 1,), optional
+        Each move's time, s (for the acceleration and jerk limits).
+    max_ddq, max_dddq : float, optional
+        Largest joint acceleration (rad/s²) and jerk (rad/s³) of a ramp's redundancy motion (needs
+        ``q``, ``max_dq`` and ``dt``).
 
     Returns
     -------
@@ -115,37 +246,69 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None,
     margin, theta = _check(margin, theta, q)
     q = None if q is None else np.asarray(q, float)
     n, m = margin.shape
+    if int(ramp) != ramp or ramp < 1:
+        raise InputError(f"a ramp takes a whole number of moves >= 1, got {ramp!r}")
+    r = int(ramp)
     max_dq = _per_move(max_dq, n)
-    allowed = [None] + [_allowed(q, s, max_step, max_dq, m) for s in range(1, n)]
+    dt = None if dt is None else _per_move(dt, n)
+    mv = _moves(margin, q, max(int(max_step), 0), max_dq, r, dt, max_ddq, max_dddq)
     # pass 1: the bottleneck value
-    v = margin[0].copy()
+    v = np.full((n, m), -np.inf)
+    v[0] = margin[0]
     for s in range(1, n):
-        best_in = np.max(np.where(allowed[s], v[:, None], -np.inf), axis=0)
-        v = np.minimum(margin[s], best_in)
-    bottleneck = float(np.max(v))
+        best = np.where(mv.hold[s], v[s - 1], -np.inf)
+        if s >= r:
+            for d, ok in mv.ramp.items():
+                came = np.minimum(_shift(v[s - r], d, -np.inf), mv.low[d][s])
+                best = np.maximum(best, np.where(ok[s], came, -np.inf))
+        v[s] = np.minimum(margin[s], best)
+    bottleneck = float(np.max(v[-1]))
     if not np.isfinite(bottleneck):
-        return _fallback(margin, theta, q, max_step, max_dq)
+        return _fallback(margin, theta)
     # pass 2: the largest sum at or above the bottleneck, θ steps costed
     finite = margin[np.isfinite(margin)]
     scale = float(np.ptp(finite)) or 1.0
-    usable = margin >= bottleneck - 1e-12 * max(abs(bottleneck), 1.0)
-    gain = np.where(usable, margin / scale, -np.inf)
-    j, k = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
-    cost = step_cost * np.abs(k - j)
-    w = gain[0].copy()
-    back = np.zeros((n, m), int)
+    floor = bottleneck - 1e-12 * max(abs(bottleneck), 1.0)
+    gain = np.where(margin >= floor, margin / scale, -np.inf)
+    w = np.full((n, m), -np.inf)
+    w[0] = gain[0]
+    back = np.zeros((n, m), int)           # 0: held from s - 1; d: a ramp of d steps ended here
     for s in range(1, n):
-        cand = np.where(allowed[s], w[:, None] - cost, -np.inf)
-        back[s] = np.argmax(cand, axis=0)
-        w = gain[s] + cand[back[s], np.arange(m)]
-    idx = np.empty(n, int)
-    idx[-1] = int(np.argmax(w))
-    for s in range(n - 1, 0, -1):
-        idx[s - 1] = back[s, idx[s]]
-    return Schedule(idx, theta[idx], margin[np.arange(n), idx], True, "planned")
+        best = np.where(mv.hold[s], w[s - 1], -np.inf)
+        came_by = np.zeros(m, int)
+        if s >= r:
+            for d, ok in mv.ramp.items():
+                usable = ok[s] & (mv.low[d][s] >= floor)
+                cand = np.where(usable, _shift(w[s - r], d, -np.inf) + mv.inner[d][s] / scale - step_cost * abs(d),
+                                -np.inf)
+                better = cand > best
+                best = np.where(better, cand, best)
+                came_by = np.where(better, d, came_by)
+        back[s] = came_by
+        w[s] = gain[s] + best
+    idx, to, frac = np.empty(n, int), np.empty(n, int), np.zeros(n)
+    s, k = n - 1, int(np.argmax(w[-1]))
+    idx[s], to[s] = k, k
+    f = ramp_profile(r)
+    while s > 0:
+        d = int(back[s, k])
+        if d == 0:
+            s -= 1
+            idx[s], to[s] = k, k
+            continue
+        j = k - d
+        idx[s - r + 1:s], to[s - r + 1:s], frac[s - r + 1:s] = j, k, f[1:r]
+        s -= r
+        k = j
+        idx[s], to[s] = k, k
+    th = theta[idx] + frac * (theta[to] - theta[idx])
+    rows = np.arange(n)
+    got = np.where(frac > 0, margin[rows, idx] + frac * (margin[rows, to] - margin[rows, idx]), margin[rows, idx])
+    ramps = bool(np.any(frac > 0))
+    return Schedule(idx, th, got, True, "planned", to if ramps else None, frac if ramps else None)
 
 
-def _fallback(margin, theta, q, max_step, max_dq) -> Schedule:
+def _fallback(margin, theta) -> Schedule:
     """No feasible schedule: the pointwise best, flagged infeasible."""
     s = pointwise_schedule(margin, theta)
     return Schedule(s.index, s.theta, s.margin, False, "planned")

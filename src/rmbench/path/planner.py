@@ -50,6 +50,14 @@ class PlanSettings:
         neighbouring locations).
     default_feed : float
         Feed where the path gives none, m/s.
+    ramp_length : float
+        Path length over which θ moves from one grid angle to the next, m (a cycloidal ramp,
+        :func:`rmbench.path.plan.ramp_profile`; 0: within one move). 50 mm is one second at
+        3000 mm/min.
+    max_joint_accel, max_joint_jerk : float
+        Largest joint acceleration (rad/s²) and jerk (rad/s³) the θ ramps may add to the path's own
+        motion: a θ grid step taken within one 5 mm move at 3000 mm/min starts the joints at
+        40-50 °/s from rest and threw the tool 0.8-3.7 mm off its path on the moving robot.
     """
 
     theta: tuple = tuple(np.radians(np.arange(-60.0, 61.0, 5.0)))
@@ -58,14 +66,25 @@ class PlanSettings:
     eval_spacing: float = 20e-3
     max_joint_rate: float = np.radians(60.0)
     default_feed: float = 0.05
+    ramp_length: float = 50e-3
+    max_joint_accel: float = 1.0
+    max_joint_jerk: float = 10.0
 
     def __post_init__(self):
         th = np.asarray(self.theta, float)
         if th.ndim != 1 or len(th) < 1 or not np.all(np.isfinite(th)) or np.any(np.diff(th) <= 0):
             raise InputError("the candidate angles must be finite and increasing")
-        for name in ("spacing", "eval_spacing", "max_joint_rate", "default_feed"):
+        for name in ("spacing", "eval_spacing", "max_joint_rate", "default_feed", "max_joint_accel",
+                     "max_joint_jerk"):
             if not getattr(self, name) > 0:
                 raise InputError(f"{name} must be > 0, got {getattr(self, name)!r}")
+        if not self.ramp_length >= 0:
+            raise InputError(f"ramp_length must be >= 0, got {self.ramp_length!r}")
+
+    @property
+    def ramp_moves(self) -> int:
+        """Moves between cutter locations one θ ramp takes (at least one)."""
+        return max(1, int(round(self.ramp_length / self.spacing)))
 
 
 @dataclass(frozen=True)
@@ -126,7 +145,34 @@ class PathPlan:
     def joint_trajectory(self, schedule: Schedule | None = None) -> np.ndarray:
         """Joint commands along ``schedule`` (default: the plan), rad, shape (n, n_joint)."""
         s = self.planned if schedule is None else schedule
-        return self.reach.q[np.arange(len(s.index)), s.index]
+        return s.joints(self.reach.q)
+
+    def joint_motion(self, schedule: Schedule | None = None, *, feed: float = 0.05,
+                     turn: float = np.radians(5.0)) -> dict:
+        """The largest joint speed (rad/s) over ``schedule``'s cutting moves at the path's feed
+        (``feed`` m/s where it programs none), and the largest acceleration (rad/s²) and jerk
+        (rad/s³) on its smooth stretches (neighbouring moves turning by less than ``turn``: at a
+        corner the path itself changes the joints' velocity at once, whatever θ does); finite
+        differences of :meth:`joint_trajectory`."""
+        s = self.planned if schedule is None else schedule
+        q = self.joint_trajectory(s)
+        tp = self.toolpath
+        f = np.where(np.isfinite(tp.feed), tp.feed, feed)
+        step = np.diff(tp.xy, axis=0)
+        dt = np.hypot(step[:, 0], step[:, 1]) / f[1:]
+        cut = tp.cutting[1:] & (dt > 0)
+        t = np.where(cut, dt, 1.0)
+        v = np.diff(q, axis=0) / t[:, None]
+        heading = np.arctan2(step[:, 1], step[:, 0])
+        smooth = cut[1:] & cut[:-1] & (np.abs(np.angle(np.exp(1j * np.diff(heading)))) < turn)
+        tm = 0.5 * (t[1:] + t[:-1])
+        acc = np.diff(v, axis=0) / tm[:, None]
+        jerk = np.diff(acc, axis=0) / t[1:-1, None]
+
+        def peak(a, ok):
+            return float(np.max(np.abs(a[ok]))) if ok.any() else 0.0
+
+        return {"rate": peak(v, cut), "accel": peak(acc, smooth), "jerk": peak(jerk, smooth[1:] & smooth[:-1])}
 
     def summary(self) -> dict:
         """The plan's figures as plain data (mm and degrees, as the command line prints them)."""
@@ -141,6 +187,10 @@ class PathPlan:
                "feasible": {k: s.feasible for k, s in
                             (("planned", self.planned), ("fixed", self.fixed), ("pointwise", self.pointwise))},
                "min_alim_gain": self.gain,
+               "joint_motion": {k: {f"{n}_deg_s{p}": float(np.degrees(v)) for (n, p), v in
+                                    zip((("rate", ""), ("accel", "2"), ("jerk", "3")), self.joint_motion(s).values())}
+                                for k, s in (("planned", self.planned), ("fixed", self.fixed))},
+               "ramps": int(np.sum(np.diff(self.planned.index) != 0)) if len(self.planned.index) > 1 else 0,
                "theta_range_deg": [float(np.degrees(self.planned.theta.min())),
                                    float(np.degrees(self.planned.theta.max()))],
                "seconds": self.seconds}
@@ -200,6 +250,7 @@ def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None,
     for k in ("planned", "fixed", "pointwise"):
         sch = getattr(plan, k)
         arrays |= {f"{k}/index": sch.index, f"{k}/theta": sch.theta, f"{k}/margin": sch.margin}
+        arrays |= {f"{k}/{f}": getattr(sch, f) for f in ("to", "frac", "q") if getattr(sch, f) is not None}
     if plan.hull_distance is not None:
         arrays["hull_distance"] = plan.hull_distance
     if plan.band is not None:
@@ -233,7 +284,8 @@ def load_plan(path) -> tuple[PathPlan, dict]:
                       a["reach/sigma_min"])
         depths = DepthGrid(a["depths/a_lim"], {b: a[f"depths/band/{b}"] for b in meta["bands"]},
                            a["depths/outside_hull"].astype(bool), float(meta["depths_speed_rpm"]))
-        sch = {k: Schedule(a[f"{k}/index"].astype(int), a[f"{k}/theta"], a[f"{k}/margin"], bool(meta["feasible"][k]), k)
+        sch = {k: Schedule(a[f"{k}/index"].astype(int), a[f"{k}/theta"], a[f"{k}/margin"], bool(meta["feasible"][k]), k,
+                           a[f"{k}/to"].astype(int) if f"{k}/to" in a else None, a.get(f"{k}/frac"), a.get(f"{k}/q"))
                for k in ("planned", "fixed", "pointwise")}
         band, level = None, 0.95
         if meta.get("band"):
@@ -323,17 +375,21 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     feed = np.where(np.isfinite(tp.feed), tp.feed, settings.default_feed)
     # each move's time at its feed (a rapid's at the cutting feed: slower than it will be, so
     # its joint moves are judged leniently; nothing is cut along it)
-    max_dq = settings.max_joint_rate * np.diff(arc) / feed[1:]
+    dt = np.diff(arc) / feed[1:]
+    max_dq = settings.max_joint_rate * dt
+    ramp = _ramp_moves(settings, reach, dt)
     best, scan = None, []
     for coarse in grids:
         depths = DepthGrid(spread(coarse.a_lim), {b: spread(v) for b, v in coarse.by_band.items()},
                            spread(coarse.outside_hull.astype(float)) > 0, coarse.speed_rpm)
         margin = np.where(reach.ok, depths.a_lim, -np.inf)
-        planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq)
+        planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq, ramp=ramp,
+                                dt=dt, max_ddq=settings.max_joint_accel, max_dddq=settings.max_joint_jerk)
         scan.append(planned.min_margin)
         if best is None or planned.min_margin > best[1].min_margin:
             best = (depths, planned, margin)
     depths, planned, margin = best
+    planned = _solve_ramps(robot, tp, reach, planned)
     fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
     pointwise = pointwise_schedule(margin, theta)
     t["plan"] = time.perf_counter()
@@ -345,6 +401,52 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
                   else None)
     return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(depths.speed_rpm), seconds, hull,
                     speed_scan=speed_scan)
+
+
+def _ramp_moves(settings: PlanSettings, reach: Reach, dt: np.ndarray) -> int:
+    """Moves per θ ramp: ``settings.ramp_length``, lengthened until the largest joint change between
+    neighbouring grid angles along the path fits the acceleration and jerk limits on a cycloid
+    (peak acceleration 2π Δq / T², jerk 4π² Δq / T³), so that a coarse angle grid is not locked
+    to one angle."""
+    r = settings.ramp_moves
+    if r == 1 and settings.ramp_length == 0 or len(reach.theta) < 2 or not len(dt):
+        return r
+    with np.errstate(invalid="ignore"):
+        d = np.max(np.abs(np.diff(reach.q, axis=1)), axis=2)
+    d = d[np.isfinite(d) & (d < 0.5)]          # beyond half a radian: another branch, never ramped to
+    if not len(d) or d.max() == 0:
+        return r
+    dq = float(d.max())
+    t = max(np.sqrt(2 * np.pi * dq / settings.max_joint_accel), np.cbrt(4 * np.pi ** 2 * dq / settings.max_joint_jerk))
+    step = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 0.0
+    return max(r, int(np.ceil(t / step))) if step > 0 else r
+
+
+def _solve_ramps(robot, tp: ToolPath, reach: Reach, schedule: Schedule) -> Schedule:
+    """The schedule with its joint commands solved at the ramps' angles (each warm-started from
+    the grid's commands interpolated in θ, which stay on the grid's branch); unchanged without
+    ramps. A ramp pose that does not solve, or that leaves the joint limits, makes it infeasible."""
+    import dataclasses
+
+    from rmbench.errors import UnreachablePosture
+    from rmbench.robot.posture import Posture
+
+    ramping = schedule.ramping
+    if not ramping.any():
+        return schedule
+    q = schedule.joints(reach.q).copy()
+    seed = schedule.on(reach.q)
+    feasible = schedule.feasible
+    for i in np.flatnonzero(ramping):
+        posture = Posture(float(tp.xy[i, 0]), float(tp.xy[i, 1]), float(schedule.theta[i]))
+        try:
+            sol = robot.kinematics.solve(robot.target(posture), [seed[i]])
+        except UnreachablePosture:
+            feasible, q[i] = False, seed[i]
+            continue
+        q[i] = sol.q
+        feasible &= bool(sol.limit_margin >= 0)
+    return dataclasses.replace(schedule, q=q, feasible=feasible)
 
 
 def with_band(plan: PathPlan, predictor, *, cutting: Cutting = ALUMINIUM_6061, eval_spacing: float = 20e-3,
