@@ -220,8 +220,9 @@ def run_spread(args) -> dict:
             if s_.strip():
                 c = json.loads(s_)
                 done[c["index"]] = c
+    only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
     for i in range(args.spread):
-        if i in done:
+        if i in done or (only is not None and i not in only):
             continue
         c = run_spread_case(i, args.seed, args.spread_box)
         with open(lines, "a") as fh:
@@ -255,6 +256,8 @@ def main() -> int:
                     help="the spread campaign's joint ranges: every joint swept wide (default), or the "
                          "machining region, where a gear error once per revolution looks like offset and compliance")
     ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
+    ap.add_argument("--only", default=None, metavar="I,J,...",
+                    help="run only these spread robots (indices; parallel processes, each with its own --lines copy)")
     ap.add_argument("--lines", default=None,
                     help="JSON-lines file (default: bench/results/gap_tracker_s<seed>_<code digest>.jsonl)")
     args = ap.parse_args()

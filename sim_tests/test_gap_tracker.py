@@ -297,3 +297,33 @@ def test_carrying_the_calibrations_uncertainty_widens_every_held_out_residual(mh
     eng.carry(fit)
     assert eng.held_scale.shape == (len(held), 3) and np.all(eng.held_scale >= 1.0)
     assert np.mean(eng.held_scale ** 2) > 1.05
+
+
+def _unit_fit(names, chi2_units, k, peak=2.0):
+    """A scored model as the diagnosis keeps it: 40 held-out configurations of 6 residuals."""
+    from types import SimpleNamespace
+
+    from rmbench.gap.selection import bic
+
+    chi2_units = np.asarray(chi2_units, float)
+    n = 6 * len(chi2_units)
+    return SimpleNamespace(names=tuple(names), chi2_held_unit=tuple(chi2_units), chi2_held=float(chi2_units.sum()),
+                           n_held=n, peak_held=peak, chi2_prior=0.0, k=k,
+                           score=bic(float(chi2_units.sum()), k, n))
+
+
+def test_a_source_is_confident_only_where_its_model_leaves_noise():
+    """Held-out χ² of 6 per configuration (6 residuals each) is noise: the source that brings the
+    nominal's 30 down to it is named at confidence ~1. A source that only halves the gap (χ² 15
+    per configuration: the best partial model of something outside the library) wins every
+    resample yet leaves no resample at the noise, so it carries no confidence; nor does one whose
+    largest residual is beyond the noise test's bound."""
+    from rmbench.gap.tracker.diagnosis import TrackerSettings, _adequate_confidences
+
+    settings = TrackerSettings()
+    nominal = _unit_fit((), np.full(40, 30.0), 0)
+    found = _adequate_confidences([nominal, _unit_fit(("a",), np.full(40, 6.0), 1)], [6] * 40, settings)
+    partial = _adequate_confidences([nominal, _unit_fit(("b",), np.full(40, 15.0), 1)], [6] * 40, settings)
+    peaked = _adequate_confidences([nominal, _unit_fit(("c",), np.full(40, 6.0), 1, peak=8.0)], [6] * 40, settings)
+    assert found["a"] == pytest.approx(1.0)
+    assert partial.get("b", 0.0) == 0.0 and peaked.get("c", 0.0) == 0.0

@@ -3,8 +3,9 @@
 The same engine as the FRF diagnosis (:mod:`rmbench.gap.selection`): candidate models are fitted
 on training configurations and scored on held-out ones by ``χ²_held + k ln n_held``; sources are
 added greedily (forward selection), since real robots carry several at once; confidences are
-bootstrap selection frequencies over the held-out configurations; the verdict is "explained" when
-the best model's held-out residuals are noise.
+bootstrap selection frequencies over the held-out configurations, a resample crediting its winner
+only where the winner leaves noise there; the verdict is "explained" when the best model's
+held-out residuals are noise.
 
 1. **Where** (:class:`PoseErrorMap`): the nominal model's registered error per axis, the share of
    it above the noise, its rms over bins of each joint's angle, and how much of it each joint's
@@ -32,7 +33,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.gap.jsonable import jsonable, write_whole
-from rmbench.gap.selection import SearchSettings, bootstrap_shrink, confidences, selection_weights, significant
+from rmbench.gap.selection import SearchSettings, bootstrap_shrink, selection_weights, significant
 from rmbench.gap.tracker.data import (TrackerData, check_readings, default_covariance, default_sigma,
                                       split_readings, tracker_data)
 from rmbench.gap.tracker.engine import Engine, Fit, pruned, signatures
@@ -98,7 +99,8 @@ class SourceResult:
         Share of the held-out mean squared error it removes within the chosen model (0 if not
         chosen); the chosen shares sum to the model's reduction.
     confidence : float
-        Summed bootstrap selection frequency of the scored models containing it.
+        Share of bootstrap resamples of the held-out configurations whose winning model holds it
+        and leaves noise (low inside an "unexplained" verdict, whose best model does not).
     heldout_after : dict
         Held-out ``rms`` and ``max`` pose error (m) of the model with this source (the chosen
         model for a chosen source, the source alone otherwise).
@@ -351,11 +353,10 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
     best, scored, verdict, more = _search(eng, library, start, base, e_all, settings, say)
     notes += more
     # the prior's term spread over the held-out units, so a resample keeps it on average
+    n_units = [3 * np.sum(data.location[held] == u) for u in eng.held_units]
     weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
-                                 for f in scored],
-                                [3 * np.sum(data.location[held] == u) for u in eng.held_units],
-                                [f.k for f in scored], n_boot=settings.bootstrap)
-    conf = confidences([f.names for f in scored], weights)
+                                 for f in scored], n_units, [f.k for f in scored], n_boot=settings.bootstrap)
+    conf = _adequate_confidences(scored, n_units, settings)
     chosen = best if best.sources else None
     before = _heldout(eng, nominal_fit, settings.bootstrap)
     after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
@@ -493,6 +494,39 @@ def pose_error_map(chain, compliance, data: TrackerData, error: np.ndarray, *,
 
 
 # -- helpers -----------------------------------------------------------------------------------
+
+def _adequate_confidences(scored, n_units, settings: TrackerSettings, seed: int = 0) -> dict:
+    """``{source: share of bootstrap resamples of the held-out configurations whose winning model
+    holds it and leaves noise}``. The selection's weights alone (:func:`selection_weights`, the
+    same resamples and scores) assume the library holds the truth; where the winner's held-out
+    residuals stay above the noise (χ² of the resample, and the full sample's largest residual,
+    at the verdict's level) the resample credits no source: a source named inside an
+    "unexplained" verdict, the best partial model of something outside the library, is not
+    reported as a confident answer (a backlash's best look-alike, a gear harmonic, was named at
+    0.90-1.0 there)."""
+    chi2 = np.array([np.asarray(f.chi2_held_unit, float) for f in scored])
+    score_unit = chi2 + np.array([f.chi2_prior / chi2.shape[1] for f in scored])[:, None]
+    n_res = np.asarray(n_units, float)
+    k = np.array([f.k for f in scored], float)
+    peaked = [significant(0.0, f.n_held, p=settings.p_noise, peak=f.peak_held) for f in scored]
+    n_boot = settings.bootstrap
+    if chi2.shape[1] < 4 or n_boot < 1:     # too few units to resample: the whole sample's test
+        winner = int(np.argmin([f.score for f in scored]))
+        f = scored[winner]
+        ok = not significant(f.chi2_held, f.n_held, p=settings.p_noise, peak=f.peak_held)
+        return {n: float(ok) for n in f.names}
+    rng = np.random.default_rng(seed)
+    out: dict[str, float] = {}
+    for _ in range(n_boot):
+        idx = rng.integers(0, chi2.shape[1], chi2.shape[1])
+        n = n_res[idx].sum()
+        win = int(np.argmin(score_unit[:, idx].sum(axis=1) + k * np.log(max(n, 2))))
+        if peaked[win] or significant(float(chi2[win, idx].sum()), int(n), p=settings.p_noise):
+            continue
+        for name in scored[win].names:
+            out[name] = out.get(name, 0.0) + 1.0 / n_boot
+    return out
+
 
 def _decisive(before: Fit, after: Fit, n_candidates: int, p: float) -> bool:
     """Whether ``after``'s held-out drop (χ² and prior) from ``before`` is beyond what the best
