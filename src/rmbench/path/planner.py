@@ -389,7 +389,7 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
         if best is None or planned.min_margin > best[1].min_margin:
             best = (depths, planned, margin)
     depths, planned, margin = best
-    planned = _solve_ramps(robot, tp, reach, planned)
+    planned = _solve_ramps(robot, tp, reach, planned, max_dq)
     fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
     pointwise = pointwise_schedule(margin, theta)
     t["plan"] = time.perf_counter()
@@ -422,10 +422,12 @@ def _ramp_moves(settings: PlanSettings, reach: Reach, dt: np.ndarray) -> int:
     return max(r, int(np.ceil(t / step))) if step > 0 else r
 
 
-def _solve_ramps(robot, tp: ToolPath, reach: Reach, schedule: Schedule) -> Schedule:
+def _solve_ramps(robot, tp: ToolPath, reach: Reach, schedule: Schedule, max_dq: np.ndarray) -> Schedule:
     """The schedule with its joint commands solved at the ramps' angles (each warm-started from
     the grid's commands interpolated in θ, which stay on the grid's branch); unchanged without
-    ramps. A ramp pose that does not solve, or that leaves the joint limits, makes it infeasible."""
+    ramps. A ramp pose that does not solve, or that leaves the joint limits, or a solved move
+    beyond the joint rate (``max_dq`` per move, rad; the plan checked the grid's interpolation)
+    makes it infeasible."""
     import dataclasses
 
     from rmbench.errors import UnreachablePosture
@@ -446,6 +448,8 @@ def _solve_ramps(robot, tp: ToolPath, reach: Reach, schedule: Schedule) -> Sched
             continue
         q[i] = sol.q
         feasible &= bool(sol.limit_margin >= 0)
+    moves = np.max(np.abs(np.diff(q, axis=0)), axis=1)
+    feasible &= bool(np.all(moves <= max_dq + 1e-9))
     return dataclasses.replace(schedule, q=q, feasible=feasible)
 
 
