@@ -275,9 +275,11 @@ def test_at_the_noise_a_calibrated_model_takes_a_source_only_on_decisive_evidenc
     assert not _decisive(calibrated, fit(760.0, 41), 30, 1e-3)
 
 
-def test_carrying_the_calibrations_uncertainty_widens_every_held_out_residual(mh180):
+def test_carrying_the_calibrations_uncertainty_whitens_the_held_out_residuals_jointly(mh180):
     """A held-out reading is predicted with the calibrated parameters' error as well as measured
-    with noise: its σ can only grow, and it grows with the number of parameters fitted."""
+    with noise, and that error is one draw shared by every held-out reading: the held-out
+    residuals are whitened by ``C = I + J Σ Jᵀ`` as a whole. C ⪰ I, so the whitened χ² never
+    exceeds the plain one, and it falls with the number of parameters fitted."""
     from rmbench.gap.tracker.data import split_readings
     from rmbench.gap.tracker.diagnosis import ORDINARY, TrackerSettings, _prior_sd
     from rmbench.gap.tracker.engine import Engine
@@ -294,9 +296,14 @@ def test_carrying_the_calibrations_uncertainty_widens_every_held_out_residual(mh
     base = tuple(s for s in source_library(chain, comp, masses=True) if s.kind in ORDINARY)
     eng.prior = {s.name: _prior_sd(s, TrackerSettings()) for s in base}
     fit = eng.fit(base, iterations=4)
+    plain = eng.held_residual(fit.sources, fit.values, fit.rotation, fit.translation)
     eng.carry(fit)
-    assert eng.held_scale.shape == (len(held), 3) and np.all(eng.held_scale >= 1.0)
-    assert np.mean(eng.held_scale ** 2) > 1.05
+    white = eng.held_residual(fit.sources, fit.values, fit.rotation, fit.translation)
+    L = eng.held_chol
+    assert L.shape == (3 * len(held), 3 * len(held)) and np.allclose(L, np.tril(L))
+    assert np.all(np.diag(L) >= 1.0 - 1e-12)           # C = L Lᵀ ⪰ I
+    assert np.sum(white ** 2) < np.sum(plain ** 2)
+    assert np.sum(white ** 2) < 0.95 * np.sum(plain ** 2)   # 40-odd parameters on 30 configurations
 
 
 def _unit_fit(names, chi2_units, k, peak=2.0):
