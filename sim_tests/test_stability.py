@@ -339,6 +339,39 @@ def test_servos_follow_a_motion_on_its_equilibrium_with_the_velocity_feed_forwar
     assert _follow(a, motion, feed_forward=False) > 20e-6
 
 
+def test_the_no_cut_reference_is_the_motion_stepped_without_a_cut(irb):
+    """A moving cut's vibration is read less what the same motion does with no cut, from one
+    open-loop rollout in C: it must be the arm's tip, against the moving equilibrium, before each
+    step, exactly as stepping the same model one step at a time gives (state layout, control
+    alignment)."""
+    import mujoco
+
+    from rmbench.robot.simulate import stable_step
+    from rmbench.stability.milling import Motion, _state, _uncut
+
+    a, b = (irb.at(Posture.from_mm_deg(x, 0, 0)) for x in (1600, 1610))
+    motion = Motion.through([a, b], [0.0, 0.2])
+    dt = stable_step(a)
+    m = mujoco.MjModel.from_xml_string(a.robot.xml)
+    m.opt.timestep = dt
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    n = 400
+    sampled = motion.sample(m, np.arange(n + 1) * dt)
+    q_eq, v_eq, ctrl, rows = sampled
+    reference = _uncut(m, a, sampled, n)
+    d = mujoco.MjData(m)
+    mujoco.mj_setState(m, d, _state(a), mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    d.qpos[:], d.qvel[:] = q_eq[0], v_eq[0]
+    stepped = np.empty((n, 2))
+    for i in range(n):
+        stepped[i] = rows[i] @ (d.qpos - q_eq[i])
+        d.ctrl[:] = ctrl[i]
+        mujoco.mj_step(m, d)
+    np.testing.assert_allclose(reference, stepped, rtol=0, atol=1e-12)
+    assert np.abs(stepped).max() > 1e-9          # the arm does move about its reference
+
+
 @pytest.mark.parametrize("times", [[0.0, 0.0], [0.1, 0.2], [-0.2, -0.1]], ids=["equal", "late", "early"])
 def test_a_motion_needs_two_knots_at_increasing_times_spanning_zero(irb_op, times):
     from rmbench.stability.milling import Motion
