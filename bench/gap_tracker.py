@@ -178,7 +178,42 @@ def run_spread_case(i: int, seed: int, box: str = "calibration") -> dict:
                       "shrink_true": 1 - after / before if before > 0 else 0.0, "seconds": seconds}
         if cal and dg.calibration is not None:
             out[label]["identifiable"] = sum(p["identifiability"] == "identifiable" for p in dg.calibration["params"])
+    if source is not None:
+        out["noise_free"] = _distinguishable(nominal, data, p_true, order, source)
     return out
+
+
+def _distinguishable(nominal, data, p_true: np.ndarray, order: np.ndarray, source: dict) -> dict:
+    """Whether the structural source stands out from the ordinary parameters' spread at all: the
+    same campaign's noise-free readings (the same σ) calibrated with the ordinary parameters only.
+    Their held-out χ² ``nc`` is what is left of the source beyond what the calibration takes up:
+    the mean drop that adding the source would bring, noise aside. An in-library source is
+    *distinguishable* where ``nc`` reaches the diagnosis's decisive-evidence threshold (a drop
+    beyond what the best of the structural candidates would reach on noise at the noise test's
+    level: ``χ²_{1 − p/m}(k)``, ``k`` its parameters, ``m`` the candidates); an out-of-library
+    one where ``nc`` reaches the excess the noise test needs to call the gap significant
+    (``χ²_{1 − p/2}(n) − n``), the least an "unexplained" needs."""
+    import dataclasses
+
+    from scipy.stats import chi2 as chi2_dist
+
+    from rmbench.gap.tracker.diagnosis import ORDINARY, TrackerSettings, diagnose_tracker
+    from rmbench.gap.tracker.sources import source_library
+    from rmbench.tracker.chain import SerialChain
+    from rmbench.tracker.simulator import nominal_stiffness
+
+    settings = TrackerSettings(calibrate=True)
+    dg = diagnose_tracker(nominal, dataclasses.replace(data, measured=p_true), settings=settings)
+    n = 3 * int(np.isin(order, dg.held).sum())
+    nc = float(dg.calibration["heldout_after"]["chi2_per_n"]) * n
+    chain = SerialChain.from_kinematics(nominal.kinematics, nominal.arm_joints)
+    library = [x for x in source_library(chain, 1.0 / nominal_stiffness(nominal), harmonics=settings.harmonics,
+                                         drive=data.drive_kind, masses=True) if x.kind not in ORDINARY]
+    k = {"payload": 1, "frame_error": 3, "gear_periodic_error": 2}.get(source["kind"])
+    need = (float(chi2_dist.isf(settings.p_noise / len(library), k)) if k is not None
+            else float(chi2_dist.isf(settings.p_noise / 2, n)) - n)
+    return {"verdict": dg.verdict, "chosen": [x.name for x in dg.chosen], "nc": nc, "n": n, "need": need,
+            "distinguishable": bool(nc >= need)}
 
 
 def summarise_spread(cases) -> dict:
@@ -203,6 +238,13 @@ def summarise_spread(cases) -> dict:
             "recall_by_kind": {k: [sum(c["name"] in c[label]["chosen"] for c in inl if c["source"]["kind"] == k),
                                    sum(c["source"]["kind"] == k for c in inl)]
                                for k in sorted({c["source"]["kind"] for c in inl})}}
+        # where the source stands out from the ordinary parameters' spread at all (_distinguishable)
+        seen = [c for c in inl if c.get("noise_free", {}).get("distinguishable")]
+        res[label]["distinguishable"] = [len(seen), len(inl)]
+        res[label]["recall_distinguishable"] = frac([c["name"] in c[label]["chosen"] for c in seen])
+        seen_out = [c for c in out if c.get("noise_free", {}).get("distinguishable")]
+        res[label]["unexplained_ok_distinguishable"] = frac([c[label]["verdict"] == "unexplained" for c in seen_out])
+        res[label]["out_distinguishable"] = [len(seen_out), len(out)]
         # each source named with confidence >= 0.8, and whether it is the hidden one
         confident = [n == c["name"] for c in cases for n, w in c[label]["confidence"].items() if w >= 0.8]
         res[label]["confident"] = len(confident)
