@@ -4,9 +4,11 @@ diagnosis's pose model: the nominal MJCF edited as text (every flexible joint's 
 simulator (:class:`rmbench.tracker.simulator.TrackerSimulator`, its own chain and error draws) with
 its random error sources switched off. Half also carry one structural source, injected through
 the simulator's own error model: a payload at the TCP, a gear harmonic on one joint, a reflector
-(TCP) offset; some carry one outside the diagnosis's library: backlash (the link lags the motor
-by a fixed angle against the direction the joint last moved in) or a link whose stiffness depends
-on the direction it is loaded in.
+(TCP) offset, or thermal drift (the arm expands about its base in proportion to the hours since
+the first reading); some carry one outside the diagnosis's library: backlash (the link lags the
+motor by a fixed angle against the direction the joint last moved in) or a link whose stiffness
+depends on the direction it is loaded in. :func:`scaled` enlarges a source that the readings
+cannot tell from the spread (the bench's visibility rule, ``bench/gap_tracker.py``).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from rmbench.robot import Robot
 from rmbench.tracker import MH180_CALIBRATION_BOX, MH180_JOINT_BOX, sobol_points
 from rmbench.tracker.simulator import ErrorDistribution, TrackerSimulator
 
-STRUCTURAL = ("payload", "gear_periodic_error", "frame_error")
+STRUCTURAL = ("payload", "gear_periodic_error", "frame_error", "thermal_drift")
 OUT_OF_LIBRARY = ("backlash", "directional_stiffness")
 _ZERO = ErrorDistribution(offset_sd=0.0, length_sd=0.0, twist_sd=0.0, tool_sd=0.0, stiffness_sd=0.0,
                           mass_sd=0.0, payload=(0.0, 0.0), gear_amplitude=(0.0, 0.0))
@@ -67,15 +69,30 @@ def draw_structural(rng: np.random.Generator, in_library: bool, n_joint: int) ->
             j = int(rng.integers(1, n_joint))
             return {"kind": kind, "location": f"j{j + 1}:h1", "joint": j,
                     "amplitude": float(rng.uniform(80e-6, 150e-6)), "phase": float(rng.uniform(0, 2 * np.pi))}
+        if kind == "thermal_drift":     # a warming arm: 20-60 µm per metre and hour
+            return {"kind": kind, "location": "time", "per_hour": float(rng.uniform(2e-5, 6e-5))}
         v = rng.normal(size=3)
         return {"kind": kind, "location": "tool", "offset": (float(rng.uniform(1.5e-3, 3e-3)) * v / np.linalg.norm(v)).tolist()}
     kind = OUT_OF_LIBRARY[int(rng.integers(len(OUT_OF_LIBRARY)))]
     j = int(rng.integers(1, n_joint))
     if kind == "backlash":
         return {"kind": kind, "location": f"j{j + 1}", "joint": j, "angle": float(rng.uniform(100e-6, 200e-6))}
-    # the joint is stiffer (×1.6-2.2) when the gravity torque on it is positive than when negative
-    j = int(rng.integers(1, 3))
+    # the joint is stiffer (×1.6-2.2) when the gravity torque on it is positive than when negative;
+    # seen only where that torque changes sign over the campaign (the wrist, mostly)
     return {"kind": kind, "location": f"j{j + 1}", "joint": j, "ratio": float(rng.uniform(1.6, 2.2))}
+
+
+def scaled(source: dict, factor: float) -> dict:
+    """``source`` with its size times ``factor``: the mass, amplitude, offset, expansion rate or
+    backlash angle; a directional stiffness's excess ratio ``ratio - 1``."""
+    out = dict(source)
+    if source["kind"] == "directional_stiffness":
+        out["ratio"] = 1.0 + (source["ratio"] - 1.0) * factor
+        return out
+    key = {"payload": "mass", "gear_periodic_error": "amplitude", "frame_error": "offset",
+           "thermal_drift": "per_hour", "backlash": "angle"}[source["kind"]]
+    out[key] = (np.asarray(source[key]) * factor).tolist() if key == "offset" else source[key] * factor
+    return out
 
 
 class SpreadRobot:
@@ -117,12 +134,16 @@ class SpreadRobot:
             defl = tau / k
         return ql + defl
 
-    def positions(self, q, previous, rng=None) -> np.ndarray:
-        """Tracker-frame TCP positions (n, 3), m: noise-free, or measured with ``rng``."""
-        sim = self.sim
+    def positions(self, q, previous, t, rng=None) -> np.ndarray:
+        """Tracker-frame TCP positions (n, 3), m, of commands ``q`` read at ``t`` (s since the
+        first reading): noise-free, or measured with ``rng``."""
+        sim, s = self.sim, self.source
         noise = None if rng is None else rng.normal(size=np.shape(q)) * sim.joint_sigma
-        rot, t = sim.base_in_tracker
-        p = sim.true_chain.position(self._angles(q, previous, noise)) @ rot.T + t
+        rot, trans = sim.base_in_tracker
+        p_base = sim.true_chain.position(self._angles(q, previous, noise))
+        if s is not None and s["kind"] == "thermal_drift":
+            p_base = p_base * (1.0 + s["per_hour"] * np.asarray(t, float) / 3600.0)[:, None]
+        p = p_base @ rot.T + trans
         if rng is not None:
             p = p + rng.normal(size=p.shape) * sim.tracker.sigma(np.linalg.norm(p, axis=-1))[..., None]
         return p
