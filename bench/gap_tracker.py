@@ -177,7 +177,7 @@ def _truth(i: int, seed: int, nominal, xml: str, source, q, order, previous, t, 
             if vis["visible"] or factor >= MAX_SCALE:
                 break
             step = min(max(1.25, 1.05 * np.sqrt(vis["target"] / max(vis["nc"], 1e-9))), MAX_SCALE / factor)
-            factor *= step
+            factor = float(factor * step)
             source = scaled(drawn, factor)
         if vis["visible"]:
             return truth, vis, rejected
@@ -288,10 +288,10 @@ def summarise_spread(cases) -> dict:
     frac = (lambda xs: float(np.mean(xs)) if xs else None)
     res = {"spread_cases": len(cases),
            # sources enlarged to be visible, and draws rejected as hidden at MAX_SCALE (_truth)
-           "scaled": [sum(c.get("noise_free", {}).get("scale", 1.0) > 1.0 for c in cases),
-                      sum(c["source"] is not None for c in cases)],
-           "rejected": Counter(r["source"]["kind"] + "@" + r["source"]["location"]
-                               for c in cases for r in c.get("rejected", []))}
+           "scaled": [int(sum(float(c.get("noise_free", {}).get("scale", 1.0)) > 1.0 for c in cases)),
+                      int(sum(c["source"] is not None for c in cases))],
+           "rejected": dict(Counter(r["source"]["kind"] + "@" + r["source"]["location"]
+                               for c in cases for r in c.get("rejected", [])))}
     for label in ("calibrated", "plain"):
         res[label] = {
             "recall": frac([c["name"] in c[label]["chosen"] for c in inl]),
@@ -357,7 +357,8 @@ def _spread_line(spread: dict) -> dict:
     c = spread["calibrated"]
     return {"spread_cases": spread["spread_cases"], "spread_recall": c["recall"],
             "spread_false_sources": c["false_sources"], "spread_median_shrink": c["median_shrink"],
-            "spread_unexplained_ok": c["unexplained_ok"], "spread_confident_right": c["confident_right"]}
+            "spread_unexplained_ok": c["unexplained_ok"], "spread_confident_right": c["confident_right"],
+            "spread_scaled": spread["scaled"][0], "spread_rejected": sum(spread["rejected"].values())}
 
 
 def main() -> int:
