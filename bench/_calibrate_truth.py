@@ -95,6 +95,23 @@ def draw_structural(rng: np.random.Generator, in_library: bool):
     return Hidden("offset_mass", body, {"mass": float(rng.uniform(8, 20)), "offset_m": offset.tolist()})
 
 
+def scaled_structural(hidden, factor: float):
+    """``hidden`` with its size times ``factor``: a foundation's compliance, a body's added
+    fraction, a sensor's angle, the spindle's speed, a hose's or an off-origin mass, a tendon's
+    coupling; a tool holder's stiffness factor raised to ``factor`` (its size is a ratio)."""
+    from rmbench.gap.cases.blind import Hidden
+
+    v = dict(hidden.value)
+    key = {"base_compliance": "lateral", "added_mass": "fraction", "sensor_misalignment": "angle_deg",
+           "non_reciprocity": "rpm", "hose_resonator": "mass", "tendon_coupling": "fraction",
+           "offset_mass": "mass"}.get(hidden.kind)
+    if hidden.kind == "tool_contact_stiffness":
+        v = {k: float(x) ** factor for k, x in v.items()}
+    else:
+        v[key] = float(v[key]) * factor
+    return Hidden(hidden.kind, hidden.location, v)
+
+
 def inject_structural(xml: str, hidden):
     """The spread robot's MJCF with the structural effect, the sensors' placement errors per
     band and the spindle speed it is measured at."""
