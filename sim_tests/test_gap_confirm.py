@@ -111,7 +111,17 @@ def test_each_confirmable_kind_is_confirmed_once_and_an_unrefined_foundation_too
     assert picks[:3] == ["sensor_misalignment@low:1aX", "added_mass@wrist", "tool_contact_stiffness@tool_contact"]
     # the unrefined kinds follow, but no unrefined sensor: it has no fitted size to be confirmed at
     assert set(picks[3:]) == {"spindle_stiffness@spindle", "base_compliance@base"}
-    assert len(_confirm_picks(models, calibrated_library, 2)) == 2
+
+
+def test_the_foundation_is_confirmed_even_when_others_fill_the_quota(calibrated_library):
+    """The ordinary parameters mimic a slide best of all (the base's tilt, the links' centres of
+    mass): it is recalibrated whatever its first-order rank."""
+    from rmbench.gap.frf.diagnosis import _confirm_picks
+
+    models = [{"params": {}, "score": 0.0}, {"params": {"added_mass@wrist": {}}, "score": 1.0},
+              {"params": {"sensor_misalignment@low:1aX": {}}, "score": 0.5}]
+    picks = [e.name for e in _confirm_picks(models, calibrated_library, 2)]
+    assert picks == ["sensor_misalignment@low:1aX", "added_mass@wrist", "base_compliance@base"]
 
 
 def test_a_holder_explanation_is_read_on_top_of_the_calibrated_holder(irb):

@@ -33,7 +33,7 @@ of ``J``.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -72,7 +72,8 @@ class CalibrationSettings:
         Add the FRF residuals (mean log-magnitude gap per entry and quarter band,
         :func:`~rmbench.calibrate.residual.frf_residuals`) to the modal ones, where the data
         carry FRFs (:attr:`ModalData.frf`): they see what lies between and beyond the modes (a
-        tool contact's residual flexibility, a sensor's gain).
+        tool contact's residual flexibility, a sensor's gain). A fit from the nominal (no
+        ``start``) fits the modes alone first and adds the FRFs from there.
     extra : tuple of str
         Parameters in no group (:data:`rmbench.robot.parameters.STRUCTURAL`, ``BODY.mass``) fitted
         beside the groups'.
@@ -426,6 +427,19 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
         with the data's, fewer data than parameters (naming the undetermined ones).
     """
     say = progress or (lambda msg: None)
+    if settings.frf and start is None:
+        # From the nominal, the modes alone first. The FRF residuals' landscape is rugged far from
+        # the data: between heavily damped modes that overlap, a model whose modes sit in the wrong
+        # order fits the magnitudes locally as well as one nearer the truth, and the fit stays there
+        # (a foundation sliding 94 µm/kN, calibrated with the FRFs from the nominal: training χ²
+        # 3533 on 2120 residuals, the links' centres of mass 0.2 m off; the modes first: 203,
+        # where the truth gives 203)
+        modes = calibrate(robot, data, held=held, settings=replace(settings, frf=False), progress=progress)
+        say("the modes fitted: the FRFs joined")
+        out = calibrate(robot, data, held=held, settings=settings, progress=progress,
+                        start=dict(zip([p.name for p in modes.params], np.asarray(modes.u, float))))
+        return replace(out, iterations=modes.iterations + out.iterations,
+                       seconds=round(modes.seconds + out.seconds, 3))
     t0 = time.perf_counter()
     held, train, q = _postures(robot, data, held)
     rob, params = parameter_set(robot, settings.groups, settings.extra)
