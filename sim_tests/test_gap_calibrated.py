@@ -160,3 +160,35 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
     assert calls == [(None, False, False), ("base_compliance@base", False, False), (None, True, False),
                      ("base_compliance@base", True, False), (None, False, True)]
     assert null.from_nominal
+
+
+def _remaining(data, groups):
+    from rmbench.gap import DiagnosisSettings, remaining_gap
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return remaining_gap("irb6660", data, tool="dummy", workers=0,
+                             settings=DiagnosisSettings(calibrate=groups))
+
+
+def test_a_gap_the_gearboxes_cannot_take_up_remains_after_their_recalibration(spread_and_contact):
+    # the tool holder 2.5 times stiffer moves the high band's tool modes, which no gearbox
+    # stiffness reaches: both noise tests fail the calibrated model, the null recalibration's too
+    rg = _remaining(spread_and_contact, ("joints",))
+    assert rg.first_significant and rg.null is not None
+    assert rg.null["significant"] and rg.significant
+
+
+def test_no_gap_remains_where_an_ordinary_parameter_takes_the_effect_up(spread_and_contact):
+    # the same holder is an ordinary parameter of the tool group, 2.5 times inside its spread:
+    # calibrated with it, the data leave nothing a structural search could find
+    rg = _remaining(spread_and_contact, ("joints", "tool"))
+    assert not rg.significant
+    assert json.loads(json.dumps(rg.to_dict()))["significant"] is False
+
+
+def test_remaining_gap_needs_groups_to_calibrate(spread_and_contact):
+    from rmbench.gap import DiagnosisSettings, remaining_gap
+
+    with pytest.raises(ValueError, match="calibrate"):
+        remaining_gap("irb6660", spread_and_contact, tool="dummy", settings=DiagnosisSettings())

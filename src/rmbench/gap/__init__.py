@@ -21,7 +21,8 @@ figures in :mod:`rmbench.gap.plot`.
 from rmbench.calibrate.design import SensorOffset, TestDesign
 from rmbench.calibrate.measured import GapDataWarning, MeasuredModes, measured_data
 from rmbench.gap.frf import (KINDS, Change, Diagnosis, DiagnosisSettings, Effect, EffectResult, GapMap, ModelBench,
-                             ModelModes, Param, diagnose, gap_map, library, load_data)
+                             ModelModes, Param, RemainingGap, diagnose, gap_map, library, load_data,
+                             remaining_gap)
 from rmbench.gap.tracker import (FittedPose, PoseErrorMap, PoseModel, Source, SourceResult, TrackerData,
                                  TrackerDiagnosis, TrackerSettings, diagnose_tracker, source_library, tracker_data)
 
@@ -30,4 +31,4 @@ __all__ = ["diagnose", "Diagnosis", "DiagnosisSettings", "EffectResult", "load_d
            "GapDataWarning", "MeasuredModes", "measured_data", "ModelBench", "ModelModes",
            "GapMap", "gap_map", "diagnose_tracker", "tracker_data", "TrackerData", "TrackerSettings",
            "TrackerDiagnosis", "SourceResult", "PoseErrorMap", "FittedPose", "PoseModel", "Source",
-           "source_library"]
+           "source_library", "remaining_gap", "RemainingGap"]

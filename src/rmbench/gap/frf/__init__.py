@@ -6,10 +6,12 @@ recalibration (:mod:`.confirm`), the gap map (:mod:`.where`) and the diagnosis t
 :mod:`rmbench.gap.selection`'s, shared with the tracker engine.
 """
 
-from rmbench.gap.frf.diagnosis import Diagnosis, DiagnosisSettings, EffectResult, diagnose, load_data
+from rmbench.gap.frf.diagnosis import (Diagnosis, DiagnosisSettings, EffectResult, RemainingGap, diagnose, load_data,
+                                       remaining_gap)
 from rmbench.gap.frf.effects import KINDS, Change, Effect, Param, library
 from rmbench.gap.frf.model import ModelBench, ModelModes
 from rmbench.gap.frf.where import GapMap, gap_map
 
 __all__ = ["diagnose", "Diagnosis", "DiagnosisSettings", "EffectResult", "load_data", "Effect", "Param",
-           "Change", "library", "KINDS", "ModelBench", "ModelModes", "GapMap", "gap_map"]
+           "Change", "library", "KINDS", "ModelBench", "ModelModes", "GapMap", "gap_map", "remaining_gap",
+           "RemainingGap"]

@@ -32,7 +32,7 @@ from rmbench.gap.frf.where import GapMap, gap_map
 from rmbench.io.strict_json import strict_dumps
 
 __all__ = ["diagnose", "diagnose_modes", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings",
-           "SearchData", "structural_kinds"]
+           "SearchData", "structural_kinds", "remaining_gap", "RemainingGap"]
 
 _DB = 20 / np.log(10)
 
@@ -314,27 +314,10 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
         Unreadable data, no test design, postures the model cannot reach, no overlap of the
         data's and the model's bands, data of another robot or sensor layout.
     """
-    from rmbench.robot import Robot
-
     say = progress or (lambda msg: None)
     t = {"start": time.perf_counter()}
-    robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal, tool=tool)
-    ds = measured_data(load_data(data))
-    design = TestDesign.of_dataset(ds, test)
-    bands = _bands(ds, design, robot)
-    postures = postures_of(ds)
-    try:
-        bench = ModelBench.commanded(robot, design, postures)
-    except UnreachablePosture as err:
-        raise InputError(f"the data's postures are not this model's: {err}") from None
-    say(f"nominal model at {len(postures)} postures")
-    meas, fit = fit_measured(ds, bands, workers=workers)
-    frf = frf_targets(ds, fit, bands, design.averages(), design.direction_scatter())
-    t["fit"] = time.perf_counter()
-    say("measured FRFs fitted")
-    _check_match(bench, meas, bands)
-    train, held = _split(ds, settings.heldout)
-    train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
+    robot, ds, design, bands, postures, bench, meas, frf, train, held = _prepared(
+        nominal, data, test, tool, workers, settings, say, t)
     calibration = ordinary = None
     nominal_robot = robot
     if settings.calibrate:
@@ -356,6 +339,111 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
         dg = _confirmed(dg, nominal_robot, robot, bench.q_cmd, first, meas, frf, bands, train, held, ds,
                         settings, say, t)
     return dg
+
+
+def _prepared(nominal, data, test, tool, workers, settings, say, t) -> tuple:
+    """What every FRF diagnosis starts from: the robot, the measured dataset and its test design,
+    the bands, postures and model bench, the measured modes and FRF targets, and the training and
+    held-out postures."""
+    from rmbench.robot import Robot
+
+    robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal, tool=tool)
+    ds = measured_data(load_data(data))
+    design = TestDesign.of_dataset(ds, test)
+    bands = _bands(ds, design, robot)
+    postures = postures_of(ds)
+    try:
+        bench = ModelBench.commanded(robot, design, postures)
+    except UnreachablePosture as err:
+        raise InputError(f"the data's postures are not this model's: {err}") from None
+    say(f"nominal model at {len(postures)} postures")
+    meas, fit = fit_measured(ds, bands, workers=workers)
+    frf = frf_targets(ds, fit, bands, design.averages(), design.direction_scatter())
+    t["fit"] = time.perf_counter()
+    say("measured FRFs fitted")
+    _check_match(bench, meas, bands)
+    train, held = _split(ds, settings.heldout)
+    train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
+    return robot, ds, design, bands, postures, bench, meas, frf, train, held
+
+
+@dataclass(frozen=True)
+class RemainingGap:
+    """Whether measured FRFs leave a gap once the ordinary parameters are calibrated: the two
+    noise tests a calibrated :func:`diagnose` applies before it says "no significant gap", without
+    the structural search between them.
+
+    Attributes
+    ----------
+    chi2_all, n_all, peak_all : float, int, float
+        The first calibration's χ² over every posture (its parameters refitted to first order,
+        as the search's baseline), the number of residuals and the largest one (absolute).
+    first_significant : bool
+        Whether that gap exceeds the noise (the diagnosis's first test).
+    null : dict or None
+        Where the first test passed: the null recalibration with the FRFs
+        (:func:`rmbench.gap.frf.confirm.confirm`), its held-out χ² (``chi2_held``, ``n_held``,
+        ``peak_held``) and noise test (``significant``).
+    significant : bool
+        Both tests passed: a gap the ordinary parameters cannot take up.
+    seconds : float
+    """
+
+    chi2_all: float
+    n_all: int
+    peak_all: float
+    first_significant: bool
+    null: dict | None
+    significant: bool
+    seconds: float
+
+    def to_dict(self) -> dict:
+        return {"chi2_all": self.chi2_all, "n_all": self.n_all, "peak_all": self.peak_all,
+                "first_significant": self.first_significant, "null": self.null,
+                "significant": self.significant, "seconds": self.seconds}
+
+
+def remaining_gap(nominal, data, *, test: str | None = None, tool=None, workers: int | None = None,
+                  settings: DiagnosisSettings = DiagnosisSettings(), progress=None) -> RemainingGap:
+    """Whether a structural gap remains in ``data`` once ``settings.calibrate``'s ordinary
+    parameters are calibrated: :func:`diagnose`'s calibration, its noise test over every posture
+    and, where that passes, its null recalibration with the FRFs scored on the held-out postures;
+    no structural search. A blind bench asks this of a hidden effect before it is measured: an
+    effect the ordinary parameters take up whole leaves nothing any diagnosis could find.
+
+    Parameters are :func:`diagnose`'s; ``settings.calibrate`` must name groups.
+
+    Returns
+    -------
+    RemainingGap
+    """
+    from rmbench.gap.frf.confirm import confirm
+    from rmbench.gap.frf.joint import JointObjective
+
+    if not settings.calibrate:
+        raise ValueError("remaining_gap needs settings.calibrate: the ordinary parameters to calibrate")
+    say = progress or (lambda msg: None)
+    t = {"start": time.perf_counter()}
+    robot, ds, design, bands, postures, bench, meas, frf, train, held = _prepared(
+        nominal, data, test, tool, workers, settings, say, t)
+    fitted, _, ordinary, (cal, sub, cal_settings) = _calibrated(robot, design, postures, meas, frf, bands, train,
+                                                               held, settings, workers, say, data)
+    cal_bench = ModelBench(fitted, design, bench.q_cmd)
+    obj_train = JointObjective(cal_bench, meas, frf, bands, train, ordinary)
+    obj_all = JointObjective(cal_bench, meas, frf, bands, range(cal_bench.n_postures), ordinary,
+                             fitted_on=obj_train)
+    e_all = obj_all.vector(Change())
+    chi2_all, peak_all = float(e_all @ e_all), float(abs(peak_residual(e_all)))
+    first = bool(significant(chi2_all, obj_all.n, p=settings.p_noise, peak=peak_all))
+    null = None
+    if first:
+        held_sub = list(range(len(train), len(train) + len(held)))
+        run, _ = confirm(robot, sub, held_sub, cal, [], q_cmd=bench.q_cmd, meas=meas, frf=frf, bands=bands,
+                         held=held, settings=cal_settings, p_noise=settings.p_noise,
+                         min_shrink=settings.min_shrink, progress=say)
+        null = run.to_dict()
+    return RemainingGap(chi2_all, int(obj_all.n), peak_all, first, null,
+                        bool(first and null["significant"]), round(time.perf_counter() - t["start"], 1))
 
 
 # library kinds an ordinary-parameter group already fits (a foundation and a tool holder can be
