@@ -192,3 +192,33 @@ def test_remaining_gap_needs_groups_to_calibrate(spread_and_contact):
 
     with pytest.raises(ValueError, match="calibrate"):
         remaining_gap("irb6660", spread_and_contact, tool="dummy", settings=DiagnosisSettings())
+
+
+def test_a_confirmed_explanation_reports_the_calibration_fitted_with_the_effect(monkeypatch):
+    # the first calibration bent the ordinary parameters to mimic the effect; the verdict rests on
+    # the recalibration with the effect freed, so its parameters are the calibration a user gets
+    from types import SimpleNamespace
+
+    import rmbench.gap.frf.diagnosis as diagnosis_module
+    from rmbench.gap import Change, DiagnosisSettings
+    from rmbench.gap.frf.diagnosis import Diagnosis, _explained
+
+    monkeypatch.setattr(diagnosis_module, "_metrics", lambda objective, ds, change: {})
+    objective = SimpleNamespace(n_posture=lambda p: 100)
+    effect = SimpleNamespace(name="base_compliance@base", kind="base_compliance", location="base", n_params=1,
+                             params_dict=lambda v: {"lateral_um_per_kn": 90.0}, describe=lambda v: "a foundation")
+    with_effect = SimpleNamespace(to_json=lambda: {"params": [{"name": "j2_flex.stiffness", "value": 0.8}]},
+                                  xml="<mujoco model='with the foundation'/>")
+    best = SimpleNamespace(effect=effect, values=(0.0,), chi2_held=400.0, n_held=400, objective=objective,
+                           chi2_held_posture=np.full(4, 100.0), change=Change(), calibration=with_effect)
+    base = SimpleNamespace(chi2_held=3600.0, n_held=400, objective=objective, chi2_held_posture=np.full(4, 900.0))
+    dg = Diagnosis(verdict="unexplained", effects=(), where=SimpleNamespace(describe=lambda: ""), where_after=None,
+                   localisation="", equivalent=(), nominal_chi2=1.0, n_residuals=1, nominal_peak=1.0,
+                   variant_xml=None, design_changes=(), train=(), held=(0, 1, 2, 3), models=(), seconds={},
+                   calibration={"groups": ["joints", "base"], "params": [{"name": "j2_flex.stiffness", "value": 0.6}]})
+    out = _explained(dg, [best], base, base, [best], [0, 1, 2, 3], None, DiagnosisSettings(), {}, [], True,
+                     {"start": 0.0, "confirm": 1.0})
+    assert out.verdict == "explained"
+    assert out.calibration == {"params": [{"name": "j2_flex.stiffness", "value": 0.8}], "groups": ["joints", "base"]}
+    assert out.variant_xml == with_effect.xml
+    assert any("recalibration with base_compliance@base freed" in n for n in out.notes)

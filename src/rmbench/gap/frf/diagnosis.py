@@ -629,9 +629,14 @@ def _explained(dg: Diagnosis, winners, base, null, done, held, ds, settings, rec
                      f"{best.effect.name} freed it is {best.train_objective:.3g} and the size lies beyond the "
                      "spread: the held-out shrink is small because the calibration had mimicked the effect")
     design_changes = (best.effect.describe(best.values),) if not best.change.is_null() else ()
+    # the calibration the verdict rests on: the ordinary parameters refitted with the effect freed
+    # beside them; the first calibration had bent them to mimic the effect
+    account = best.calibration.to_json()
+    account["groups"] = list(dg.calibration["groups"])
+    notes.append(f"the calibration reported is the recalibration with {best.effect.name} freed")
     return replace(dg, verdict="explained", effects=(top,) + rest, variant_xml=best.calibration.xml,
                    design_changes=design_changes, notes=tuple(notes), confirmation=record, seconds=_seconds(t),
-                   localisation=dg.where.describe())
+                   localisation=dg.where.describe(), calibration=account)
 
 
 def _confirm_picks(models, lib: dict, n: int) -> list:
