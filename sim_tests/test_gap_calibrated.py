@@ -222,3 +222,55 @@ def test_a_confirmed_explanation_reports_the_calibration_fitted_with_the_effect(
     assert out.calibration == {"params": [{"name": "j2_flex.stiffness", "value": 0.8}], "groups": ["joints", "base"]}
     assert out.variant_xml == with_effect.xml
     assert any("recalibration with base_compliance@base freed" in n for n in out.notes)
+
+
+def _candidate(effect="tool_contact_stiffness@tool_contact", *, significant=False, chi2_held=317.0,
+               train_objective=368.0):
+    # robot 2 of the calibration bench's seed 28832, restated: a tool holder x3.40 whose ordinary
+    # parameter the first calibration left on its bound; freed, it reaches the noise
+    from types import SimpleNamespace
+
+    return SimpleNamespace(effect=effect, significant=significant, chi2_held=chi2_held,
+                           train_objective=train_objective)
+
+
+def _rule(monkeypatch, c, *, pinned, beyond=True, within=False):
+    from types import SimpleNamespace
+
+    import rmbench.gap.frf.diagnosis as diagnosis_module
+
+    monkeypatch.setattr(diagnosis_module, "_beyond_spread", lambda c, nominal, groups: beyond)
+    monkeypatch.setattr(diagnosis_module, "_within_spread", lambda c, nominal, groups: within)
+    null = SimpleNamespace(significant=True, chi2_held=1103.0, train_objective=3384.0)
+    return diagnosis_module._confirms(c, null, gap=True, pinned=pinned, first_chi2=11853.0, min_shrink=0.5,
+                                      nominal=None, groups=("tool",))
+
+
+def test_a_freed_bound_explains_a_gap_it_closes_less_than_half_of(monkeypatch):
+    # the calibration pressed against the holder's bound had mimicked most of the effect: what
+    # is left is barely above the noise, so even the truth closes only 46 % of it
+    c = _candidate()
+    assert _rule(monkeypatch, c, pinned=[c.effect])
+
+
+def test_a_freed_bound_inside_its_spread_explains_nothing(monkeypatch):
+    c = _candidate()
+    assert not _rule(monkeypatch, c, pinned=[c.effect], beyond=False)
+
+
+def test_a_freed_bound_that_strains_the_fit_more_explains_nothing(monkeypatch):
+    c = _candidate(train_objective=4000.0)
+    assert not _rule(monkeypatch, c, pinned=[c.effect])
+
+
+def test_an_effect_behind_no_bound_must_close_half_the_gap(monkeypatch):
+    # the 40 g look-alike: a small spindle change that tidies up a gap near the noise threshold
+    c = _candidate("spindle_stiffness@spindle")
+    assert not _rule(monkeypatch, c, pinned=["tool_contact_stiffness@tool_contact"])
+    assert _rule(monkeypatch, _candidate("spindle_stiffness@spindle", chi2_held=200.0),
+                 pinned=["tool_contact_stiffness@tool_contact"])
+
+
+def test_no_candidate_explains_what_it_leaves_above_the_noise(monkeypatch):
+    c = _candidate(significant=True)
+    assert not _rule(monkeypatch, c, pinned=[c.effect])
