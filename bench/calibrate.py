@@ -384,7 +384,9 @@ def run_gap_case(i: int, seed: int, args) -> dict:
                            identifiability=p["identifiability"], on_bound=p["on_bound"])
            for p in acct["params"] if p["name"] not in skip]
     truth_robot = Robot(xml, name="truth", tool="dummy", spindle_rpm=rpm)
-    cal_robot = Robot(dg.calibrated_xml, name="calibrated", tool="dummy")
+    # the model the verdict hands the user: with the effect where one explains the gap
+    final = dg.variant_xml if dg.verdict == "explained" and dg.variant_xml else dg.calibrated_xml
+    cal_robot = Robot(final, name="calibrated", tool="dummy")
     from rmbench.calibrate.measured import measured_data
     from rmbench.calibrate import TestDesign
 

@@ -169,7 +169,10 @@ class Diagnosis:
         identifiability, and the held-out frequency and damping errors before and after
         (:meth:`rmbench.calibrate.Calibration.to_json`).
     calibrated_xml : str or None
-        With ``settings.calibrate``: the calibrated MJCF the structural search ran on.
+        With ``settings.calibrate``: the calibrated MJCF without a structural effect (the one
+        the structural search ran on, or the null recalibration where that is the better model).
+        Where an effect explains the gap, ``variant_xml`` is the recalibration with it freed, the
+        model ``calibration`` describes.
     confirmation : dict or None
         With ``settings.confirm``: the null recalibration and each confirmed candidate's held-out
         χ², noise test and shrink against the null (:mod:`rmbench.gap.frf.confirm`).
