@@ -97,7 +97,7 @@ class _Runs:
     def __init__(self, fresh_noise):
         self.fresh_noise, self.calls = fresh_noise, []
 
-    def run(self, effect, prev=None, *, from_nominal=False):
+    def run(self, effect, prev=None, *, from_nominal=False, null=None):
         from types import SimpleNamespace
 
         self.calls.append((None if effect is None else effect, from_nominal))
@@ -145,7 +145,7 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
 
     calls = []
 
-    def run(effect, prev=None, *, from_nominal=False):
+    def run(effect, prev=None, *, from_nominal=False, null=None):
         calls.append((effect, prev is not None, from_nominal))
         at_noise = (effect is not None and prev is not None) or from_nominal
         return SimpleNamespace(effect=effect, significant=not at_noise, from_nominal=from_nominal,

@@ -176,3 +176,45 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
     assert not _beyond_spread(freed(1.3, 0.10), irb, ("masses",))
     # a mass no calibrated group holds is not judged against a spread here
     assert not _beyond_spread(freed(1.5, 0.05), irb, ("joints",))
+
+
+def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True):
+    """``_Recalibration._candidate`` with calibrations that stand in for the two starts, each
+    ending at the given training objective; the starts each was given recorded."""
+    from types import SimpleNamespace
+
+    import rmbench.calibrate
+    from rmbench.gap.frf.confirm import _Recalibration
+
+    starts = []
+
+    def calibrate(robot, data, *, held=(), settings=None, start=None, progress=None):
+        starts.append(start)
+        end = from_nominal if start is None else from_null
+        return SimpleNamespace(chi2_after=end - 10.0, chi2_prior=10.0, start=start)
+
+    monkeypatch.setattr(rmbench.calibrate, "calibrate", calibrate)
+    run = _Recalibration(*([None] * 14))
+    base = SimpleNamespace(calibration=SimpleNamespace(params=[SimpleNamespace(name="j1_flex.stiffness")],
+                                                       u=np.array([0.2])))
+    cal, started = run._candidate(None, None, base if null else None)
+    return cal, started, starts
+
+
+def test_a_candidate_keeps_the_null_recalibrations_end_where_that_start_ends_lower(monkeypatch):
+    # the modes-alone stage from the nominal trades a freed holder against the centres of mass
+    # and the foundation; from the null's end the ordinary parameters are already near the data
+    cal, started, starts = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0)
+    assert starts == [None, {"j1_flex.stiffness": 0.2}]
+    assert started == "null" and cal.start == {"j1_flex.stiffness": 0.2}
+
+
+def test_a_candidate_keeps_the_nominal_start_where_that_ends_lower(monkeypatch):
+    # from the null's end, where the ordinary parameters mimic the effect, a fit can stall
+    cal, started, _ = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0)
+    assert started == "nominal" and cal.start is None
+
+
+def test_a_run_without_a_null_starts_from_the_nominal_alone(monkeypatch):
+    _, started, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=0.0, null=False)
+    assert starts == [None] and started == "nominal"

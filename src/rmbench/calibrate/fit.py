@@ -416,7 +416,8 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
     settings : CalibrationSettings
     start : dict, optional
         ``{parameter name: u}`` to start from (a previous calibration; absent names at the
-        nominal) instead of the gross starts and the coarse stage.
+        nominal, absent freed ones at the best of their gross sizes) instead of the gross starts
+        and the coarse stage.
     progress : callable, optional
         ``progress(message)`` after each step.
 
@@ -476,6 +477,11 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
             f"{len(params)} parameters")
         if start is not None:
             z0 = _given_start(start, params, sigma, lo, hi)
+            absent = [n for n in settings.free if n not in start]
+            if absent:
+                # a freed parameter the start does not hold (a foundation's sliding, added to a
+                # calibration without it) starts at the best of its gross sizes, as from the nominal
+                z0 = _free_start(params, absent, fun, z0, lo, hi, say)
         else:
             z0 = _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say)
         sol = solve(lambda z: problem.residuals(z * sigma), lambda z: jac_at(z)[1], z0, prior_sd=prior_sd,
