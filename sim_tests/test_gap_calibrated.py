@@ -162,6 +162,29 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
     assert null.from_nominal
 
 
+def test_every_candidate_runs_after_one_explains_the_gap(monkeypatch):
+    # a mass on the wrist, listed first, explains a mass added to the flange nearly as well: the
+    # choice between them and its confidence need the flange's run too (seed 13128 robot 3)
+    from types import SimpleNamespace
+
+    import rmbench.gap.frf.confirm as confirm_module
+
+    calls = []
+
+    def run(effect, prev=None, *, from_nominal=False, null=None):
+        calls.append(effect)
+        return SimpleNamespace(effect=effect, significant=effect is None, from_nominal=from_nominal,
+                               chi2_held=900.0 if effect is None else 300.0, shrink_against=lambda n: 0.5)
+
+    monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)
+    first = SimpleNamespace(params=(), u=np.zeros(0))
+    _, done = confirm_module.confirm(None, None, [], first, ["added_mass@wrist", "added_mass@flange"], q_cmd=None,
+                                     meas=[], frf=[], bands=(), held=[], settings=None,
+                                     accept=lambda c, n: not c.significant)
+    assert [c.effect for c in done] == ["added_mass@wrist", "added_mass@flange"]
+    assert calls == [None, "added_mass@wrist", "added_mass@flange", None]
+
+
 def _remaining(data, groups):
     from rmbench.gap import DiagnosisSettings, remaining_gap
 

@@ -500,7 +500,7 @@ def _calibrated(robot, design, postures, meas, frf, bands, train, held, settings
 def _confirmed(dg: Diagnosis, nominal, calibrated, q_cmd, first, meas, frf, bands, train, held, ds, settings,
                say, t) -> Diagnosis:
     """The diagnosis after the confirmable candidates were recalibrated in place, best-ranked
-    first (:mod:`rmbench.gap.frf.confirm`): explained by the first whose held-out residual is noise,
+    first (:mod:`rmbench.gap.frf.confirm`): explained by the best of those whose held-out residual is noise,
     that closes ``min_shrink`` of the baseline's held-out gap and that left its ordinary spread;
     "no significant gap" when the null recalibration alone reaches the noise; otherwise
     unexplained as before."""
