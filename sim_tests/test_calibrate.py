@@ -233,6 +233,42 @@ def test_an_identifiable_parameter_is_fixed_to_its_resolution(calibrated):
             assert hi / p.value - 1 <= 0.05 + 1e-9 and 1 - lo / p.value <= 0.05 + 1e-9, p.name
 
 
+def _interval_widths(irb, held):
+    """95 % interval widths in ``u`` of three gearboxes, each seen alone by 10 residuals of unit
+    sensitivity, fitted to the noise (training χ² = dof), with the held-out ``(χ², n)`` given."""
+    from rmbench.calibrate.fit import _account
+
+    _, params = parameter_set(irb, ("joints",))
+    params = ParameterSet(list(params)[:3])
+    j = np.kron(np.eye(3), np.ones((10, 1)))
+    sigma = params.sigma()
+    out, _, _, notes, widening = _account(params, np.zeros(3), j, sigma, chi2=27.0, n=30, lo=-np.ones(3) * 9,
+                                          hi=np.ones(3) * 9, held=held)
+    return np.array([np.log(p.interval[1] / p.interval[0]) for p in out]), widening, notes
+
+
+def test_intervals_widen_to_a_heldout_misfit_above_the_training_one(irb):
+    # held-out postures fitted 4 times worse per residual than the training ones: a model error
+    # the fit took up on its own postures; the parameters' bias is that much larger
+    base, w0, _ = _interval_widths(irb, held=(0.0, 0))
+    wide, w, notes = _interval_widths(irb, held=(40.0, 10))
+    assert w0 == 1.0 and w == pytest.approx(2.0)
+    np.testing.assert_allclose(wide, 2.0 * base, rtol=1e-9)
+    assert any("held-out" in n for n in notes)
+
+
+def test_a_heldout_fit_as_good_as_the_training_one_leaves_the_intervals(irb):
+    base, _, _ = _interval_widths(irb, held=(0.0, 0))
+    same, w, _ = _interval_widths(irb, held=(9.0, 10))
+    assert w == 1.0
+    np.testing.assert_allclose(same, base, rtol=1e-12)
+
+
+def test_a_calibration_that_reaches_its_heldout_posture_is_not_widened(calibrated):
+    # exact modes of a robot the parameters can reproduce: the held-out posture fits as well
+    assert calibrated.n_held > 0 and calibrated.widening == 1.0
+
+
 def test_each_parameter_states_the_resolution_that_matters(irb):
     _, params = parameter_set(irb, "all")
     by = {p.name: p for p in params}

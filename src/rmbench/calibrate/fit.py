@@ -22,7 +22,9 @@ there, first runs a coarse stage: frequencies only, paired in a ±50 % window, w
 costs more than pairing it badly.
 
 Identifiability comes from the posterior: with ``J`` the residual's sensitivity in prior standard
-deviations, the posterior covariance is ``s² (JᵀJ + I)⁻¹`` (``s²`` the reduced χ², when above 1). A parameter whose posterior standard
+deviations, the posterior covariance is ``s² (JᵀJ + I)⁻¹`` (``s²`` the reduced χ², when above 1); the
+reported intervals widen further to the held-out χ² per residual where postures are held out and
+that is larger (a model error the fit partly absorbs on its own postures shows on the others). A parameter whose posterior standard
 deviation is below 0.3 of its prior's and whose 95 % interval is within its resolution (5 %,
 5 mm) is *identifiable*; below 0.7 *weakly identifiable*; else *not identifiable*: the data leave
 it at its prior, the nominal, as the RCSA stage leaves its contact's rotational damping. Directions the data determine only
@@ -138,7 +140,8 @@ class Calibration:
     u : ndarray, shape (n_params,)
         Calibrated parameters in ``u`` (:mod:`rmbench.robot.parameters`).
     cov_u : ndarray, shape (n_params, n_params)
-        Posterior covariance in ``u``.
+        Posterior covariance in ``u`` from the training postures (scaled by their χ² per degree
+        of freedom where above 1).
     combinations : tuple of str
         Directions the data determine that no single parameter carries alone.
     chi2_before, chi2_after : float
@@ -160,6 +163,12 @@ class Calibration:
     at_limit : bool
         The fit stopped at its limit of evaluations (``CalibrationSettings.max_iter``) rather
         than converging.
+    chi2_held, n_held : float, int
+        Data χ² of the calibrated model on the held-out postures and its number of residuals
+        (0 and 0 without held-out postures).
+    widening : float
+        Factor on the intervals' half-widths beyond ``cov_u``'s: ``√(χ²_held/n_held)`` over the
+        training scale where that is larger, else 1.
     """
 
     params: tuple
@@ -179,6 +188,9 @@ class Calibration:
     notes: tuple = field(default=())
     chi2_prior: float = 0.0
     at_limit: bool = False
+    chi2_held: float = 0.0
+    n_held: int = 0
+    widening: float = 1.0
 
     def heldout_summary(self) -> dict:
         """Mean and p95 of the held-out |f| and |ζ| errors before and after, unpaired counts."""
@@ -189,6 +201,8 @@ class Calibration:
                 "chi2_per_residual": {"before": self.chi2_before / max(self.n_residuals, 1),
                                       "after": self.chi2_after / max(self.n_residuals, 1)},
                 "chi2_prior": self.chi2_prior,
+                "chi2_per_residual_held": self.chi2_held / self.n_held if self.n_held else None,
+                "interval_widening": self.widening,
                 "n_residuals": self.n_residuals, "train": list(self.train), "held": list(self.held),
                 "train_errors": {k: error_summary(v) for k, v in self.modes_train.items()},
                 "heldout_errors": self.heldout_summary(),
@@ -492,8 +506,9 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
         problem.close()
     chi2_after = float(r1 @ r1)
     say(f"calibrated: χ²/residual {chi2_after / problem.n:.3g} after {sol.nfev} evaluations")
-    estimates, cov_u, combos, notes = _account(params, z, j1, sigma, chi2_after, problem.n, lo, hi,
-                                               prior=(w > 0).astype(float))
+    chi2_held, n_held = _held_chi2(mm, data, held, settings, z * sigma)
+    estimates, cov_u, combos, notes, widening = _account(params, z, j1, sigma, chi2_after, problem.n, lo, hi,
+                                                         prior=(w > 0).astype(float), held=(chi2_held, n_held))
     if sol.at_limit:
         notes.append(f"the fit stopped at its limit of {settings.max_iter} evaluations")
     u = z * sigma
@@ -506,7 +521,20 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
                        train=tuple(train), held=tuple(held), modes_train=rows_train,
                        modes_held=rows_held, xml=xml, iterations=sol.nfev,
                        seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes),
-                       chi2_prior=sol.chi2_prior, at_limit=bool(sol.at_limit))
+                       chi2_prior=sol.chi2_prior, at_limit=bool(sol.at_limit), chi2_held=chi2_held,
+                       n_held=n_held, widening=widening)
+
+
+def _held_chi2(mm, data, held, settings, u) -> tuple[float, int]:
+    """The data χ² at ``u`` on the held-out postures, with the training residual (modes, and the
+    FRFs where fitted), and its number of residuals; ``(0, 0)`` with none held out."""
+    if not held:
+        return 0.0, 0
+    problem = _Problem(mm, data, held, settings)
+    if not problem.n:
+        return 0.0, 0
+    r = problem.residuals(u)
+    return float(r @ r), problem.n
 
 
 def _postures(robot, data, held) -> tuple[list, list, np.ndarray]:
@@ -718,15 +746,24 @@ def _check_enough(j, params, n_res, data, train) -> None:
                      "measure more postures or calibrate fewer groups (--params)")
 
 
-def _account(params, z, j, sigma, chi2, n, lo, hi, prior=None):
-    """Estimates with intervals and identifiability, the posterior covariance in u, and the
-    combinations the data determine.
+def _account(params, z, j, sigma, chi2, n, lo, hi, prior=None, held=(0.0, 0)):
+    """Estimates with intervals and identifiability, the posterior covariance in u, the
+    combinations the data determine, notes, and the intervals' widening beyond the covariance.
 
     The covariance is scaled by the training χ² per degree of freedom where that exceeds 1 (an
     unmodelled effect widens the intervals), never narrowed below what the residual's floors say:
     a fit far below its floors (χ²/dof ≈ 0.01 on simulated campaigns) does not make the
     parameters better known, since their errors come from the modal fit's bias, not its noise
     (scaled down to the held-out χ², the intervals covered the truth in 27-47 % of cases).
+
+    The intervals widen further to the held-out χ² per residual ``held = (χ², n)`` where that
+    exceeds the training scale: an unmodelled effect the ordinary parameters partly take up
+    fits the training postures closer than the rest, and it is the bias it leaves in them
+    that the intervals must hold (calibration bench seed 50349, the first calibrations of four
+    robots whose effect the diagnosis left unexplained: 119 of 180 intervals covered the truth,
+    131 widened; a hose on the forearm, training χ²/residual 0.56 and held-out 5.2, 36 → 44 of
+    45). Where the fit is no worse on the held-out postures (a spread-only robot: 0.08), nothing
+    changes. ``cov_u`` stays the training posterior: the diagnosis's decisions read it.
     """
     k = len(z)
     # a freed parameter has no prior (prior 0): a tiny ridge keeps an undetermined one finite
@@ -737,7 +774,12 @@ def _account(params, z, j, sigma, chi2, n, lo, hi, prior=None):
     if post.scale > 1:
         notes.append(f"intervals widened by √(χ²/dof) = {np.sqrt(post.scale):.2f}: the model does not reach "
                      "the data's noise (an unmodelled effect, or floors below the test's accuracy)")
-    sd = post.sd
+    chi2_held, n_held = held
+    widening = float(np.sqrt(max(1.0, chi2_held / n_held / post.scale))) if n_held else 1.0
+    if widening > 1:
+        notes.append(f"intervals widened by a further {widening:.2f}: the held-out postures' χ²/residual "
+                     f"{chi2_held / n_held:.3g} is above the training fit's (a model error the fit took up in part)")
+    sd = post.sd * widening
     cov_u = post.cov * np.outer(sigma, sigma)
     out = []
     for i, prm in enumerate(params):
@@ -753,7 +795,7 @@ def _account(params, z, j, sigma, chi2, n, lo, hi, prior=None):
                                      identifiability=ident, shrink=s,
                                      on_bound=bound))
     combos = _combinations(params, j, sd_info)
-    return out, cov_u, combos, notes
+    return out, cov_u, combos, notes, widening
 
 
 def _combinations(params, j, sd) -> list[str]:
