@@ -309,6 +309,24 @@ def test_structural_parameters_are_added_by_name_after_the_groups(irb):
     assert lateral.value(0.0) == 0.0 and lateral.label == "µm/kN"
 
 
+def test_the_foundations_plate_mass_reaches_the_compiled_model_and_the_saved_mjcf_alike(irb):
+    """A sliding foundation's candidate fits its plate's mass: the plate's inertia must scale with
+    it in the saved model too, or the model scored would not be the model fitted."""
+    mounted, params = parameter_set(irb, ("base",), extra=("base.lateral_compliance", "base_mount.mass"))
+    u = np.zeros(len(params))
+    u[params.names.index("base_mount.mass")] = np.log(2.0)
+    fast = copy.copy(mounted.model)
+    params.apply_model(fast, u)
+    spec = mounted.spec
+    params.apply_spec(spec, u)
+    saved = spec.compile()
+    plate = fast.body("base_mount").id
+    assert fast.body_mass[plate] == pytest.approx(2 * mounted.model.body_mass[plate], rel=1e-12)
+    for field in ("body_mass", "body_inertia"):
+        np.testing.assert_allclose(getattr(fast, field), getattr(saved, field), rtol=1e-12, atol=0,
+                                   err_msg=field)
+
+
 def test_an_unknown_structural_parameter_is_a_one_line_error(irb):
     with pytest.raises(InputError, match="unknown structural parameter"):
         parameter_set(irb, ("joints",), extra=("gearbox.backlash",))

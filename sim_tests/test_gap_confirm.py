@@ -33,8 +33,21 @@ def test_a_holder_candidate_frees_the_calibrated_contact_and_reads_back_against_
 def test_a_sliding_foundation_candidate_is_the_lateral_compliance_added(irb, calibrated_library):
     effect = calibrated_library["base_compliance@base"]
     terms = _terms(effect, {}, ("joints", "base"), irb)
-    assert terms.extra == ("base.lateral_compliance",) and terms.free == ("base.lateral_compliance",)
+    assert terms.extra[0] == "base.lateral_compliance" and terms.free == ("base.lateral_compliance",)
     assert terms.values({"base.lateral_compliance": 60.0})[0] == pytest.approx(60.0)
+
+
+def test_a_sliding_foundation_candidate_fits_the_plates_mass_within_its_prior(irb, calibrated_library):
+    """A foundation's moving mass is never known: at a fixed plate, a slab twice as heavy is read
+    as a slide about 1.5 times too soft (the same sway frequency), so the plate's mass is fitted
+    too, held by its prior, not freed."""
+    effect = calibrated_library["base_compliance@base"]
+    terms = _terms(effect, {}, ("joints", "base"), irb)
+    assert "base_mount.mass" in terms.extra and "base_mount.mass" not in terms.free
+
+
+def test_the_foundations_plate_is_no_body_a_mass_is_added_to(calibrated_library):
+    assert "added_mass@base_mount" not in calibrated_library
 
 
 def test_a_heavier_body_candidate_reads_back_as_mass_added_to_the_nominal(irb, calibrated_library):

@@ -157,9 +157,15 @@ def add_compliant_base(spec: mujoco.MjSpec, k_lateral: float, k_tilt: float, *,
     if arm is None:
         raise ModelError("the robot has no moving body to mount on a compliant base")
     mass = float(spec.compile().body_subtreemass[1]) + base_mass
-    base = spec.worldbody.add_body(name="base_mount")
-    base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.6, 0.6, 0.05], pos=[0, 0, -0.05],
-                  mass=base_mass, contype=0, conaffinity=0, rgba=[0.4, 0.4, 0.4, 1])
+    # the plate's inertia explicit (a 1.2 × 1.2 × 0.1 m box), not its geom's: a calibration can
+    # then scale its mass in the specification as in the compiled model
+    half = np.array([0.6, 0.6, 0.05])
+    box = base_mass / 3 * np.array([half[1] ** 2 + half[2] ** 2, half[0] ** 2 + half[2] ** 2,
+                                    half[0] ** 2 + half[1] ** 2])
+    base = spec.worldbody.add_body(name="base_mount", mass=base_mass, ipos=[0, 0, -0.05],
+                                   inertia=box, explicitinertial=True)
+    base.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=half, pos=[0, 0, -0.05], mass=0.0,
+                  contype=0, conaffinity=0, rgba=[0.4, 0.4, 0.4, 1])
     for name, kind, axis, k, m_eff in (
             ("base_x", mujoco.mjtJoint.mjJNT_SLIDE, (1, 0, 0), k_lateral, mass),
             ("base_y", mujoco.mjtJoint.mjJNT_SLIDE, (0, 1, 0), k_lateral, mass),

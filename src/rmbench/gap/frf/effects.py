@@ -280,7 +280,9 @@ def library(robot, design) -> list[Effect]:
         out.append(Effect("base_compliance", "base", (Param("lateral", 0.0, 200.0, 2.0, "µm/kN"),),
                           targets=("base_x", "base_y"), nominal=(k0,)))
     for body in spec.bodies:
-        if body.name and body.explicitinertial and body.mass >= 5.0 and not body.name.startswith("motor"):
+        # a foundation's plate is no body a mass is added to (its mass is the foundation's own)
+        if body.name and body.explicitinertial and body.mass >= 5.0 \
+                and not body.name.startswith(("motor", "base_mount")):
             m0 = float(body.mass)
             out.append(Effect("added_mass", body.name,
                               (Param("mass", -0.5 * m0, 2.0 * m0, 0.02 * m0, "kg"),), nominal=(m0,)))
