@@ -327,6 +327,27 @@ def test_the_foundations_plate_mass_reaches_the_compiled_model_and_the_saved_mjc
                                    err_msg=field)
 
 
+def test_a_plate_whose_inertia_comes_from_its_geom_takes_its_fitted_mass_too(irb):
+    """A model saved before the plate's inertia was explicit (its mass on its geom) is calibrated
+    again: the mass fitted must reach the saved MJCF as it reaches the compiled model."""
+    mounted, _ = parameter_set(irb, ("base",))
+    old = '<inertial pos="0 0 -0.05" mass="1000" diaginertia="120.833 120.833 240"/>'
+    assert old in mounted.xml, "the plate's explicit inertial as add_compliant_base writes it"
+    xml = mounted.xml.replace(old, "").replace('<geom size="0.6 0.6 0.05" pos="0 0 -0.05" type="box"',
+                                               '<geom size="0.6 0.6 0.05" pos="0 0 -0.05" type="box" mass="1000"')
+    older = Robot(xml, name=irb.name, tool=irb.tool)
+    robot, params = parameter_set(older, ("base",), extra=("base_mount.mass",))
+    u = np.zeros(len(params))
+    u[params.names.index("base_mount.mass")] = np.log(1.5)
+    fast = copy.copy(robot.model)
+    params.apply_model(fast, u)
+    spec = robot.spec
+    params.apply_spec(spec, u)
+    saved = spec.compile()
+    assert saved.body("base_mount").mass[0] == pytest.approx(1500.0, rel=1e-12)
+    np.testing.assert_allclose(saved.body_inertia, fast.body_inertia, rtol=1e-9, atol=0)
+
+
 def test_an_unknown_structural_parameter_is_a_one_line_error(irb):
     with pytest.raises(InputError, match="unknown structural parameter"):
         parameter_set(irb, ("joints",), extra=("gearbox.backlash",))

@@ -254,6 +254,8 @@ class ParameterSet:
                 act.gainprm, act.biasprm = gain, bias
             elif p.kind == "mass":
                 body = spec.body(p.targets[0])
+                if not body.explicitinertial:
+                    _make_inertial_explicit(spec, body)
                 scale = v / body.mass
                 body.mass = v
                 if body.fullinertia is not None and np.any(np.isfinite(body.fullinertia)) and \
@@ -353,6 +355,15 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
         if not any(p.group == g for p in out):
             raise InputError(f"the robot has no parameters in the group {g!r}")
     return robot, ParameterSet(out, base_mass=base_mass)
+
+
+def _make_inertial_explicit(spec: mujoco.MjSpec, body) -> None:
+    """Give ``body`` the inertia its geoms imply, explicitly: a mass set on a body whose inertia
+    comes from its geoms would not reach the compiled model (an older model's foundation plate)."""
+    b = spec.compile().body(body.name)
+    body.mass = float(b.mass[0])
+    body.ipos, body.iquat, body.inertia = b.ipos.copy(), b.iquat.copy(), b.inertia.copy()
+    body.explicitinertial = True
 
 
 def _on_foundation(robot, lateral: bool):
