@@ -309,17 +309,23 @@ def test_structural_parameters_are_added_by_name_after_the_groups(irb):
     assert lateral.value(0.0) == 0.0 and lateral.label == "µm/kN"
 
 
+def _plate_scaled(robot, params, factor: float):
+    """The compiled model and the saved specification, compiled, with the foundation's plate
+    ``factor`` times its mass."""
+    u = np.zeros(len(params))
+    u[params.names.index("base_mount.mass")] = np.log(factor)
+    fast = copy.copy(robot.model)
+    params.apply_model(fast, u)
+    spec = robot.spec
+    params.apply_spec(spec, u)
+    return fast, spec.compile()
+
+
 def test_the_foundations_plate_mass_reaches_the_compiled_model_and_the_saved_mjcf_alike(irb):
     """A sliding foundation's candidate fits its plate's mass: the plate's inertia must scale with
     it in the saved model too, or the model scored would not be the model fitted."""
     mounted, params = parameter_set(irb, ("base",), extra=("base.lateral_compliance", "base_mount.mass"))
-    u = np.zeros(len(params))
-    u[params.names.index("base_mount.mass")] = np.log(2.0)
-    fast = copy.copy(mounted.model)
-    params.apply_model(fast, u)
-    spec = mounted.spec
-    params.apply_spec(spec, u)
-    saved = spec.compile()
+    fast, saved = _plate_scaled(mounted, params, 2.0)
     plate = fast.body("base_mount").id
     assert fast.body_mass[plate] == pytest.approx(2 * mounted.model.body_mass[plate], rel=1e-12)
     for field in ("body_mass", "body_inertia"):
@@ -337,13 +343,7 @@ def test_a_plate_whose_inertia_comes_from_its_geom_takes_its_fitted_mass_too(irb
                                                '<geom size="0.6 0.6 0.05" pos="0 0 -0.05" type="box" mass="1000"')
     older = Robot(xml, name=irb.name, tool=irb.tool)
     robot, params = parameter_set(older, ("base",), extra=("base_mount.mass",))
-    u = np.zeros(len(params))
-    u[params.names.index("base_mount.mass")] = np.log(1.5)
-    fast = copy.copy(robot.model)
-    params.apply_model(fast, u)
-    spec = robot.spec
-    params.apply_spec(spec, u)
-    saved = spec.compile()
+    fast, saved = _plate_scaled(robot, params, 1.5)
     assert saved.body("base_mount").mass[0] == pytest.approx(1500.0, rel=1e-12)
     np.testing.assert_allclose(saved.body_inertia, fast.body_inertia, rtol=1e-9, atol=0)
 
