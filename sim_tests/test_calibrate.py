@@ -380,6 +380,27 @@ def test_a_freed_foundation_starts_at_the_gross_size_the_data_prefer(irb):
     assert not np.any(z[:i])                      # the ordinary parameters keep their start
 
 
+
+def test_a_freed_size_is_searched_jointly_with_the_ordinary_gross_starts(irb):
+    """A base tilt mimics a foundation's slide: chosen first with the slide at its nominal, the tilt
+    takes up the slide and the slide then stays at its nominal. Searched jointly, the start finds
+    both (toy residuals: their combined compliance is 80 units, the slide's own signature 60)."""
+    from rmbench.calibrate.fit import _start
+
+    _, params = parameter_set(irb, ("joints", "base"), extra=("base.lateral_compliance",))
+    params = params.freed(("base.lateral_compliance",))
+    names, sigma = params.names, params.sigma()
+    t, s = names.index("base.tilt_compliance"), names.index("base.lateral_compliance")
+    lo, hi = params.lower() / sigma, params.upper() / sigma
+
+    def fun(z):
+        tilt, slide = z[t] * sigma[t], z[s] * sigma[s]
+        return np.array([(tilt + slide - 80.0) / 10.0, (slide - 60.0) / 30.0])
+
+    z = _start(params, fun, lo, hi, lambda m: None, free=("base.lateral_compliance",))
+    assert z[s] * sigma[s] == pytest.approx(60.0)
+    assert z[t] * sigma[t] == pytest.approx(20.0)
+
 def _with_frf(robot, design, data: ModalData) -> ModalData:
     """``data`` with the exact FRFs of ``robot`` on 400 lines a band, as an accurate test gives them
     (0.1 % noise a line)."""
