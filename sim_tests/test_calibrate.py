@@ -401,6 +401,24 @@ def test_a_freed_size_is_searched_jointly_with_the_ordinary_gross_starts(irb):
     assert z[s] * sigma[s] == pytest.approx(60.0)
     assert z[t] * sigma[t] == pytest.approx(20.0)
 
+
+@pytest.mark.parametrize("rank, factor", [(0, 0.85), (1, 1.0), (99, 1.4)])
+def test_a_start_rank_picks_the_gross_start_of_that_place_by_the_coarse_residual(irb, rank, factor):
+    """The coarse residual does not rank the basins a fit ends in, so a fit can begin at the next
+    gross starts; past the last, at the last (toy residual: least at gearboxes × 0.9, so the
+    grid's 0.85 ranks first, the nominal second and 1.4 last)."""
+    from rmbench.calibrate.fit import _start
+
+    _, params = parameter_set(irb, ("joints",))
+    sigma = params.sigma()
+    lo, hi = params.lower() / sigma, params.upper() / sigma
+
+    def fun(z):
+        return np.array([z[0] * sigma[0] - np.log(0.9)])
+
+    z = _start(params, fun, lo, hi, lambda m: None, rank=rank)
+    np.testing.assert_allclose(np.exp(z * sigma), factor)     # every gearbox together
+
 def _with_frf(robot, design, data: ModalData) -> ModalData:
     """``data`` with the exact FRFs of ``robot`` on 400 lines a band, as an accurate test gives them
     (0.1 % noise a line)."""

@@ -1,6 +1,8 @@
 """Specification of a structural candidate's confirmation by recalibration: how a candidate's size
 maps onto model parameters and back, which kinds map at all, and the shrink against the null."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -231,3 +233,69 @@ def test_a_candidate_keeps_the_nominal_start_where_that_ends_lower(monkeypatch):
 def test_a_run_without_a_null_starts_from_the_nominal_alone(monkeypatch):
     _, started, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=0.0, null=False)
     assert starts == [None] and started == "nominal"
+
+
+class _FakeRun:
+    """Stands in for ``_Recalibration``: each run's end from ``ends[(name, how)]`` as
+    ``(training objective, held-out χ², significant)``, ``how`` one of ``"nominal"``,
+    ``"continued"``, ``"rank N"``, ``"fresh N"``; the runs asked for recorded in ``calls``."""
+
+    def __init__(self, ends):
+        self.ends, self.calls = ends, []
+
+    def __call__(self, effect, prev=None, *, from_nominal=False, null=None, rank=0):
+        from rmbench.gap.frf.confirm import Confirmed
+
+        name = "null" if effect is None else effect
+        if effect is None and from_nominal:
+            how = f"fresh {rank}"
+        elif rank:
+            how = f"rank {rank}"
+        else:
+            how = "continued" if prev is not None else "nominal"
+        self.calls.append((name, how))
+        obj, chi2, sig = self.ends.get((name, how), (1e4, 1e4, True))
+        cal = SimpleNamespace(chi2_after=obj, chi2_prior=0.0)
+        return Confirmed(effect=effect, values=None, calibration=cal, robot=None, chi2_held=chi2, n_held=700,
+                         peak_held=0.0, chi2_held_posture=np.ones(1), objective=None, significant=sig,
+                         seconds=0.0, start=how)
+
+
+def _confirm_with(monkeypatch, ends):
+    import rmbench.gap.frf.confirm as C
+
+    fake = _FakeRun(ends)
+    monkeypatch.setattr(C, "_Recalibration", lambda *a, **k: fake)
+    first = SimpleNamespace(params=[], u=np.zeros(0))
+    null, done = C.confirm(None, None, None, first, ["slide"], q_cmd=None, meas=None, frf=None, bands=None,
+                           held=None, settings=None, accept=lambda c, n: not c.significant)
+    return fake.calls, null, done
+
+
+# a foundation candidate that closes most of the gap (held-out χ² 1,700 against the null's
+# 7,400: a shrink of 0.52) but stays above the noise after its continuation
+_SHORT = {("null", "nominal"): (300.0, 7400.0, True), ("null", "continued"): (290.0, 7400.0, True),
+          ("slide", "nominal"): (1300.0, 1700.0, True), ("slide", "continued"): (1270.0, 1700.0, True)}
+
+
+def test_a_promising_candidate_short_of_the_noise_is_retried_from_the_next_gross_start(monkeypatch):
+    calls, _, done = _confirm_with(monkeypatch, {**_SHORT, ("slide", "rank 1"): (137.0, 82.0, False)})
+    assert ("slide", "rank 1") in calls and ("slide", "rank 2") not in calls    # accepted: no third
+    assert done[0].start == "rank 1" and not done[0].significant
+
+
+def test_a_further_start_is_kept_only_where_its_training_objective_is_lower(monkeypatch):
+    # held-out noise from a worse training fit is no evidence: the held-out postures do not choose
+    calls, _, done = _confirm_with(monkeypatch, {**_SHORT, ("slide", "rank 1"): (2000.0, 82.0, False),
+                                                 ("slide", "rank 2"): (1500.0, 1700.0, True)})
+    assert ("slide", "rank 2") in calls
+    assert done[0].start == "continued"
+
+
+def test_the_null_gets_the_same_further_start_as_the_accepted_candidate(monkeypatch):
+    # the gap may be the basin's, not the data's: the null from that start reaching the noise
+    # is the null returned
+    calls, null, _ = _confirm_with(monkeypatch, {**_SHORT, ("slide", "rank 1"): (137.0, 82.0, False),
+                                                 ("null", "fresh 1"): (140.0, 90.0, False)})
+    assert calls[-2:] == [("null", "fresh 0"), ("null", "fresh 1")]
+    assert null.start == "fresh 1"

@@ -209,11 +209,12 @@ class _Recalibration:
     say: object
 
     def __call__(self, effect: Effect | None, prev: Confirmed | None = None, *,
-                 from_nominal: bool = False, null: Confirmed | None = None) -> Confirmed:
+                 from_nominal: bool = False, null: Confirmed | None = None, rank: int = 0) -> Confirmed:
         """Recalibrate with ``effect`` in place (None: the null) and score it on the held-out
         postures; ``prev``: the run this one continues; ``from_nominal``: a null run as a
         candidate is, from the nominal with the full budget; ``null``: for a candidate, the null
-        recalibration whose end is its second start."""
+        recalibration whose end is its second start; ``rank`` > 0: from the nominal alone, at
+        that gross start (:attr:`CalibrationSettings.start_rank`)."""
         from rmbench.calibrate import calibrate
         from rmbench.robot import Robot
 
@@ -227,7 +228,12 @@ class _Recalibration:
         s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
                     max_iter=self.max_iter, extra=() if terms is None else terms.extra,
                     free=() if terms is None else terms.free)
-        if prev is not None:            # a continuation
+        if rank:                        # a further gross start
+            cal = calibrate(nominal, used, held=self.held_data,
+                            settings=replace(s, max_iter=settings.max_iter, start_rank=rank))
+            started = f"gross start {rank + 1}"
+            from_nominal = True
+        elif prev is not None:          # a continuation
             cal = calibrate(nominal, used, held=self.held_data, settings=s, start=_values(prev.calibration))
             started = prev.start
         elif terms is None and not from_nominal:     # the null: from the first calibration
@@ -290,7 +296,7 @@ def _objective(cal) -> float:
 
 def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, bands, held, settings,
             max_iter: int = 8, p_noise: float = 1e-3, min_shrink: float = 0.5, accept=None,
-            need_gap: bool = True, sizes=None, progress=None) -> tuple:
+            need_gap: bool = True, sizes=None, further: int = 2, progress=None) -> tuple:
     """The null recalibration and one per candidate, each scored on the held-out postures.
 
     Parameters
@@ -323,6 +329,9 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
         noise is continued for another ``max_iter`` evaluations, and the null with it (the same
         chance to converge): a large structural effect the first calibration had mimicked
         leaves the ordinary parameters far from where they belong, and they come back slowly.
+        One still short of the noise and not accepted then runs from the nominal's next
+        ``further`` gross starts (:attr:`CalibrationSettings.start_rank`), keeping the lowest
+        training objective.
 
     accept : callable, optional
         ``accept(candidate, null)``: whether a confirmed candidate explains the gap. Every
@@ -364,24 +373,44 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     if accept is not None and any(accept(c, null) for c in done):
         return _same_chance(run, null, need_gap), done
     promising = [c for c in done if c.significant and c.shrink_against(null) >= min_shrink]
-    if promising:
-        best = min(promising, key=lambda c: c.chi2_held)
-        null = run(None, prev=null)
-        done = [run(c.effect, prev=c) if c is best else c for c in done]
-        if accept is not None and any(accept(c, null) for c in done):
-            return _same_chance(run, null, need_gap), done
+    if not promising:
+        return null, done
+    best = min(promising, key=lambda c: c.chi2_held)
+    null = run(None, prev=null)
+    best = run(best.effect, prev=best)
+    done = [best if c.effect is best.effect else c for c in done]
+    if accept is None:
+        return null, done
+    if any(accept(c, null) for c in done):
+        return _same_chance(run, null, need_gap), done
+    # Still short of the noise: the fit may have ended in another basin than the data's. The
+    # coarse residual that picked its gross start does not rank the basins, so the next starts
+    # are tried, and the lower training objective kept (calibration bench, seed 27994 robot 19: a
+    # foundation sliding 58 µm/kN under a tilting one, held-out χ² 1,716 on 712 from the best
+    # start, 82 from the second)
+    for rank in range(1, further + 1):
+        other = run(best.effect, rank=rank)
+        if other.train_objective < best.train_objective:
+            best = other
+            done = [best if c.effect is best.effect else c for c in done]
+        if accept(best, null):
+            return _same_chance(run, null, need_gap, rank=rank), done
     return null, done
 
 
-def _same_chance(run, null: Confirmed, need_gap: bool) -> Confirmed:
+def _same_chance(run, null: Confirmed, need_gap: bool, rank: int = 0) -> Confirmed:
     """The null a candidate that explains the gap is credited against.
 
     The candidate ran with the full budget, from the nominal too, the null only on from the first
     calibration: a first calibration caught in a local minimum of the modes leaves a gap that a
-    fresh start closes with or without the candidate. So a null is run the same way; where it
-    reaches the noise, it is the null returned (the gap was the first calibration's, not the
-    data's). Not where the candidates ran without a gap (``need_gap`` False)."""
+    fresh start closes with or without the candidate. So a null is run the same way, and from the
+    candidate's gross start ``rank`` where that was a further one; where one reaches the noise,
+    it is the null returned (the gap was the first calibration's, not the data's). Not where the
+    candidates ran without a gap (``need_gap`` False)."""
     if not need_gap:
         return null
-    fresh = run(None, from_nominal=True)
-    return null if fresh.significant else fresh
+    for r in sorted({0, rank}):
+        fresh = run(None, from_nominal=True, rank=r)
+        if not fresh.significant:
+            return fresh
+    return null
