@@ -409,8 +409,7 @@ def _same_chance(run, null: Confirmed, need_gap: bool, rank: int = 0) -> Confirm
     candidates ran without a gap (``need_gap`` False)."""
     if not need_gap:
         return null
-    for r in sorted({0, rank}):
-        fresh = run(None, from_nominal=True, rank=r)
-        if not fresh.significant:
-            return fresh
-    return null
+    fresh = run(None, from_nominal=True)
+    if fresh.significant and rank:
+        fresh = run(None, from_nominal=True, rank=rank)
+    return null if fresh.significant else fresh
