@@ -47,6 +47,25 @@ def blind_cases(args, *extra: str) -> list[dict]:
     return [c for c in cases if c["index"] < args.cases]
 
 
+def resumed_cases(lines: Path, seed: int) -> list[dict]:
+    """The cases a bench resumes from its JSON-lines file ``lines`` (none if it is absent).
+
+    A file that holds another seed's cases stops the run with a one-line error: its
+    indices would otherwise count as this seed's robots done, and the summary would pool two
+    seeds (a scratch file reused under a fresh seed, seed 93970 of the calibration bench).
+    Lines without a seed (a rejected draw's, before rejected lines carried one) are taken as
+    they are."""
+    lines = Path(lines)
+    if not lines.exists():
+        return []
+    cases = [json.loads(s) for s in lines.read_text().splitlines() if s.strip()]
+    other = sorted({c["seed"] for c in cases if c.get("seed", seed) != seed})
+    if other:
+        raise SystemExit(f"error: {lines} holds cases of seed {', '.join(map(str, other))}, not {seed}: "
+                         "give another --lines file")
+    return cases
+
+
 def fresh_seed() -> int:
     """A seed drawn from the operating system's entropy (a bench prints it, so a run can be
     repeated with ``--seed``)."""

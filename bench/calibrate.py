@@ -67,7 +67,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from _calibrate_truth import IN_LIBRARY, draw_truth  # noqa: E402
-from _stats import code_digest, fresh_seed  # noqa: E402
+from _stats import code_digest, fresh_seed, resumed_cases  # noqa: E402
 
 from rmbench.calibrate import (CalibrationSettings, ModalModel, TestDesign, calibrate, error_summary,  # noqa: E402
                                load_modal_data)
@@ -524,11 +524,8 @@ def main(argv=None) -> None:
     lines = Path(args.lines) if args.lines else RESULTS / f"calibrate_{key}.jsonl"
     lines.parent.mkdir(parents=True, exist_ok=True)
     done, rejected = {}, {}
-    if lines.exists():
-        for s in lines.read_text().splitlines():
-            if s.strip():
-                c = json.loads(s)
-                (rejected if "rejected" in c else done)[c["index"]] = c
+    for c in resumed_cases(lines, seed):
+        (rejected if "rejected" in c else done)[c["index"]] = c
     only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
     for i in range(args.robots):
         if i in done or i in rejected or (only is not None and i not in only):
@@ -536,7 +533,7 @@ def main(argv=None) -> None:
         try:
             c = run_case(i, seed, args) if args.plain else run_gap_case(i, seed, args)
         except RuntimeError as err:     # counted, printed and kept: never silently redrawn
-            c = {"index": i, "rejected": str(err)}
+            c = {"index": i, "seed": seed, "rejected": str(err)}
         with open(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
         if "rejected" in c:

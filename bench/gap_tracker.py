@@ -42,7 +42,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _stats import RMBENCH, blind_cases, keyed_run, rate  # noqa: E402
+from _stats import RMBENCH, blind_cases, keyed_run, rate, resumed_cases  # noqa: E402
 
 from rmbench.gap.cases.tracker_blind import summarise_tracker  # noqa: E402
 
@@ -325,12 +325,7 @@ def run_spread(args) -> dict:
     """The spread cases into their own keyed JSON-lines file, resumed; their summary."""
     stem = "gap_tracker_spread_" if args.spread_box == "calibration" else f"gap_tracker_spread_{args.spread_box}_"
     lines = Path(args.lines).with_name(Path(args.lines).name.replace("gap_tracker_", stem))
-    done = {}
-    if lines.exists():
-        for s_ in lines.read_text().splitlines():
-            if s_.strip():
-                c = json.loads(s_)
-                done[c["index"]] = c
+    done = {c["index"]: c for c in resumed_cases(lines, args.seed)}
     only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
     for i in range(args.spread):
         if i in done or (only is not None and i not in only):

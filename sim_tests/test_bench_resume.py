@@ -1,0 +1,34 @@
+"""A bench resumes only its own seed's cases (``bench/_stats.py``): a JSON-lines file reused under
+another seed would count that seed's robots as done and pool two seeds in one summary."""
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+
+from _stats import resumed_cases  # noqa: E402
+
+
+def _write(path: Path, cases: list[dict]) -> Path:
+    path.write_text("".join(json.dumps(c) + "\n" for c in cases))
+    return path
+
+
+def test_a_missing_lines_file_resumes_nothing(tmp_path):
+    assert resumed_cases(tmp_path / "absent.jsonl", 7) == []
+
+
+def test_the_same_seeds_cases_and_seedless_rejected_lines_are_resumed(tmp_path):
+    cases = [{"index": 0, "seed": 7}, {"index": 3, "rejected": "hidden at x4"}]
+    assert resumed_cases(_write(tmp_path / "l.jsonl", cases), 7) == cases
+
+
+def test_a_file_holding_another_seeds_cases_stops_with_a_one_line_error(tmp_path):
+    path = _write(tmp_path / "l.jsonl", [{"index": 0, "seed": 7}, {"index": 2, "seed": 27994}])
+    with pytest.raises(SystemExit) as stop:
+        resumed_cases(path, 7)
+    message = str(stop.value)
+    assert "\n" not in message and "27994" in message and message.startswith("error:")
