@@ -1,15 +1,18 @@
 """A bench resumes only its own seed's cases (``bench/_stats.py``): a JSON-lines file reused under
 another seed would count that seed's robots as done and pool two seeds in one summary."""
 
+import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-
-from _stats import resumed_cases  # noqa: E402
+# loaded by path, not by putting bench/ on sys.path: bench/control.py would then shadow
+# python-control for every later test in the same process
+_spec = importlib.util.spec_from_file_location("bench_stats", Path(__file__).resolve().parents[1] / "bench" / "_stats.py")
+_stats = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_stats)
+resumed_cases = _stats.resumed_cases
 
 
 def _write(path: Path, cases: list[dict]) -> Path:
