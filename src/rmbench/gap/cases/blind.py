@@ -3,10 +3,10 @@
 Each case draws one hidden effect (three cases in five), two at once (one in five), or one outside
 the diagnosis's library (one in five: an extra resonator — a hose package on a spring at a link —,
 a tendon coupling two joints, a mass 0.25-0.4 m off a body's origin, or a link that bends about
-an axis no joint has, at mid-span). The effect is injected into a copy of the nominal MJCF by its own
-code path (the variant primitives of :mod:`rmbench.robot.variant` and ``MjSpec`` edits written here,
-never the diagnosis's library), with a magnitude drawn large enough to change the exact FRF by at
-least ``VISIBLE_DB`` somewhere. A campaign measures the changed robot commanded by the nominal
+an axis no joint has, at mid-span). The effect is injected into a copy of the nominal MJCF by plain
+XML edits of its own (:mod:`.truth`: never the variant code, the calibration's parameters or the
+diagnosis's library, which build the candidates), with a magnitude drawn large enough to change
+the exact FRF by at least ``VISIBLE_DB`` somewhere. A campaign measures the changed robot commanded by the nominal
 robot's inverse kinematics; the data go out to UFF58 and back (so nothing but FRFs, postures and the
 test design survives), with the test design as the experimenter believes it (no sensor placement
 errors, the nominal robot named); the diagnosis gets only that and the nominal model. A draw
@@ -29,14 +29,12 @@ import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from rmbench.errors import RmbenchError
 from rmbench.io.strict_json import strict_dumps
 from rmbench.robot import Robot, seed_grid
-from rmbench.robot.spec import spec_to_xml
-from rmbench.robot.variant import add_point_mass, make_variant
+from rmbench.gap.cases import truth as edit
 
 __all__ = ["Hidden", "CaseResult", "BlindReport", "draw_case", "inject", "run_case", "run_blind",
            "VISIBLE_DB"]
@@ -54,6 +52,10 @@ _BENDING = {"lower_arm": ("j2_flex", (0.0, 0.0, 0.35), (1.0, 0.0, 0.0)),
 _FLEX = ("j1_flex", "j2_flex", "j3_flex", "j4_flex", "j5_flex", "j6_flex")
 _BODIES = ("lower_arm", "upper_arm", "forearm", "wrist", "flange", "spindle_rotor")
 _SENSORS = ("1X", "1Y", "1aX", "1aY")
+_TEST_KINDS = ("sensor_misplacement", "sensor_misalignment", "non_reciprocity")   # change the test, not the robot
+# joint-name prefix and the value keys of its (x, y) and (rx, ry) stiffness
+_PAIRS = {"tool_contact_stiffness": ("tool_contact", ("translation", "rotation")),
+          "spindle_stiffness": ("spindle", ("radial", "tilt"))}
 
 
 @dataclass(frozen=True)
@@ -164,7 +166,7 @@ def _draw_out(rng) -> Hidden:
 
 
 def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
-    """The hidden effects in a copy of the robot (its own code path).
+    """The hidden effects in a copy of the robot, by plain MJCF edits (:mod:`.truth`).
 
     Parameters
     ----------
@@ -174,40 +176,37 @@ def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
     Returns
     -------
     xml : str
-        The changed robot's MJCF.
+        The changed robot's MJCF (the robot's own text when only the test changes).
     placement : dict
         Per band ``{"position_error_mm": [4], "misalignment_deg": [4]}`` of the sensors.
     spindle_rpm : float
     """
-    spec = robot.spec
+    root = edit.parse(robot.xml)
     placement = {b: {"position_error_mm": [0.0] * 4, "misalignment_deg": [0.0] * 4} for b in ("low", "high")}
     rpm = 0.0
-    edits, load, base = [], {}, None
+    edited, base = False, None
 
     def factor(f):
         return float(np.exp(scale * np.log(f)))
 
     for h in hidden:
         v = h.value
-        if h.kind == "joint_stiffness":
-            edits.append(f"{h.location}.stiffness*={factor(v['factor']):.9g}")
-        elif h.kind == "joint_damping":
-            edits.append(f"{h.location}.damping*={factor(v['factor']):.9g}")
+        edited = edited or h.kind not in _TEST_KINDS
+        if h.kind in ("joint_stiffness", "joint_damping"):
+            edit.scale_joint(root, h.location, h.kind.removeprefix("joint_"), factor(v["factor"]))
         elif h.kind == "load_dependent_stiffness":
-            load[h.location] = scale * v["alpha"]
+            edit.add_load_stiffness(root, {h.location: scale * v["alpha"]})
         elif h.kind == "servo_stiffness":
-            edits.append(f"{h.location}.kp*={factor(v['factor']):.9g}")
-        elif h.kind == "tool_contact_stiffness":
-            edits += [f"tool_contact_{a}.stiffness*={factor(v['translation']):.9g}" for a in ("x", "y")]
-            edits += [f"tool_contact_{a}.stiffness*={factor(v['rotation']):.9g}" for a in ("rx", "ry")]
-        elif h.kind == "spindle_stiffness":
-            edits += [f"spindle_{a}.stiffness*={factor(v['radial']):.9g}" for a in ("x", "y")]
-            edits += [f"spindle_{a}.stiffness*={factor(v['tilt']):.9g}" for a in ("rx", "ry")]
+            edit.scale_servo_kp(root, h.location, factor(v["factor"]))
+        elif h.kind in ("tool_contact_stiffness", "spindle_stiffness"):
+            prefix, (move, turn) = _PAIRS[h.kind]
+            for axis, key in (("x", move), ("y", move), ("rx", turn), ("ry", turn)):
+                edit.scale_joint(root, f"{prefix}_{axis}", "stiffness", factor(v[key]))
         elif h.kind == "base_compliance":
+            # last, on the arm as changed: its dampers are set against the arm's mass
             base = (1 / (scale * v["lateral"] * 1e-9), 1 / (scale * v["tilt"] * 1e-9))
         elif h.kind == "added_mass":
-            m0 = float(spec.body(h.location).mass)
-            edits.append(f"{h.location}.mass+={scale * v['fraction'] * m0:.9g}")
+            edit.add_body_mass(root, h.location, scale * v["fraction"] * edit.body_mass(root, h.location))
         elif h.kind in ("sensor_misplacement", "sensor_misalignment"):
             band, coord = h.location.split(":")
             i = _SENSORS.index(coord)
@@ -218,19 +217,19 @@ def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
         elif h.kind == "non_reciprocity":
             rpm += scale * v["rpm"]
         elif h.kind == "hose_resonator":
-            _add_resonator(spec, h.location, v["mass"], v["f_hz"] * (scale ** 0.25), v["zeta"])
+            edit.add_resonator(root, h.location, v["mass"], v["f_hz"] * (scale ** 0.25), v["zeta"])
         elif h.kind == "tendon_coupling":
-            _add_coupling(spec, h.location.split("+"), scale * v["fraction"])
+            edit.add_coupling(root, h.location.split("+"), scale * v["fraction"])
         elif h.kind == "offset_mass":
-            add_point_mass(spec, h.location, scale * v["mass"], v["offset_m"])
+            edit.attach_mass(root, h.location, scale * v["mass"], v["offset_m"])
         elif h.kind == "link_bending":
-            _add_bending(spec, h.location, scale * v["compliance_ratio"])
+            root_joint, pos, axis = _BENDING[h.location]
+            edit.add_bending(root, h.location, root_joint, pos, axis, scale * v["compliance_ratio"])
         else:  # pragma: no cover - draw_case draws known kinds only
             raise ValueError(h.kind)
-    carrier = Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool)
-    xml = make_variant(carrier, edits, compliant_base=base, load_stiffness=load or None) \
-        if (edits or base is not None or load) else carrier.xml
-    return xml, placement, rpm
+    if base is not None:
+        edit.mount_on_springs(root, *base)
+    return (edit.write(root) if edited else robot.xml), placement, rpm
 
 
 # the ranges the diagnosis's library fits (rmbench.gap.frf.effects.library): a hidden effect of a
@@ -272,36 +271,6 @@ def _scaled(h: Hidden, scale: float) -> Hidden:
         elif key not in ("zeta", "mass") or h.kind != "hose_resonator":
             v[key] = scale * x
     return Hidden(h.kind, h.location, v)
-
-
-def _add_resonator(spec, link: str, mass: float, f_hz: float, zeta: float) -> None:
-    """A hose package: a mass on a lateral spring at the middle of a link."""
-    body = spec.body(link)
-    k = mass * (2 * np.pi * f_hz) ** 2
-    hose = body.add_body(name="hose_package", pos=[0.1, 0.15, 0.1])
-    hose.add_joint(name="hose_slide", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 1, 0],
-                   stiffness=[k, 0, 0], damping=[2 * zeta * np.sqrt(k * mass), 0, 0])
-    hose.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.04, 0, 0], mass=mass,
-                  contype=0, conaffinity=0)
-
-
-def _add_bending(spec, link: str, compliance_ratio: float) -> None:
-    """A link that bends at mid-span: a hinge about an axis none of its joints has, with the
-    stiffness (and stiffness-proportional damping) of its root joint over ``compliance_ratio``."""
-    root, pos, axis = _BENDING[link]
-    joint = spec.joint(root)
-    k, c = float(joint.stiffness[0]) / compliance_ratio, float(joint.damping[0]) / compliance_ratio
-    spec.body(link).add_joint(name=f"{link}_bending", type=mujoco.mjtJoint.mjJNT_HINGE, pos=list(pos),
-                              axis=list(axis), stiffness=[k, 0, 0], damping=[c, 0, 0])
-
-
-def _add_coupling(spec, joints, fraction: float) -> None:
-    """A tendon coupling two joints: a spring on their difference, ``fraction`` of the softer's
-    stiffness."""
-    k = fraction * min(float(spec.joint(j).stiffness[0]) for j in joints)
-    tendon = spec.add_tendon(name="coupling", stiffness=[k, 0, 0])
-    tendon.wrap_joint(joints[0], 1.0)
-    tendon.wrap_joint(joints[1], -1.0)
 
 
 @dataclass(frozen=True)
