@@ -50,8 +50,9 @@ def draw_truth(nominal_xml: str, rng: np.random.Generator, *, base: bool) -> tup
 # -- structural effects on top of the spread (the gap half of the bench) -------------------------
 # In-library kinds the calibrated diagnosis searches (beyond the ordinary spread where a group
 # covers the kind: a tool holder 3-5 times off, a body 30-60 % heavier than its data sheet), and
-# out-of-library ones near them. Injected by rmbench.gap.cases.blind.inject (the variant primitives and
-# MjSpec edits of its own, never the diagnosis's library) plus an off-origin mass written here.
+# out-of-library ones near them. Injected by rmbench.gap.cases.blind.inject (plain MJCF edits,
+# rmbench.gap.cases.truth: never the variant code or the diagnosis's library), but for the
+# foundation, which slides here (text edits below).
 IN_LIBRARY = ("base_compliance", "tool_contact_stiffness", "added_mass", "sensor_misalignment",
               "non_reciprocity")
 OUT_OF_LIBRARY = ("hose_resonator", "tendon_coupling", "offset_mass")
@@ -117,19 +118,11 @@ def inject_structural(xml: str, hidden):
     band and the spindle speed it is measured at."""
     from rmbench.gap.cases.blind import inject
     from rmbench.robot import Robot
-    from rmbench.robot.spec import spec_to_xml
-    from rmbench.robot.variant import add_point_mass
 
-    robot = Robot(xml, name="truth", tool="dummy")
-    if hidden.kind == "offset_mass":
-        spec = robot.spec
-        add_point_mass(spec, hidden.location, hidden.value["mass"], hidden.value["offset_m"])
-        none = {b: {"position_error_mm": [0.0] * 4, "misalignment_deg": [0.0] * 4} for b in ("low", "high")}
-        return spec_to_xml(spec), none, 0.0
     if hidden.kind == "base_compliance":
         return _lateral_base(xml, hidden.value["lateral"] * 1e-9), \
             {b: {"position_error_mm": [0.0] * 4, "misalignment_deg": [0.0] * 4} for b in ("low", "high")}, 0.0
-    return inject(robot, (hidden,))
+    return inject(Robot(xml, name="truth", tool="dummy"), (hidden,))
 
 
 def _lateral_base(xml: str, c: float) -> str:

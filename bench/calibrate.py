@@ -86,12 +86,12 @@ def _digest() -> str:
 
     src = Path(rmbench.__file__).parent
     # the FRF diagnosis's modules and the selection engine it shares, not the tracker's, the
-    # cases' or the plots'
+    # cases' (but for the truth's edits) or the plots'
     gap = list(src.joinpath("gap", "frf").glob("*.py")) + list(src.joinpath("gap").glob("*.py"))
     gap = [p for p in gap if p.name != "plot.py"]
     files = (list(src.joinpath("calibrate").glob("*.py")) + gap
-             + [src / "robot" / "parameters.py", HERE / "_calibrate_truth.py", HERE / "_truth_edits.py",
-                Path(__file__)])
+             + [src / "robot" / "parameters.py", src / "gap" / "cases" / "truth.py", HERE / "_calibrate_truth.py",
+                HERE / "_truth_edits.py", Path(__file__)])
     return code_digest(files)
 
 
