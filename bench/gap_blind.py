@@ -1,9 +1,10 @@
 """Gap diagnosis on withheld effects (issue 13): how often it names the hidden cause, and how fast.
 
 1. Blind cases: ``rmbench gap blind --cases N --seed S --method mixed --time-share T`` (each case a
-   16-posture campaign on a copy of the IRB6660 with hidden effects injected by the blind module's
-   own code path, commanded by the nominal IK, exported to UFF58 and read back, diagnosed against
-   the nominal model). The cases go to a JSON-lines file, so a killed run resumes.
+   16-posture campaign on a copy of the IRB6660 with hidden effects injected by plain MJCF edits,
+   ``rmbench.gap.cases.truth``, never the variant code that builds the candidates, commanded by
+   the nominal IK, exported to UFF58 and read back, diagnosed against the nominal model). The
+   cases go to a JSON-lines file, so a killed run resumes.
 2. From those lines: top-1 and top-3 identification (kind and location) on the single in-library
    cases, strict and up to the effects the diagnosis reports as indistinguishable; median held-out
    shrink over the in-library cases; false attributions on the out-of-library cases; both effects
