@@ -90,3 +90,75 @@ def test_spinning_spindle_is_a_steady_state(irb):
     assert np.abs(q[:, flex] - op.data.qpos[flex]).max() < 1e-8
     turned = q[-1, spin.qposadr[0]] - op.data.qpos[spin.qposadr[0]]
     assert turned == pytest.approx(omega * n * dt, rel=1e-3)
+
+
+def _relative_first_order_error(irb_op, scale, seed=0):
+    """How far the first-order modes of a random change of size ``scale`` lie from the exact modes
+    of the changed matrices, against how far the exact ones moved: poles and residues φR φLᵀ."""
+    from rmbench.robot.linear import complex_modes, perturbed_modes
+
+    lin = irb_op.linear
+    rng = np.random.default_rng(seed)
+    dm = scale * np.diag(rng.uniform(-1, 1, lin.n_dof)) * np.abs(np.diag(lin.M))
+    dk = scale * rng.uniform(-1, 1, lin.K.shape) * np.abs(np.diag(lin.K))[:, None] * np.eye(lin.n_dof)
+    dc = scale * np.diag(rng.uniform(-1, 1, lin.n_dof)) * np.abs(np.diag(lin.C))
+    base, exact = lin.modes(), complex_modes(lin.M + dm, lin.C + dc, lin.K + dk)
+    first = perturbed_modes(base, dm, dc, dk)
+    low = base.f_n < 2000           # the modes a test sees; the tool's X and Y pairs above coincide
+
+    def residue(m):
+        return np.einsum("im,jm->mij", m.phi_r[:, low], m.phi_l[:, low])
+
+    pole = np.abs(first.poles - exact.poles)[low].max() / np.abs(exact.poles - base.poles)[low].max()
+    res = np.abs(residue(first) - residue(exact)).max() / np.abs(residue(exact) - residue(base)).max()
+    return pole, res
+
+
+def test_first_order_modes_err_by_the_square_of_the_change(irb_op):
+    # analytic eigen-sensitivities (Fox-Kapoor, Nelson): the first-order modes miss the exact ones by
+    # O(change²), so their error relative to the change itself falls tenfold for a tenfold smaller change
+    big = _relative_first_order_error(irb_op, 1e-3)
+    small = _relative_first_order_error(irb_op, 1e-4)
+    assert small[0] < 0.2 * big[0] and small[1] < 0.2 * big[1]
+    assert small[0] < 1e-2 and small[1] < 1e-2
+
+
+def test_first_order_modes_of_many_changes_are_each_change_alone(irb_op):
+    from rmbench.robot.linear import perturbed_modes, perturbed_modes_many
+
+    lin = irb_op.linear
+    rng = np.random.default_rng(1)
+    d = [1e-4 * rng.normal(size=(3, lin.n_dof, lin.n_dof)) * np.abs(np.diag(x)) for x in (lin.M, lin.C, lin.K)]
+    many = perturbed_modes_many(lin.modes(), *d)
+    for i, m in enumerate(many):
+        one = perturbed_modes(lin.modes(), d[0][i], d[1][i], d[2][i])
+        np.testing.assert_allclose(m.poles, one.poles, rtol=1e-12)
+
+
+def test_chord_settling_from_a_nearby_equilibrium_reaches_the_same_state(irb):
+    # a heavier forearm settled from the nominal's equilibrium on the nominal's stiffness (chord
+    # steps) lands where Newton from the undeflected commands lands, to the settling tolerance
+    import copy
+
+    import mujoco
+
+    from rmbench.robot.linear import equilibrium
+
+    op = irb.at(Posture.from_mm_deg(1800, -200, 0))
+    model = copy.copy(op.robot.model)
+    b = model.body("forearm").id
+    model.body_mass[b] *= 1.1
+    model.body_inertia[b] *= 1.1
+    mujoco.mj_setConst(model, mujoco.MjData(model))
+    held = np.unique(model.jnt_dofadr[model.actuator_trnid[:, 0]])     # the servo-held joints
+    fresh, chord = mujoco.MjData(model), mujoco.MjData(model)
+    fresh.qpos[:] = op.data.qpos
+    for j in range(model.njnt):              # the passive joints undeflected, the arm as commanded
+        if model.jnt_dofadr[j] not in held:
+            fresh.qpos[model.jnt_qposadr[j]] = 0.0
+    equilibrium(model, fresh, held)
+    chord.qpos[:] = op.data.qpos
+    equilibrium(model, chord, held, stiffness=op.linear.K)
+    # 1e-10 of the largest joint stiffness in N·m is the settling tolerance: the states agree to
+    # far below a micro-radian
+    assert np.abs(chord.qpos - fresh.qpos).max() < 1e-9

@@ -285,34 +285,27 @@ class _Problem:
         self._pool = None
 
     def residuals(self, u) -> np.ndarray:
-        out = []
-        for (p, b), size, t in zip(self.keys, self.sizes, self.targets):
-            try:
-                modes, H = self.mm.response(u, p, b, None if t is None else t.freq)
-                e, _ = self.residual(self.data.modes[p][b], modes)
-                if t is not None:
-                    e = np.concatenate([e, frf_residuals(t, H)])
-            except RmbenchError:      # a posture these values cannot hold: every mode missing
-                e = np.full(size, UNPAIRED)
-            out.append(e)
-        return np.concatenate(out)
+        jobs = [(u, p, b, t) for (p, b), t in zip(self.keys, self.targets)]
+        return np.concatenate(self._map(jobs, _residual_job))
 
     def jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Residuals at ``u`` and their sensitivity, shape (n,), (n, n_params), per unit of ``u``."""
         jobs = [(u, p, b, t) for (p, b), t in zip(self.keys, self.targets)]
-        parts = self._map(jobs)
+        parts = self._map(jobs, _sensitivity_job)
         r = np.concatenate([x[0] for x in parts])
         j = np.vstack([x[1] for x in parts])
         return r, j
 
-    def _map(self, jobs):
+    def _map(self, jobs, task):
+        """``task(self, *job)`` for each job, in worker processes where there are several."""
         from rmbench.threads import default_workers
 
         workers = default_workers() if self.workers is None else int(self.workers)
         if workers <= 1 or len(jobs) < 2:
-            return [_sensitivity_job(self, *job) for job in jobs]
+            return [task(self, *job) for job in jobs]
         pool = self._executor(workers)
-        return list(pool.map(_worker_job, jobs, chunksize=max(1, len(jobs) // (4 * workers))))
+        return list(pool.map(_worker_job, [(task, job) for job in jobs],
+                             chunksize=max(1, len(jobs) // (4 * workers))))
 
     def _executor(self, workers):
         if self._pool is None:
@@ -339,8 +332,22 @@ def _worker_init(problem) -> None:
     _WORKER["problem"] = problem
 
 
-def _worker_job(job):
-    return _sensitivity_job(_WORKER["problem"], *job)
+def _worker_job(item):
+    task, job = item
+    return task(_WORKER["problem"], *job)
+
+
+def _residual_job(problem: _Problem, u, p, b, target=None) -> np.ndarray:
+    """The residual of one posture and band at ``u``."""
+    meas = problem.data.modes[p][b]
+    try:
+        modes, H = problem.mm.response(u, p, b, None if target is None else target.freq)
+        e, _ = problem.residual(meas, modes)
+        if target is not None:
+            e = np.concatenate([e, frf_residuals(target, H)])
+    except RmbenchError:      # a posture these values cannot hold: every mode missing
+        e = np.full(4 * len(meas) + 1 + (FRF_SEGMENTS * 16 if target is not None else 0), UNPAIRED)
+    return e
 
 
 def _sensitivity_job(problem: _Problem, u, p, b, target=None):

@@ -6,11 +6,12 @@ gravity and is linearised exactly (METHODS.md §11), and its complex modes are r
 design's sensors and hit points (:func:`~rmbench.calibrate.modes.modes_seen`). Each band has its own
 model: the band's sensors sit on the tool with their masses.
 
-Sensitivities (:meth:`ModalModel.sensitivity`) are forward differences of the exact linearisation.
-Parameters that enter the linear model only through its matrices (joint stiffness and damping,
-servo gains, the base's compliance) are perturbed in M, C, K at the settled state, which costs an
-eigen-analysis; masses and centres of mass move the equilibrium and the gravity stiffness, so the
-robot is settled and linearised again for each.
+Sensitivities (:meth:`ModalModel.sensitivity`) are analytic eigen-sensitivities (Fox-Kapoor,
+Nelson; :func:`~rmbench.robot.linear.perturbed_modes`) of the exact linearisation: one
+eigen-analysis per posture and band, whatever the number of parameters. Parameters that enter the
+linear model only through its matrices (joint stiffness and damping, servo gains, the base's
+compliance) change C and K directly; masses and centres of mass move the equilibrium and the
+gravity stiffness, so the robot is settled again (from the settled state) and linearised for each.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from rmbench.calibrate.modes import ModelModes, modes_seen
 from rmbench.errors import RmbenchError
 from rmbench.impact.measure import hammer_rows
 from rmbench.impact.sensors import COORDS
-from rmbench.robot.linear import complex_modes, equilibrium, linearize
+from rmbench.robot.linear import equilibrium, linearize, perturbed_modes_many
 from rmbench.robot.model import OperatingPoint
 from rmbench.robot.variant import with_tool_masses
 
@@ -58,6 +59,7 @@ class ModalModel:
             masses = design.sensors(b).tool_masses()
             self._tested[b] = with_tool_masses(robot, masses) if masses else robot
         self._built = {}
+        self._scratch = {}      # reusable MjData to settle in (:meth:`_work`)
 
     @property
     def n_postures(self) -> int:
@@ -74,7 +76,8 @@ class ModalModel:
         self.params.apply_model(model, u)
         shell = copy.copy(base)     # the same robot with this model: what an OperatingPoint reads
         shell.model = model
-        if len(self._built) > 4 * len(self.bands):
+        # room for a Jacobian's worth (each stepped parameter's model, reused across postures)
+        if len(self._built) > (len(self.params) + 4) * len(self.bands):
             self._built.pop(next(iter(self._built)))
         self._built[key] = shell
         return shell
@@ -87,9 +90,13 @@ class ModalModel:
         RmbenchError
             If the robot cannot hold the posture with these values.
         """
+        return self._settle(u, p, band, mujoco.MjData(self._model(u, band).model))
+
+    def _settle(self, u, p: int, band: str, data) -> OperatingPoint:
+        """:meth:`operating_point` in a given ``MjData`` (any of the band's: they share the sizes)."""
         shell = self._model(u, band)
-        data = mujoco.MjData(shell.model)
         model = shell.model
+        mujoco.mj_resetData(model, data)      # as fresh: a reused one settles the same
         for name, q in zip(shell.arm_joints, self.q_cmd[p]):
             data.qpos[model.joint(name).qposadr[0]] = q
         spin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "spindle_spin")
@@ -97,6 +104,28 @@ class ModalModel:
             data.qvel[model.jnt_dofadr[spin]] = shell.spindle_rpm * 2 * np.pi / 60
         equilibrium(model, data, shell._held)
         return OperatingPoint(shell, None, self.q_cmd[p], None, data, linearize(model, data))
+
+    def _work(self, band: str, which: int) -> mujoco.MjData:
+        """A reusable ``MjData`` of the band's models (``which``: 0 the settled state, 1 a step)."""
+        key = (band, which)
+        if key not in self._scratch:
+            self._scratch[key] = mujoco.MjData(self._tested[band].model)
+        return self._scratch[key]
+
+    def _settled_from(self, op: OperatingPoint, v, band: str, inertial: bool = False):
+        """The linearisation with the values at ``v``, settled from the equilibrium of ``op`` (the
+        same posture at nearby values) by chord steps on its stiffness; ``inertial``: ``v``
+        differs from ``op``'s values in masses and centres of mass alone."""
+        shell = self._model(v, band)
+        data = self._work(band, 1)
+        data.qpos[:] = op.data.qpos
+        data.qvel[:] = op.data.qvel
+        data.ctrl[:] = op.data.ctrl
+        equilibrium(shell.model, data, shell._held, stiffness=op.linear.K)
+        # at rest (no spinning rotor) C is the joints' and servos' damping, which a mass or a
+        # centre of mass leaves as it is
+        rest = inertial and not np.any(data.qvel)
+        return linearize(shell.model, data, op.linear.C if rest else None)
 
     def _rows(self, op, band):
         b = self.design.band(band)
@@ -109,7 +138,7 @@ class ModalModel:
     def response(self, u, p: int, band: str, freq=None) -> tuple:
         """Modes at posture ``p`` in ``band`` with the values at ``u``, and the exact receptance as
         tested at ``freq`` (Hz; m/N, shape (n_freq, 4, 4); None without ``freq``)."""
-        op = self.operating_point(u, p, band)
+        op = self._settle(u, p, band, self._work(band, 0))
         out, inp, b = self._rows(op, band)
         return _seen(op.linear.modes(), out, inp, b, freq)
 
@@ -117,34 +146,43 @@ class ModalModel:
         """Modes at ``u`` and with each parameter stepped by ``steps[i]`` (in ``u``), and with
         ``freq`` the receptances too.
 
+        One eigen-analysis at ``u``; each step's modes follow from it to first order
+        (:func:`~rmbench.robot.linear.perturbed_modes`) and the step's change of M, C and K.
+        Parameters that enter only C and K (:data:`FAST_KINDS`) change them directly; masses
+        and centres of mass move the equilibrium and the gravity stiffness, so the robot is
+        settled again (from the equilibrium at ``u``) and linearised for each.
+
         Returns
         -------
         base : (ModelModes, ndarray or None)
         stepped : list of (ModelModes, ndarray or None), one per parameter
         """
         u = np.asarray(u, float)
-        op = self.operating_point(u, p, band)
+        op = self._settle(u, p, band, self._work(band, 0))
         out, inp, b = self._rows(op, band)
-        base = _seen(op.linear.modes(), out, inp, b, freq)
+        lin = op.linear
+        cm = lin.modes()
+        base = _seen(cm, out, inp, b, freq)
         model = op.robot.model
-        names = list(op.linear.dof_names)
-        stepped = []
+        names = list(lin.dof_names)
+        k = len(self.params)
+        dm, dc, dk = (np.zeros((k,) + lin.M.shape) for _ in range(3))
         for i, prm in enumerate(self.params):
             v = u.copy()
             v[i] += steps[i]
             if prm.kind in FAST_KINDS:
-                M, C, K = op.linear.M, op.linear.C.copy(), op.linear.K.copy()
+                C, K = lin.C.copy(), lin.K.copy()
                 _perturb(model, names, prm, u[i], v[i], C, K, self.params)
-                stepped.append(_seen(complex_modes(M, C, K), out, inp, b, freq))
+                dc[i], dk[i] = C - lin.C, K - lin.K
             else:
-                op_i = self.operating_point(v, p, band)
-                o_i, i_i, _ = self._rows(op_i, band)
-                stepped.append(_seen(op_i.linear.modes(), o_i, i_i, b, freq))
+                step = self._settled_from(op, v, band, inertial=prm.kind in ("mass", "com"))
+                dm[i], dc[i], dk[i] = step.M - lin.M, step.C - lin.C, step.K - lin.K
+        stepped = [_seen(m, out, inp, b, freq, base[0].band_peak) for m in perturbed_modes_many(cm, dm, dc, dk)]
         return base, stepped
 
 
-def _seen(cm, out, inp, b, freq):
-    return modes_seen(cm, out, inp, b), (None if freq is None else cm.frf(np.asarray(freq, float), out, inp))
+def _seen(cm, out, inp, b, freq, band_peak=None):
+    return modes_seen(cm, out, inp, b, band_peak), (None if freq is None else cm.frf(np.asarray(freq, float), out, inp))
 
 
 def _perturb(model, names, prm, u_old, u_new, C, K, params) -> None:

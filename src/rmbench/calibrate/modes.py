@@ -35,6 +35,8 @@ class ModelModes:
     inside : ndarray of bool, shape (n,)
         Whether the mode lies inside the band (2 % clear of its edges), where a test must see it;
         modes beyond the edges show only as the out-of-band terms of a fit.
+    band_peak : float
+        The band's peak receptance, m/N, that ``peak`` is a share of (NaN where not known).
     """
 
     f_n: np.ndarray
@@ -42,14 +44,19 @@ class ModelModes:
     residue: np.ndarray
     peak: np.ndarray
     inside: np.ndarray
+    band_peak: float = np.nan
 
     def __len__(self) -> int:
         return len(self.f_n)
 
 
 
-def modes_seen(cm, out, inp, b) -> ModelModes:
-    """The modes of ``cm`` a test of band ``b`` sees at rows ``out`` (sensors), ``inp`` (hits)."""
+def modes_seen(cm, out, inp, b, band_peak: float | None = None) -> ModelModes:
+    """The modes of ``cm`` a test of band ``b`` sees at rows ``out`` (sensors), ``inp`` (hits).
+
+    ``band_peak`` (m/N) is the band's peak receptance, where known (the same model a small step
+    away: a sensitivity's stepped modes); by default it is found on the band's lines.
+    """
     r = out @ cm.phi_r                      # (4, n)
     lt = inp @ cm.phi_l
     f = cm.f_n
@@ -57,11 +64,12 @@ def modes_seen(cm, out, inp, b) -> ModelModes:
     peak = np.abs(resid).reshape(len(f), -1).max(axis=1) / np.maximum(np.abs(cm.poles.real), 1e-300)
     # the band's peak receptance: on a coarse grid, and at each in-band mode (a light mode's
     # peak falls between grid lines)
-    in_band = (f >= b.f_min) & (f <= b.f_max) & ~cm.real_pole
-    lines = np.concatenate([np.linspace(b.f_min, b.f_max, 60), f[in_band]])
-    band_peak = float(np.abs(cm.frf(lines, out, inp)).max())
+    if band_peak is None:
+        in_band = (f >= b.f_min) & (f <= b.f_max) & ~cm.real_pole
+        lines = np.concatenate([np.linspace(b.f_min, b.f_max, 60), f[in_band]])
+        band_peak = float(np.abs(cm.frf(lines, out, inp)).max())
     keep = ((f >= b.f_min / _EXTEND) & (f <= b.f_max * _EXTEND) & ~cm.real_pole
             & (peak >= _VISIBLE * band_peak))
     inside = (f >= b.f_min * _EDGE) & (f <= b.f_max / _EDGE)
     return ModelModes(f_n=f[keep], zeta=cm.zeta[keep], residue=resid[keep],
-                      peak=peak[keep] / band_peak, inside=inside[keep])
+                      peak=peak[keep] / band_peak, inside=inside[keep], band_peak=band_peak)

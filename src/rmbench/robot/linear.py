@@ -22,7 +22,8 @@ from scipy import linalg
 
 from rmbench.errors import RmbenchError
 
-__all__ = ["LinearModel", "ComplexModes", "equilibrium", "linearize", "complex_modes"]
+__all__ = ["LinearModel", "ComplexModes", "equilibrium", "linearize", "complex_modes", "perturbed_modes",
+           "perturbed_modes_many"]
 
 # Central differences of mj_inverse: step in rad, m, rad/s or m/s. MuJoCo's own mjd_inverseFD takes
 # forward differences, whose error in C visibly distorts small cross FRFs at the spindle modes.
@@ -170,7 +171,7 @@ _STEP_TOL = 1e-14   # rad or m: a Newton step this small is round-off
 
 
 def equilibrium(model: mujoco.MjModel, data: mujoco.MjData, held: np.ndarray, *,
-                tol: float = 1e-10, max_iter: int = 30) -> None:
+                tol: float = 1e-10, max_iter: int = 30, stiffness: np.ndarray | None = None) -> None:
     """Settle the passive joints of ``data`` at static equilibrium, in place.
 
     The held degrees of freedom keep their ``qpos``; the others are solved by Newton's method on
@@ -182,6 +183,10 @@ def equilibrium(model: mujoco.MjModel, data: mujoco.MjData, held: np.ndarray, *,
     ----------
     held : ndarray of int
         Indices of the held degrees of freedom (actuated joints).
+    stiffness : ndarray, shape (nv, nv), optional
+        The stiffness of a nearby equilibrium (its :attr:`LinearModel.K`), with ``data`` started
+        there: every step uses it (a chord iteration, one inverse dynamics a step) instead of
+        differencing anew; a step that does not shrink the residual falls back to Newton.
 
     Raises
     ------
@@ -192,12 +197,18 @@ def equilibrium(model: mujoco.MjModel, data: mujoco.MjData, held: np.ndarray, *,
     free = np.setdiff1d(np.arange(model.nv), held)
     data.qacc[:] = 0
     scale = max(1.0, float(np.abs(model.jnt_stiffness).max()) * 1e-12)
+    chord = None if stiffness is None else np.asarray(stiffness)[np.ix_(free, free)]
+    last = np.inf
     for _ in range(max_iter):
         mujoco.mj_inverse(model, data)
         r = data.qfrc_inverse[free].copy()
-        if np.max(np.abs(r), initial=0.0) < tol * scale:
+        size = np.max(np.abs(r), initial=0.0)
+        if size < tol * scale:
             break
-        k = _central_fd(model, data, free, velocity=False, actuation=False)[free]
+        if chord is not None and size > 0.5 * last:
+            chord = None                 # the nearby stiffness is not near enough: Newton
+        last = size
+        k = chord if chord is not None else _central_fd(model, data, free, velocity=False, actuation=False)[free]
         step = np.linalg.solve(k, r)
         data.qpos[_qpos_of(model, free)] -= step
         data.qacc[:] = 0
@@ -211,12 +222,19 @@ def equilibrium(model: mujoco.MjModel, data: mujoco.MjData, held: np.ndarray, *,
     _hold_with_actuators(model, data)
 
 
-def linearize(model: mujoco.MjModel, data: mujoco.MjData) -> LinearModel:
-    """M, C, K of ``model`` about the state in ``data`` (call after :func:`equilibrium`)."""
+def linearize(model: mujoco.MjModel, data: mujoco.MjData, damping: np.ndarray | None = None) -> LinearModel:
+    """M, C, K of ``model`` about the state in ``data`` (call after :func:`equilibrium`).
+
+    ``damping`` (shape (nv, nv)) is C where it is already known: at rest the velocity terms are the
+    joints' and servos' damping alone, which a change of masses leaves as they are.
+    """
     nv = model.nv
     every = np.arange(nv)
     k = _central_fd(model, data, every, velocity=False, actuation=True)
-    c = _central_fd(model, data, every, velocity=True, actuation=True)
+    if damping is None:
+        c = _central_fd(model, data, every, velocity=True, actuation=True)
+    else:
+        c = np.array(damping, float)
     m = np.zeros((nv, nv))
     mujoco.mj_forward(model, data)
     mujoco.mj_fullM(model, data, m)
@@ -228,35 +246,31 @@ def _central_fd(model, data, dofs, *, velocity: bool, actuation: bool) -> np.nda
     """∂f/∂q (or ∂f/∂q') of the force that holds the state at zero acceleration, shape (nv, len(dofs)).
 
     ``f = qfrc_inverse`` at ``qacc = 0`` (else M(q)·qacc leaks into K), less the actuator forces
-    when ``actuation`` (so that servo gains enter K and C).
+    when ``actuation`` (so that servo gains enter K and C). Central differences in MuJoCo's C code:
+    :func:`mujoco.mjd_inverseFD` takes forward differences, so it runs once forward and once
+    backward and the two are averaged. It keeps ``data``'s state and zeroes its ``qacc``; the
+    derived quantities are left at a perturbed state, so a caller runs ``mj_forward`` or
+    ``mj_inverse`` before reading them.
     """
-    work = mujoco.MjData(model)
-    qadr = _qpos_of(model, np.asarray(dofs))
-    out = np.empty((model.nv, len(dofs)))
-
-    def force(qpos, qvel):
-        work.qpos[:] = qpos
-        work.qvel[:] = qvel
-        work.ctrl[:] = data.ctrl
-        work.qacc[:] = 0
-        mujoco.mj_inverse(model, work)
-        f = work.qfrc_inverse.copy()
-        if actuation:
-            mujoco.mj_fwdActuation(model, work)
-            f -= work.qfrc_actuator
-        return f
-
-    for col, (dof, adr) in enumerate(zip(dofs, qadr)):
-        q_p, q_m = data.qpos.copy(), data.qpos.copy()
-        v_p, v_m = data.qvel.copy(), data.qvel.copy()
-        if velocity:
-            v_p[dof] += _FD_EPS
-            v_m[dof] -= _FD_EPS
-        else:
-            q_p[adr] += _FD_EPS
-            q_m[adr] -= _FD_EPS
-        out[:, col] = (force(q_p, v_p) - force(q_m, v_m)) / (2 * _FD_EPS)
-    return out
+    nv = model.nv
+    work = data
+    work.qacc[:] = 0
+    out = np.zeros((nv, nv))
+    part = np.zeros((nv, nv))
+    integrator = model.opt.integrator
+    # inverse dynamics integrates nothing; mjd_inverseFD refuses a model set to RK4 all the same
+    model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
+    try:
+        for eps in (_FD_EPS, -_FD_EPS):
+            if velocity:
+                mujoco.mjd_inverseFD(model, work, eps, int(actuation), None, part, None, None, None, None, None)
+            else:
+                mujoco.mjd_inverseFD(model, work, eps, int(actuation), part, None, None, None, None, None, None)
+            out += part
+    finally:
+        model.opt.integrator = integrator
+    # MuJoCo's derivative matrices are transposed (row: the perturbed coordinate)
+    return 0.5 * out.T[:, np.asarray(dofs)]
 
 
 def _qpos_of(model: mujoco.MjModel, dofs: np.ndarray) -> np.ndarray:
@@ -319,3 +333,77 @@ def _complex_modes(m: np.ndarray, c: np.ndarray, k: np.ndarray) -> ComplexModes:
     # back to physical coordinates and time: ψLᵀ A ψR = I is preserved with φ = D φ̃ / √w0
     return ComplexModes(poles=lam * w0, phi_r=d[:, None] * vr[:n] / np.sqrt(w0),
                         phi_l=d[:, None] * psi_l[:n] / np.sqrt(w0), real_pole=real)
+
+
+_DEGENERATE = 1e-7   # poles this close (relative) span one subspace: no rotation within it to first order
+
+
+def perturbed_modes(cm: ComplexModes, dm: np.ndarray, dc: np.ndarray, dk: np.ndarray) -> ComplexModes:
+    """The modes of ``(M + dM) q'' + (C + dC) q' + (K + dK) q = f`` to first order in the change.
+
+    Analytic eigen-sensitivities (Fox-Kapoor, with Nelson's modal expansion over the complete set of
+    state-space eigenvectors): no eigen-analysis of the changed matrices. With ``P_j = λ_j² dM +
+    λ_j dC + dK``, the normalisation ``ψLᵀ A ψR = I`` of :class:`ComplexModes` and the poles and
+    their conjugates as the basis,
+
+        dλ_j   = −φL_jᵀ P_j φR_j
+        dφR_j  = Σ_k≠j −(φL_kᵀ P_j φR_j)/(λ_j − λ_k) φR_k + c_j φR_j
+        dφL_j  = Σ_k≠j −(φL_jᵀ P_j φR_k)/(λ_j − λ_k) φL_k + c_j φL_j,   c_j = −½ φL_jᵀ(dC + 2λ_j dM)φR_j,
+
+    which keeps ``ψLᵀ A ψR = I`` to first order (the residues ``φR φLᵀ`` depend only on the sum of
+    the two ``c``). Poles closer than a relative ``1e-7`` (the X and Y modes of a round tool) span a
+    subspace whose rotation within itself is left out: their summed residue is still right to
+    first order.
+
+    Parameters
+    ----------
+    cm : ComplexModes
+        The modes of ``M, C, K`` (every one: :func:`complex_modes` or :meth:`LinearModel.modes`).
+    dm, dc, dk : ndarray, shape (n_dof, n_dof)
+        The changes of M, C, K (SI).
+
+    Returns
+    -------
+    ComplexModes
+        Poles and eigenvectors moved by their first-order change; same order and layout as ``cm``.
+    """
+    return perturbed_modes_many(cm, dm[None], dc[None], dk[None])[0]
+
+
+def perturbed_modes_many(cm: ComplexModes, dm: np.ndarray, dc: np.ndarray, dk: np.ndarray) -> list[ComplexModes]:
+    """:func:`perturbed_modes` for several changes at once (one per parameter of a sensitivity).
+
+    Parameters
+    ----------
+    cm : ComplexModes
+    dm, dc, dk : ndarray, shape (n_change, n_dof, n_dof)
+
+    Returns
+    -------
+    list of ComplexModes, one per change
+    """
+    lam, pr, pl = cm.poles, cm.phi_r, cm.phi_l
+    cplx = ~cm.real_pole
+    lam_all = np.concatenate([lam, lam[cplx].conj()])
+    pr_all = np.concatenate([pr, pr[:, cplx].conj()], axis=1)
+    pl_all = np.concatenate([pl, pl[:, cplx].conj()], axis=1)
+    l2 = lam ** 2
+    m_r, c_r_, k_r = dm @ pr, dc @ pr, dk @ pr                       # (n_change, n_dof, n_keep)
+    tr = np.swapaxes
+    m_l, c_l_, k_l = tr(dm, 1, 2) @ pl, tr(dc, 1, 2) @ pl, tr(dk, 1, 2) @ pl
+    # P_j φR_j and P_jᵀ φL_j for every kept mode j, as columns
+    g = pl_all.T @ (m_r * l2 + c_r_ * lam + k_r)      # (n_change, n_all, n_keep): φL_kᵀ P_j φR_j
+    h = pr_all.T @ (m_l * l2 + c_l_ * lam + k_l)      # φL_jᵀ P_j φR_k
+    gap = lam[None, :] - lam_all[:, None]
+    near = np.abs(gap) <= _DEGENERATE * np.abs(lam)[None, :]
+    inv = np.where(near, 0.0, -1.0 / np.where(near, 1.0, gap))
+    coef_r, coef_l = g * inv, h * inv
+    idx = np.arange(len(lam))
+    own = -0.5 * (np.einsum("ij,cij->cj", pl, c_r_) + 2 * lam * np.einsum("ij,cij->cj", pl, m_r))
+    coef_r[:, idx, idx] = own
+    coef_l[:, idx, idx] = own
+    d_lam = -g[:, idx, idx]
+    new_r = pr + pr_all @ coef_r
+    new_l = pl + pl_all @ coef_l
+    return [ComplexModes(poles=lam + d_lam[i], phi_r=new_r[i], phi_l=new_l[i], real_pole=cm.real_pole)
+            for i in range(len(dm))]
