@@ -40,12 +40,12 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from rmbench.calibrate.model import ModalModel
 from rmbench.calibrate.residual import FRF_SEGMENTS, UNPAIRED, Pairing, frf_residuals, mode_residuals, pair
 from rmbench.calibrate.solver import IDENTIFIABLE, WEAK, identifiability, posterior, solve
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
+from rmbench.modeshape import mac, pair_modes
 from rmbench.robot.parameters import DEFAULT_GROUPS, parameter_set
 
 __all__ = ["CalibrationSettings", "ParameterEstimate", "Calibration", "calibrate", "linearisation",
@@ -261,7 +261,7 @@ def mode_errors(mm: ModalModel, u, data, postures) -> list[dict]:
                                zeta_err=float(model.zeta[j] / meas.zeta[i] - 1))
                     rd, rm = meas.residue[i].ravel(), model.residue[j].ravel()
                     if np.all(np.isfinite(rd)):
-                        row["mac"] = float(np.abs(np.vdot(rd, rm)) ** 2 / (np.vdot(rd, rd).real * np.vdot(rm, rm).real))
+                        row["mac"] = float(mac(rd, rm))
                 rows.append(row)
     return rows
 
@@ -391,21 +391,10 @@ def coarse_residuals(meas, model, pairing: Pairing | None = None) -> tuple[np.nd
     pairing it 15 % off; here a lost mode costs more than any pairing, so the fit moves toward
     pairing every mode.
     """
-    n, m = len(meas), len(model)
+    n = len(meas)
     if pairing is None:
-        if n and m:
-            a = meas.residue.reshape(n, -1)
-            b = model.residue.reshape(m, -1)
-            num = np.abs(a.conj() @ b.T) ** 2
-            den = np.outer(np.sum(np.abs(a) ** 2, 1), np.sum(np.abs(b) ** 2, 1))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                mac = np.where(np.isfinite(num / den), num / den, 1.0)
-            cost = (1 - mac) + np.abs(np.log(model.f_n[None, :] / meas.f_n[:, None])) / _COARSE_SCALE
-            rows, cols = linear_sum_assignment(cost)
-            good = np.abs(np.log(model.f_n[cols] / meas.f_n[rows])) < np.log(1.5)
-            rows, cols = rows[good], cols[good]
-        else:
-            rows, cols = np.zeros(0, int), np.zeros(0, int)
+        rows, cols = pair_modes(meas.f_n, model.f_n, meas.residue, model.residue, freq_scale=_COARSE_SCALE,
+                                window=1.5, zero=1.0)
         pairing = Pairing(rows, cols, np.setdiff1d(np.arange(n), rows), np.zeros(0, int))
     e = np.zeros((n, 4))
     e[pairing.unpaired_meas, 0] = _COARSE_MISSING
@@ -416,17 +405,8 @@ def coarse_residuals(meas, model, pairing: Pairing | None = None) -> tuple[np.nd
 def _track(base, stepped) -> np.ndarray:
     """Index in ``stepped`` of each mode of ``base`` (−1: not found), by MAC and frequency."""
     out = np.full(len(base), -1)
-    if not len(base) or not len(stepped):
-        return out
-    a = base.residue.reshape(len(base), -1)
-    b = stepped.residue.reshape(len(stepped), -1)
-    num = np.abs(a.conj() @ b.T) ** 2
-    den = np.outer(np.sum(np.abs(a) ** 2, 1), np.sum(np.abs(b) ** 2, 1))
-    mac = num / np.where(den > 0, den, 1)
-    cost = (1 - mac) + np.abs(np.log(stepped.f_n[None, :] / base.f_n[:, None])) / 0.05
-    rows, cols = linear_sum_assignment(cost)
-    good = cost[rows, cols] < 0.5
-    out[rows[good]] = cols[good]
+    rows, cols = pair_modes(base.f_n, stepped.f_n, base.residue, stepped.residue, freq_scale=0.05, max_cost=0.5)
+    out[rows] = cols
     return out
 
 

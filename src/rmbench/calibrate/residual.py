@@ -39,7 +39,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
+
+from rmbench.modeshape import pair_modes
 
 __all__ = ["overlap", "FLOORS", "UNPAIRED", "Pairing", "pair", "mode_residuals", "n_slots", "SLOT_NAMES", "penalties",
            "FrfTarget", "frf_target", "frf_residuals", "FRF_FLOOR", "FRF_SEGMENTS", "hammer_leak"]
@@ -75,26 +76,15 @@ class Pairing:
     unpaired_model: np.ndarray
 
 
-def _mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """MAC between rows of ``a`` (n, k) and rows of ``b`` (m, k): shape (n, m)."""
-    num = np.abs(a.conj() @ b.T) ** 2
-    den = np.outer(np.sum(np.abs(a) ** 2, axis=1), np.sum(np.abs(b) ** 2, axis=1))
-    return num / np.where(den > 0, den, 1.0)
-
-
 def pair(meas, model) -> Pairing:
     """Pair measured and model modes of one posture and band (MAC of residues and frequency)."""
     n, m = len(meas), len(model)
     if n == 0 or m == 0:
         vis = np.flatnonzero(_must_see(model)) if m else np.zeros(0, int)
         return Pairing(np.zeros(0, int), np.zeros(0, int), np.arange(n), vis)
-    mac = _mac(meas.residue.reshape(n, -1), model.residue.reshape(m, -1))
     # a measured mode without shape (a table of frequencies and dampings) pairs by frequency
-    mac = np.where(np.isfinite(mac), mac, 1.0)
-    cost = (1 - mac) + np.abs(np.log(model.f_n[None, :] / meas.f_n[:, None])) / _FREQ_SCALE
-    rows, cols = linear_sum_assignment(cost)
-    good = cost[rows, cols] <= _MAX_COST
-    rows, cols = rows[good], cols[good]
+    rows, cols = pair_modes(meas.f_n, model.f_n, meas.residue, model.residue, freq_scale=_FREQ_SCALE,
+                            max_cost=_MAX_COST)
     um = np.setdiff1d(np.arange(n), rows)
     rest = np.setdiff1d(np.arange(m), cols)
     missing = rest[_must_see(model)[rest]]

@@ -14,22 +14,17 @@ from pathlib import Path
 
 import numpy as np
 import xarray as xr
-from scipy.optimize import linear_sum_assignment
 
 from rmbench._version import __version__
 from rmbench.errors import InputError
 from rmbench.robot.modes import PARAMS
 from rmbench.impact.sensors import COORDS
+from rmbench.modeshape import pair_modes
 
-__all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "posture_positions", "mac",
+__all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "posture_positions",
            "exact_modes_dataset"]
 
 DATASET_VERSION = 1
-
-
-def mac(a: np.ndarray, b: np.ndarray) -> float:
-    """Modal assurance criterion of two complex vectors."""
-    return float(np.abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * np.vdot(b, b).real))
 
 
 def posture_positions(x, y, theta) -> np.ndarray:
@@ -96,17 +91,15 @@ def track_modes(tables: list, positions: np.ndarray | None = None, *, freq_tol: 
         known = {i: state[parent[p]].get(i, origin[i]) for i in range(len(columns))}
         t = tables[p]
         shapes = _shapes(t)
-        cost = np.array([[(1 - mac(known[i][1], shapes[j]))
-                          + abs(t.f_n[j] - known[i][0]) / (known[i][0] * freq_tol)
-                          for j in range(len(t))] for i in range(len(columns))])
-        rows, cols = linear_sum_assignment(cost)
+        tracks = [known[i] for i in range(len(columns))]  # (f, shape) of each track
+        pairs = pair_modes(t.f_n, [f for f, _ in tracks], shapes, np.array([s for _, s in tracks]),
+                           freq_scale=freq_tol, freq="relative", max_cost=max_cost)
         params = t.params()
         paired = set()
-        for i, j in zip(rows, cols):
-            if cost[i, j] <= max_cost:
-                columns[i][p] = params[j]
-                known[i] = (t.f_n[j], shapes[j])
-                paired.add(j)
+        for j, i in zip(*pairs):
+            columns[i][p] = params[j]
+            known[i] = (t.f_n[j], shapes[j])
+            paired.add(j)
         for j in np.argsort(t.f_n):
             if j not in paired:  # a mode unlike every tracked one starts a track of its own
                 columns.append(np.full((len(tables), 16), np.nan))

@@ -45,6 +45,7 @@ from scipy.special import fdtrc
 
 from rmbench.modal import mdof
 from rmbench.modal._varpro import Problem, Solution, pack_theta
+from rmbench.modeshape import mac
 
 __all__ = ["Selection", "SelectionSettings", "select_modes", "scan_missing", "bic"]
 
@@ -458,7 +459,7 @@ class _State:
         for a in modes:
             for b in modes[modes > a]:
                 sep = abs(f[a] - f[b]) / (z[a] * f[a] + z[b] * f[b])
-                alike = max(_mac(sol.phi_r[a], sol.phi_r[b]), _mac(sol.phi_l[a], sol.phi_l[b]))
+                alike = np.fmax(mac(sol.phi_r[a], sol.phi_r[b]), mac(sol.phi_l[a], sol.phi_l[b]))
                 if sep < self.s.merge_separation and alike > self.s.merge_mac:
                     key = ("merge", round(f[a], 6), round(f[b], 6))
                     if key not in self.tried:
@@ -662,8 +663,3 @@ def _sorted(sol: Solution) -> Solution:
 
 def _both_present(pair, f_now, rtol=1e-3):
     return all(np.any(np.abs(f_now - x) <= rtol * x) for x in pair)
-
-
-def _mac(a, b):
-    den = np.vdot(a, a).real * np.vdot(b, b).real
-    return float(np.abs(np.vdot(a, b)) ** 2 / den) if den > 0 else 0.0

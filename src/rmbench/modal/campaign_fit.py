@@ -14,12 +14,12 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import xarray as xr
-from scipy.optimize import linear_sum_assignment
 
 from rmbench._version import __version__
 from rmbench.errors import InputError
-from rmbench.impact.dataset import mac, posture_positions, track_modes
+from rmbench.impact.dataset import posture_positions, track_modes
 from rmbench.modal.residual import RESIDUAL_TERMS, out_of_band_terms
+from rmbench.modeshape import mac, pair_modes
 from rmbench.robot.modes import PARAMS, ModeTable
 from rmbench.threads import default_workers, worker_init
 
@@ -337,13 +337,11 @@ def truth_errors(fit: xr.Dataset, ds: xr.Dataset) -> xr.Dataset:
             ep = [m for m in em if np.isfinite(exact[p, m, 0])]
             if not fp or not ep:
                 continue
-            cost = np.array([[(1 - mac(_phi(fitted[p, i], "R"), _phi(exact[p, j], "R")))
-                              + abs(fitted[p, i, 0] - exact[p, j, 0]) / (0.05 * exact[p, j, 0])
-                              for j in ep] for i in fp])
-            rows, cols = linear_sum_assignment(cost)
+            # a pair costing more than 1 is nothing alike: the fitted mode is not this exact one
+            rows, cols = pair_modes(fitted[p, fp, 0], exact[p, ep, 0], [_phi(fitted[p, i], "R") for i in fp],
+                                    [_phi(exact[p, j], "R") for j in ep], freq_scale=0.05, freq="relative",
+                                    max_cost=1.0)
             for a, c in zip(rows, cols):
-                if cost[a, c] > 1.0:
-                    continue  # nothing alike: the fitted mode is not this exact one
                 i, j = fp[a], ep[c]
                 truth[p, i] = j
                 f_err[p, i] = (fitted[p, i, 0] - exact[p, j, 0]) / exact[p, j, 0]

@@ -12,6 +12,7 @@ import numpy as np
 from scipy.cluster.hierarchy import fcluster, linkage
 
 from rmbench.modal.plscf import PolyMaxOrder
+from rmbench.modeshape import mac
 
 __all__ = ["Stabilization", "StabilityCriteria", "stabilize"]
 
@@ -181,7 +182,7 @@ def stabilize(results: list[PolyMaxOrder], f_band: tuple[float, float], *,
             rows = np.arange(len(lam))
             st = ((df[rows, near] < criteria.freq_tol)
                   & (np.abs(z - pz[near]) / z < criteria.damping_tol)
-                  & (_mac_rows(L, pL[near]) > criteria.mac_min))
+                  & (np.diagonal(mac(L, pL[near])) > criteria.mac_min))
         orders.append(np.full(len(lam), res.order))
         poles.append(lam)
         parts.append(L)
@@ -245,10 +246,3 @@ def _select(order, pole, part, stable, cluster, n_orders, criteria, n_modes):
 
 def _median(poles):
     return np.median(poles.real) + 1j * np.median(poles.imag)
-
-
-def _mac_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """MAC of matching rows of ``a`` and ``b`` (both shape (n, m), complex)."""
-    num = np.abs(np.sum(a.conj() * b, axis=1)) ** 2
-    den = np.sum(np.abs(a) ** 2, axis=1) * np.sum(np.abs(b) ** 2, axis=1)
-    return num / np.where(den > 0, den, 1.0)

@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from rmbench.modal.mdof import synthesize
+from rmbench.modeshape import mac, pair_modes
 
 __all__ = ["MdofSystem", "FitScore", "table_b1", "random_system", "add_noise", "score_fit",
            "separation", "poles_of"]
@@ -276,14 +276,12 @@ def score_fit(f_n, zeta, phi_r, phi_l, system: MdofSystem, *, f_tol: float = 0.0
     matched = np.zeros(n0, bool)
     used = np.zeros(len(f_n), bool)
     if len(f_n) and n0:
-        cost = (np.abs(f_n[:, None] / f0[None] - 1) / f_tol
-                + 1 - _mac(phi_r[:, None], r0[None]))
-        rows, cols = linear_sum_assignment(cost)
+        rows, cols = pair_modes(f_n, f0, phi_r, r0, freq_scale=f_tol, freq="relative")
         for a, b in zip(rows, cols):
             f_err[b] = f_n[a] / f0[b] - 1
             z_err[b] = zeta[a] / z0[b] - 1
-            mac_r[b] = _mac(phi_r[a], r0[b])
-            mac_l[b] = _mac(phi_l[a], l0[b])
+            mac_r[b] = mac(phi_r[a], r0[b])
+            mac_l[b] = mac(phi_l[a], l0[b])
             ok = (abs(f_err[b]) <= f_tol and abs(z_err[b]) <= zeta_tol and mac_r[b] >= mac_min
                   and mac_l[b] >= mac_min)
             matched[b] = ok
@@ -301,8 +299,3 @@ def score_fit(f_n, zeta, phi_r, phi_l, system: MdofSystem, *, f_tol: float = 0.0
     return FitScore(correct=bool(matched.all() and not len(spurious)), missing=missing,
                     spurious=spurious, f_err=f_err, zeta_err=z_err, mac_r=mac_r, mac_l=mac_l,
                     reason="; ".join(parts))
-
-
-def _mac(a, b):
-    return (np.abs(np.sum(a.conj() * b, axis=-1)) ** 2
-            / (np.sum(np.abs(a) ** 2, axis=-1) * np.sum(np.abs(b) ** 2, axis=-1)))

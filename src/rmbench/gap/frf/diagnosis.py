@@ -30,6 +30,7 @@ from rmbench.gap.jsonable import write_whole
 from rmbench.gap.selection import SearchSettings, bootstrap_shrink, confidences, selection_weights, significant
 from rmbench.gap.frf.where import GapMap, gap_map
 from rmbench.io.strict_json import strict_dumps
+from rmbench.modeshape import mac
 
 __all__ = ["diagnose", "diagnose_modes", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings",
            "SearchData", "structural_kinds", "remaining_gap", "RemainingGap"]
@@ -1121,7 +1122,7 @@ def _metrics(held: Objective, ds, change) -> dict:
                 z_err += list(np.abs(model.zeta[j] / mm.zeta[i] - 1))
                 for a, c in zip(i, j):
                     rd, rm = mm.residue[a].ravel(), model.residue[c].ravel()
-                    macs.append(np.abs(np.vdot(rd, rm)) ** 2 / (np.vdot(rd, rd).real * np.vdot(rm, rm).real))
+                    macs.append(mac(rd, rm))
             if ds is not None:
                 sel = ds.band.values == b
                 h = ds.H.values[p][sel]

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rmbench.calibrate.residual import SLOT_NAMES, hammer_leak, mode_residuals
+from rmbench.modeshape import mac
 
 __all__ = ["GapMap", "gap_map", "entry_class", "ENTRY_CLASSES"]
 
@@ -136,11 +137,10 @@ def gap_map(bench, meas, ds, bands, change, postures_xyt, *, averages: int = 3,
                                dscale=np.nan, mac=np.nan, significant=True)
                 else:
                     rm, rd = model.residue[j].ravel(), mm.residue[i].ravel()
-                    mac = float(np.abs(np.vdot(rd, rm)) ** 2 / (np.vdot(rd, rd).real * np.vdot(rm, rm).real))
                     rec.update(f_model=float(model.f_n[j]), zeta_model=float(model.zeta[j]),
                                df=float(model.f_n[j] / mm.f_n[i] - 1),
                                dzeta=float(model.zeta[j] / mm.zeta[i] - 1),
-                               dscale=float(np.linalg.norm(rm) / np.linalg.norm(rd) - 1), mac=mac,
+                               dscale=float(np.linalg.norm(rm) / np.linalg.norm(rd) - 1), mac=float(mac(rd, rm)),
                                significant=bool(np.any(np.abs(z[i]) > 3)))
                 records.append(rec)
             for j in pairing.unpaired_model:
