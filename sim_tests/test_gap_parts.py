@@ -289,3 +289,21 @@ def test_a_single_refitted_from_a_pair_replaces_its_stalled_fit():
     stalled, refit, other = _single("base", 6000, 4900), _single("base", 85, 52), _single("j1", 9e4, 9e4)
     out = _better_singles([stalled, other], [refit, _single("mass", 9e5, 9e5)])
     assert {f.name: f.chi2_held for f in out} == {"base": 52, "j1": 9e4, "mass": 9e5}
+
+
+def test_a_diagnosis_reads_as_a_few_lines_and_its_json_is_unchanged_by_the_alias():
+    from types import SimpleNamespace
+
+    from rmbench.gap.frf.result import VERDICTS, Diagnosis, EffectResult
+
+    effect = EffectResult("joint_stiffness@j3_flex", "joint_stiffness", "j3_flex", {}, "j3 stiffer", {}, {}, 0.9,
+                          (0.8, 0.95), 1.0, chosen=True)
+    where = SimpleNamespace(describe=lambda: "j3", summary=lambda: {})
+    dg = Diagnosis(verdict="explained", effects=(effect,), where=where, where_after=None, localisation="j3",
+                   equivalent=(), nominal_chi2=10.0, n_residuals=5, nominal_peak=3.0, variant_xml=None,
+                   design_changes=(), train=(), held=(), models=(), seconds={})
+    assert VERDICTS == ("explained", "unexplained", "no significant gap")
+    assert dg.summary().splitlines()[1].startswith("chosen joint_stiffness@j3_flex")
+    assert dg.to_json("v.xml") == dg.to_dict("v.xml")
+    with pytest.raises(ValueError, match="unknown verdict 'maybe'"):
+        Diagnosis(**{**dg.__dict__, "verdict": "maybe"})
