@@ -70,10 +70,10 @@ def test_the_recalibration_with_the_frfs_is_reported_where_it_is_the_better_mode
     # the verdict rests on the recalibration, so that is the calibration a user gets
     from types import SimpleNamespace
 
-    from rmbench.gap.frf.diagnosis import _better_calibration
+    from rmbench.gap.frf.rules import better_calibration
 
     dg, notes = SimpleNamespace(calibration={"groups": ["joints", "com"]}), []
-    better = _better_calibration(dg, _null(44.0), 3448.0, notes)
+    better = better_calibration(dg, _null(44.0), 3448.0, notes)
     assert better["calibrated_xml"] == "<mujoco model='null'/>"
     assert better["calibration"]["groups"] == ["joints", "com"]
     assert len(notes) == 1 and "recalibration with the FRFs" in notes[0]
@@ -82,10 +82,10 @@ def test_the_recalibration_with_the_frfs_is_reported_where_it_is_the_better_mode
 def test_the_first_calibration_stays_where_the_recalibration_is_no_better():
     from types import SimpleNamespace
 
-    from rmbench.gap.frf.diagnosis import _better_calibration
+    from rmbench.gap.frf.rules import better_calibration
 
     notes = []
-    assert _better_calibration(SimpleNamespace(calibration={"groups": ["joints"]}), _null(120.0), 100.0, notes) == {}
+    assert better_calibration(SimpleNamespace(calibration={"groups": ["joints"]}), _null(120.0), 100.0, notes) == {}
     assert notes == []
 
 
@@ -107,16 +107,22 @@ class _Runs:
                                shrink_against=lambda null: 0.5)
 
 
-def _confirm(monkeypatch, fresh_noise):
+def _setup():
+    """A confirmation's setup with nothing in it but a first calibration without parameters."""
     from types import SimpleNamespace
 
+    from rmbench.gap.frf.confirm import ConfirmSetup
+
+    first = SimpleNamespace(params=(), u=np.zeros(0))
+    return ConfirmSetup(None, None, [], first, None, None, [], [], (), [])
+
+
+def _confirm(monkeypatch, fresh_noise):
     import rmbench.gap.frf.confirm as confirm_module
 
     runs = _Runs(fresh_noise)
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: runs.run)
-    first = SimpleNamespace(params=(), u=np.zeros(0))
-    null, done = confirm_module.confirm(None, None, [], first, ["base_compliance@base"], q_cmd=None, meas=[],
-                                        frf=[], bands=(), held=[], settings=None, accept=lambda c, n: True)
+    null, done = confirm_module.confirm(_setup(), ["base_compliance@base"], accept=lambda c, n: True)
     return runs, null, done
 
 
@@ -153,10 +159,8 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
                                shrink_against=lambda null: 0.42 if effect else 0.0)
 
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)
-    first = SimpleNamespace(params=(), u=np.zeros(0))
-    null, _ = confirm_module.confirm(None, None, [], first, ["base_compliance@base"], q_cmd=None, meas=[],
-                                     frf=[], bands=(), held=[], settings=None,
-                                     accept=lambda c, n: not c.significant, min_shrink=0.4)
+    null, _ = confirm_module.confirm(_setup(), ["base_compliance@base"], accept=lambda c, n: not c.significant,
+                                     options=confirm_module.ConfirmOptions(min_shrink=0.4))
     assert calls == [(None, False, False), ("base_compliance@base", False, False), (None, True, False),
                      ("base_compliance@base", True, False), (None, False, True)]
     assert null.from_nominal
@@ -177,9 +181,7 @@ def test_every_candidate_runs_after_one_explains_the_gap(monkeypatch):
                                chi2_held=900.0 if effect is None else 300.0, shrink_against=lambda n: 0.5)
 
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)
-    first = SimpleNamespace(params=(), u=np.zeros(0))
-    _, done = confirm_module.confirm(None, None, [], first, ["added_mass@wrist", "added_mass@flange"], q_cmd=None,
-                                     meas=[], frf=[], bands=(), held=[], settings=None,
+    _, done = confirm_module.confirm(_setup(), ["added_mass@wrist", "added_mass@flange"],
                                      accept=lambda c, n: not c.significant)
     assert [c.effect for c in done] == ["added_mass@wrist", "added_mass@flange"]
     assert calls == [None, "added_mass@wrist", "added_mass@flange", None]
@@ -222,11 +224,12 @@ def test_a_confirmed_explanation_reports_the_calibration_fitted_with_the_effect(
     # the recalibration with the effect freed, so its parameters are the calibration a user gets
     from types import SimpleNamespace
 
-    import rmbench.gap.frf.diagnosis as diagnosis_module
+    import rmbench.gap.frf.confirmed as confirmed_module
     from rmbench.gap import Change, DiagnosisSettings
-    from rmbench.gap.frf.diagnosis import Diagnosis, _explained
+    from rmbench.gap.frf.confirmed import Recalibrated, explained
+    from rmbench.gap.frf.diagnosis import Diagnosis
 
-    monkeypatch.setattr(diagnosis_module, "_metrics", lambda objective, ds, change: {})
+    monkeypatch.setattr(confirmed_module, "metrics", lambda objective, ds, change: {})
     objective = SimpleNamespace(n_posture=lambda p: 100)
     effect = SimpleNamespace(name="base_compliance@base", kind="base_compliance", location="base", n_params=1,
                              params_dict=lambda v: {"lateral_um_per_kn": 90.0}, describe=lambda v: "a foundation")
@@ -239,8 +242,9 @@ def test_a_confirmed_explanation_reports_the_calibration_fitted_with_the_effect(
                    localisation="", equivalent=(), nominal_chi2=1.0, n_residuals=1, nominal_peak=1.0,
                    variant_xml=None, design_changes=(), train=(), held=(0, 1, 2, 3), models=(), seconds={},
                    calibration={"groups": ["joints", "base"], "params": [{"name": "j2_flex.stiffness", "value": 0.6}]})
-    out = _explained(dg, [best], base, base, [best], [0, 1, 2, 3], None, DiagnosisSettings(), {}, [], True,
-                     {"start": 0.0, "confirm": 1.0})
+    outcome = Recalibrated(null=base, base=base, done=[best], record={}, gap=True, first_chi2=3600.0)
+    problem = SimpleNamespace(held=[0, 1, 2, 3], ds=None)
+    out = explained(dg, [best], outcome, problem, DiagnosisSettings(), [], {"start": 0.0, "confirm": 1.0})
     assert out.verdict == "explained"
     assert out.calibration == {"params": [{"name": "j2_flex.stiffness", "value": 0.8}], "groups": ["joints", "base"]}
     assert out.variant_xml == with_effect.xml
@@ -260,13 +264,13 @@ def _candidate(effect="tool_contact_stiffness@tool_contact", *, significant=Fals
 def _rule(monkeypatch, c, *, pinned, beyond=True, within=False):
     from types import SimpleNamespace
 
-    import rmbench.gap.frf.diagnosis as diagnosis_module
+    import rmbench.gap.frf.rules as rules
 
-    monkeypatch.setattr(diagnosis_module, "_beyond_spread", lambda c, nominal, groups: beyond)
-    monkeypatch.setattr(diagnosis_module, "_within_spread", lambda c, nominal, groups: within)
+    monkeypatch.setattr(rules, "beyond_spread", lambda c, nominal, groups: beyond)
+    monkeypatch.setattr(rules, "within_spread", lambda c, nominal, groups: within)
     null = SimpleNamespace(significant=True, chi2_held=1103.0, train_objective=3384.0)
-    return diagnosis_module._confirms(c, null, gap=True, pinned=pinned, first_chi2=11853.0, min_shrink=0.5,
-                                      nominal=None, groups=("tool",))
+    return rules.confirms(c, null, gap=True, pinned=pinned, first_chi2=11853.0, min_shrink=0.5,
+                          nominal=None, groups=("tool",))
 
 
 def test_a_freed_bound_explains_a_gap_it_closes_less_than_half_of(monkeypatch):

@@ -99,15 +99,15 @@ def _confirmed_with(u: dict, freed):
 
 
 def test_a_holder_confirmed_inside_its_ordinary_spread_is_no_structural_effect(irb):
-    from rmbench.gap.frf.diagnosis import _within_spread
+    from rmbench.gap.frf.rules import within_spread
 
     names = ("tool_contact.translation", "tool_contact.rotation")
     # × 0.8: inside the tool group's prior range (0.4-2.5): the first calibration's prior held it back
-    assert _within_spread(_confirmed_with({n: np.log(0.8) for n in names}, names), irb, ("joints", "tool"))
+    assert within_spread(_confirmed_with({n: np.log(0.8) for n in names}, names), irb, ("joints", "tool"))
     # ÷ 4: outside it: a structural fault
-    assert not _within_spread(_confirmed_with({n: np.log(0.25) for n in names}, names), irb, ("joints", "tool"))
+    assert not within_spread(_confirmed_with({n: np.log(0.25) for n in names}, names), irb, ("joints", "tool"))
     # a parameter no ordinary group holds (the foundation's slide) is structural at any size
-    assert not _within_spread(_confirmed_with({"base.lateral_compliance": 5.0}, ["base.lateral_compliance"]),
+    assert not within_spread(_confirmed_with({"base.lateral_compliance": 5.0}, ["base.lateral_compliance"]),
                               irb, ("joints", "base"))
 
 
@@ -115,14 +115,14 @@ def test_each_confirmable_kind_is_confirmed_once_and_an_unrefined_foundation_too
     """After a calibration has mimicked a sliding foundation, the first-order search can rank it
     below everything (or not refine it at all): the recalibration sees one candidate of each
     kind, the best-scored first."""
-    from rmbench.gap.frf.diagnosis import _confirm_picks
+    from rmbench.gap.frf.picks import confirm_picks
 
     def row(name, score):
         return {"params": {name: {}}, "score": score}
 
     models = [{"params": {}, "score": 0.0}, row("added_mass@wrist", 1.0), row("added_mass@flange", 2.0),
               row("sensor_misalignment@low:1aX", 0.5), row("tool_contact_stiffness@tool_contact", 3.0)]
-    picks = [e.name for e in _confirm_picks(models, calibrated_library, 5)]
+    picks = [e.name for e in confirm_picks(models, calibrated_library, 5)]
     assert picks[:3] == ["sensor_misalignment@low:1aX", "added_mass@wrist", "tool_contact_stiffness@tool_contact"]
     # the unrefined kinds follow, but no unrefined sensor: it has no fitted size to be confirmed at
     assert set(picks[3:]) == {"spindle_stiffness@spindle", "base_compliance@base"}
@@ -131,11 +131,11 @@ def test_each_confirmable_kind_is_confirmed_once_and_an_unrefined_foundation_too
 def test_the_foundation_is_confirmed_even_when_others_fill_the_quota(calibrated_library):
     """The ordinary parameters mimic a slide best of all (the base's tilt, the links' centres of
     mass): it is recalibrated whatever its first-order rank."""
-    from rmbench.gap.frf.diagnosis import _confirm_picks
+    from rmbench.gap.frf.picks import confirm_picks
 
     models = [{"params": {}, "score": 0.0}, {"params": {"added_mass@wrist": {}}, "score": 1.0},
               {"params": {"sensor_misalignment@low:1aX": {}}, "score": 0.5}]
-    picks = [e.name for e in _confirm_picks(models, calibrated_library, 2)]
+    picks = [e.name for e in confirm_picks(models, calibrated_library, 2)]
     assert picks == ["sensor_misalignment@low:1aX", "added_mass@wrist", "base_compliance@base"]
 
 
@@ -144,14 +144,14 @@ def test_a_holder_explanation_is_read_on_top_of_the_calibrated_holder(irb):
     calibration left at ×1.1 is ×0.94 of the nominal, inside the tool group's spread."""
     from types import SimpleNamespace
 
-    from rmbench.gap.frf.diagnosis import _ordinary_total
+    from rmbench.gap.frf.rules import ordinary_total
 
     e = SimpleNamespace(kind="tool_contact_stiffness", params={"ln_translation": 0.0, "ln_rotation": np.log(0.85)})
-    total = _ordinary_total(e, {"tool_contact.rotation": np.log(1.1)}, irb)
+    total = ordinary_total(e, {"tool_contact.rotation": np.log(1.1)}, irb)
     assert total["tool_contact.rotation"] == pytest.approx(np.log(0.935))
     assert total["tool_contact.translation"] == 0.0
     sensor = SimpleNamespace(kind="sensor_misalignment", params={"angle": 1.0})
-    assert _ordinary_total(sensor, {}, irb) is None
+    assert ordinary_total(sensor, {}, irb) is None
 
 
 def test_an_ordinary_parameter_left_on_a_bound_of_its_spread_stands_for_the_structural_effect_behind_it(
@@ -161,7 +161,7 @@ def test_an_ordinary_parameter_left_on_a_bound_of_its_spread_stands_for_the_stru
     residual, is the sign. A foundation resting at rigid (its nominal, a bound) is no sign."""
     from types import SimpleNamespace
 
-    from rmbench.gap.frf.diagnosis import _pinned
+    from rmbench.gap.frf.picks import pinned
 
     def est(name, on_bound, value=2.0, nominal=1.0):
         return SimpleNamespace(name=name, on_bound=on_bound, value=value, nominal=nominal)
@@ -169,7 +169,7 @@ def test_an_ordinary_parameter_left_on_a_bound_of_its_spread_stands_for_the_stru
     cal = SimpleNamespace(params=[est("upper_arm.mass", False), est("forearm.mass", True),
                                   est("base.tilt_compliance", True, value=0.0, nominal=0.0),
                                   est("upper_arm.com_x", True), est("tool_contact.rotation", True)])
-    assert [e.name for e in _pinned(cal, calibrated_library)] == [
+    assert [e.name for e in pinned(cal, calibrated_library)] == [
         "added_mass@forearm", "tool_contact_stiffness@tool_contact"]
 
 
@@ -178,7 +178,7 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
     from types import SimpleNamespace
 
     from rmbench.gap.frf.confirm import Confirmed
-    from rmbench.gap.frf.diagnosis import _beyond_spread
+    from rmbench.gap.frf.rules import beyond_spread
 
     def freed(factor, sd):
         cal = SimpleNamespace(params=[SimpleNamespace(name="forearm.mass")], u=np.array([np.log(factor)]),
@@ -187,10 +187,10 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
                          peak_held=0.0, chi2_held_posture=np.ones(1), objective=None, significant=False,
                          seconds=0.0, freed=("forearm.mass",))
 
-    assert _beyond_spread(freed(1.5, 0.05), irb, ("masses",))
-    assert not _beyond_spread(freed(1.3, 0.10), irb, ("masses",))
+    assert beyond_spread(freed(1.5, 0.05), irb, ("masses",))
+    assert not beyond_spread(freed(1.3, 0.10), irb, ("masses",))
     # a mass no calibrated group holds is not judged against a spread here
-    assert not _beyond_spread(freed(1.5, 0.05), irb, ("joints",))
+    assert not beyond_spread(freed(1.5, 0.05), irb, ("joints",))
 
 
 def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True):
@@ -209,7 +209,7 @@ def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True):
         return SimpleNamespace(chi2_after=end - 10.0, chi2_prior=10.0, start=start)
 
     monkeypatch.setattr(rmbench.calibrate, "calibrate", calibrate)
-    run = _Recalibration(*([None] * 14))
+    run = _Recalibration(SimpleNamespace(nominal=None, held_data=None), None, None, None, None)
     base = SimpleNamespace(calibration=SimpleNamespace(params=[SimpleNamespace(name="j1_flex.stiffness")],
                                                        u=np.array([0.2])))
     cal, started = run._candidate(None, None, base if null else None)
@@ -267,8 +267,8 @@ def _confirm_with(monkeypatch, ends):
     fake = _FakeRun(ends)
     monkeypatch.setattr(C, "_Recalibration", lambda *a, **k: fake)
     first = SimpleNamespace(params=[], u=np.zeros(0))
-    null, done = C.confirm(None, None, None, first, ["slide"], q_cmd=None, meas=None, frf=None, bands=None,
-                           held=None, settings=None, accept=lambda c, n: not c.significant)
+    setup = C.ConfirmSetup(None, None, None, first, None, None, None, None, None, None)
+    null, done = C.confirm(setup, ["slide"], accept=lambda c, n: not c.significant)
     return fake.calls, null, done
 
 

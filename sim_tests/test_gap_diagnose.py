@@ -104,7 +104,7 @@ def test_modes_that_pair_with_none_of_the_models_are_refused():
     """Measured modes 50 % above every model mode (another robot, tool or sensor layout) pair
     with none: a diagnosis would explain nothing, so the data are refused."""
     from rmbench.gap import MeasuredModes, ModelBench, TestDesign
-    from rmbench.gap.frf.diagnosis import _check_match
+    from rmbench.gap.frf.prepare import _check_match
     from rmbench.gap.frf.effects import Change
     from rmbench.impact import load_config
     from rmbench.robot import Posture

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from rmbench.calibrate import TestDesign
-from rmbench.gap.frf.diagnosis import DiagnosisSettings, _explains
+from rmbench.gap.frf.diagnosis import DiagnosisSettings
+from rmbench.gap.frf.rules import explains
 from rmbench.gap.frf.effects import Change, library
 from rmbench.gap.frf.joint import Ordinary
 from rmbench.gap.frf.model import ModelBench
@@ -42,9 +43,9 @@ def test_a_small_shrink_is_no_explanation():
     settings = DiagnosisSettings()
     nominal = _fitted(600.0)
     # noise-level after (χ² ≈ n) but only 18 % of the rms gap closed: a small gap tidied up
-    assert not _explains(_fitted(400.0), nominal, settings)
+    assert not explains(_fitted(400.0), nominal, settings)
     # the same noise level reached from a gap twice as large (rms): half of it closed
-    assert _explains(_fitted(400.0), _fitted(1700.0), settings)
+    assert explains(_fitted(400.0), _fitted(1700.0), settings)
 
 
 def test_a_robot_on_a_calibrated_foundation_can_still_slide(irb):

@@ -23,7 +23,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.calibrate.design import TestDesign
-from rmbench.gap.frf.diagnosis import DiagnosisSettings, diagnose_modes
+from rmbench.gap.frf.diagnosis import DiagnosisSettings, SearchData, diagnose_modes
 from rmbench.gap.frf.effects import Change
 from rmbench.calibrate.measured import MeasuredModes
 from rmbench.gap.frf.model import ModelBench
@@ -126,8 +126,8 @@ def diagnose_seed000(robot="irb6660", tool="dummy", *, path=None, test: str | No
         held = [k]
         train = [i for i in range(len(keys)) if i != k]
         say(f"fold {k + 1}: posture {keys[k]} held out")
-        folds.append(diagnose_modes(rob, postures, meas, design=design, train=train, held=held,
-                                    settings=settings, workers=workers, bench=bench, progress=say,
+        data = SearchData.from_modes(rob, postures, meas, design=design, train=train, held=held, bench=bench)
+        folds.append(diagnose_modes(data, settings=settings, workers=workers, progress=say,
                                     notes=(f"held out: posture {keys[k]}",)))
     first = {}
     for k in (0, 1):

@@ -45,7 +45,7 @@ from rmbench.gap.frf.model import ModelBench
 from rmbench.gap.frf.search import Objective, peak_residual
 from rmbench.gap.selection import significant
 
-__all__ = ["CONFIRMABLE", "DESIGN_KINDS", "Confirmed", "confirmable", "confirm"]
+__all__ = ["CONFIRMABLE", "DESIGN_KINDS", "Confirmed", "ConfirmSetup", "ConfirmOptions", "confirmable", "confirm"]
 
 CONFIRMABLE = ("tool_contact_stiffness", "spindle_stiffness", "base_compliance", "added_mass",
                "sensor_misplacement", "sensor_misalignment")
@@ -137,6 +137,77 @@ class Confirmed:
 
 
 @dataclass(frozen=True)
+class ConfirmSetup:
+    """What the recalibrations of :func:`confirm` start from and are scored on.
+
+    Attributes
+    ----------
+    nominal : Robot
+        The nominal robot the first calibration started from.
+    data : ModalData
+        The postures the first calibration saw, with FRF targets (:attr:`ModalData.frf`).
+    held_data : sequence of int
+        Held-out posture indices into ``data``.
+    first : Calibration
+        The first calibration (the null recalibration's start).
+    settings : CalibrationSettings
+        The first calibration's.
+    q_cmd : ndarray, shape (n_postures, n_arm)
+        Joint commands of every measured posture (the search's bench).
+    meas, frf : list of dict
+        Per measured posture, the modes and FRF targets (the search's).
+    bands : sequence of str
+    held : sequence of int
+        The held-out postures' indices into ``meas`` (the same postures as ``held_data``).
+    """
+
+    nominal: object
+    data: object
+    held_data: object
+    first: object
+    settings: object
+    q_cmd: np.ndarray
+    meas: list
+    frf: list
+    bands: object
+    held: object
+
+
+@dataclass(frozen=True)
+class ConfirmOptions:
+    """How :func:`confirm` recalibrates and when it continues.
+
+    Attributes
+    ----------
+    max_iter : int
+        Evaluations of the null recalibration and of each continuation; a candidate's runs
+        ``settings.max_iter`` from the nominal. A null that reaches the noise at this limit is
+        continued once (it is the calibration reported).
+    p_noise : float
+        Level of the noise test of a recalibration's held-out residual.
+    min_shrink : float
+        A candidate that closes this much of the null's held-out gap but is not yet at the
+        noise is continued for another ``max_iter`` evaluations, and the null with it (the same
+        chance to converge): a large structural effect the first calibration had mimicked
+        leaves the ordinary parameters far from where they belong, and they come back slowly.
+        One still short of the noise and not accepted then runs from the nominal's next
+        ``further`` gross starts (:attr:`CalibrationSettings.start_rank`), keeping the lowest
+        training objective.
+    need_gap : bool
+        False: run the candidates even where the null reaches the noise (an ordinary parameter
+        that ended on its bound: the calibration reached the data only by pushing it to the edge
+        of its spread, and the candidate asks whether it lies beyond).
+    further : int
+    """
+
+    max_iter: int = 8
+    p_noise: float = 1e-3
+    min_shrink: float = 0.5
+    need_gap: bool = True
+    further: int = 2
+
+
+@dataclass(frozen=True)
 class _Terms:
     """How a candidate maps onto model parameters."""
 
@@ -193,18 +264,9 @@ class _Recalibration:
     """The recalibrations of one :func:`confirm` (its arguments; ``cal_u``: the first calibration's
     values by parameter name, ``say``: the progress callback)."""
 
-    nominal: object
-    data: object
-    held_data: object
+    setup: ConfirmSetup
     cal_u: dict
-    settings: object
-    q_cmd: np.ndarray
-    meas: list
-    frf: list
-    bands: object
-    held: object
-    max_iter: int
-    p_noise: float
+    options: ConfirmOptions
     sizes: dict
     say: object
 
@@ -219,30 +281,31 @@ class _Recalibration:
         from rmbench.robot import Robot
 
         t0 = time.perf_counter()
-        settings, nominal, data = self.settings, self.nominal, self.data
+        setup, max_iter = self.setup, self.options.max_iter
+        settings, nominal, data = setup.settings, setup.nominal, setup.data
         terms = None if effect is None else _terms(effect, self.cal_u, tuple(settings.groups), nominal,
                                                     self.sizes.get(effect.name))
         change = Change() if terms is None else terms.change
         # a sensor candidate: the data read through the corrected design
         used = data if change.is_null() else replace(data, design=data.design.with_offsets(change.offsets))
         s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
-                    max_iter=self.max_iter, extra=() if terms is None else terms.extra,
+                    max_iter=max_iter, extra=() if terms is None else terms.extra,
                     free=() if terms is None else terms.free)
         if rank:                        # a further gross start
-            cal = calibrate(nominal, used, held=self.held_data,
+            cal = calibrate(nominal, used, held=setup.held_data,
                             settings=replace(s, max_iter=settings.max_iter, start_rank=rank))
             started = f"gross start {rank + 1}"
             from_nominal = True
         elif prev is not None:          # a continuation
-            cal = calibrate(nominal, used, held=self.held_data, settings=s, start=_values(prev.calibration))
+            cal = calibrate(nominal, used, held=setup.held_data, settings=s, start=_values(prev.calibration))
             started = prev.start
         elif terms is None and not from_nominal:     # the null: from the first calibration
-            cal = calibrate(nominal, used, held=self.held_data, settings=s, start=dict(self.cal_u))
+            cal = calibrate(nominal, used, held=setup.held_data, settings=s, start=dict(self.cal_u))
             started = "first calibration"
         else:
             cal, started = self._candidate(used, replace(s, max_iter=settings.max_iter), null)
         robot = Robot(cal.xml, name=nominal.name, tool=nominal.tool, spindle_rpm=nominal.spindle_rpm)
-        obj = Objective(ModelBench(robot, data.design, self.q_cmd), self.meas, self.frf, self.bands, self.held)
+        obj = Objective(ModelBench(robot, data.design, setup.q_cmd), setup.meas, setup.frf, setup.bands, setup.held)
         e = obj.vector(change)
         per = obj.per_posture(change)
         out_values = None
@@ -251,7 +314,7 @@ class _Recalibration:
         chi2 = float(e @ e)
         c = Confirmed(effect=effect, values=out_values, calibration=cal, robot=robot, chi2_held=chi2,
                       n_held=obj.n, peak_held=peak_residual(e), chi2_held_posture=np.asarray(per), objective=obj,
-                      significant=significant(chi2, obj.n, p=self.p_noise, peak=peak_residual(e)),
+                      significant=significant(chi2, obj.n, p=self.options.p_noise, peak=peak_residual(e)),
                       seconds=round(time.perf_counter() - t0 + (0 if prev is None else prev.seconds), 1),
                       freed=() if terms is None else terms.free, rounds=1 if prev is None else prev.rounds + 1,
                       change=change, from_nominal=from_nominal or (prev is not None and prev.from_nominal),
@@ -276,10 +339,11 @@ class _Recalibration:
         """
         from rmbench.calibrate import calibrate
 
-        cal = calibrate(self.nominal, used, held=self.held_data, settings=settings)
+        setup = self.setup
+        cal = calibrate(setup.nominal, used, held=setup.held_data, settings=settings)
         if null is None:
             return cal, "nominal"
-        other = calibrate(self.nominal, used, held=self.held_data, settings=settings,
+        other = calibrate(setup.nominal, used, held=setup.held_data, settings=settings,
                           start=_values(null.calibration))
         return (other, "null") if _objective(other) < _objective(cal) else (cal, "nominal")
 
@@ -294,68 +358,40 @@ def _objective(cal) -> float:
     return float(cal.chi2_after + cal.chi2_prior)
 
 
-def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, bands, held, settings,
-            max_iter: int = 8, p_noise: float = 1e-3, min_shrink: float = 0.5, accept=None,
-            need_gap: bool = True, sizes=None, further: int = 2, progress=None) -> tuple:
+def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = ConfirmOptions(), accept=None,
+            sizes=None, progress=None) -> tuple:
     """The null recalibration and one per candidate, each scored on the held-out postures.
 
     Parameters
     ----------
-    nominal : Robot
-        The nominal robot the first calibration started from.
-    data : ModalData
-        The postures the first calibration saw, with FRF targets (:attr:`ModalData.frf`).
-    held_data : sequence of int
-        Held-out posture indices into ``data``.
-    first : Calibration
-        The first calibration (the null recalibration's start).
+    setup : ConfirmSetup
+        The nominal, the first calibration and its data, and the held-out postures to score on.
     candidates : sequence of Effect
         Confirmable effects (of the calibrated model's library).
-    q_cmd : ndarray, shape (n_postures, n_arm)
-        Joint commands of every measured posture (the search's bench).
-    meas, frf : list of dict
-        Per measured posture, the modes and FRF targets (the search's).
-    bands : sequence of str
-    held : sequence of int
-        The held-out postures' indices into ``meas`` (the same postures as ``held_data``).
-    settings : CalibrationSettings
-        The first calibration's.
-    max_iter : int
-        Evaluations of the null recalibration and of each continuation; a candidate's runs
-        ``settings.max_iter`` from the nominal. A null that reaches the noise at this limit is
-        continued once (it is the calibration reported).
-    min_shrink : float
-        A candidate that closes this much of the null's held-out gap but is not yet at the
-        noise is continued for another ``max_iter`` evaluations, and the null with it (the same
-        chance to converge): a large structural effect the first calibration had mimicked
-        leaves the ordinary parameters far from where they belong, and they come back slowly.
-        One still short of the noise and not accepted then runs from the nominal's next
-        ``further`` gross starts (:attr:`CalibrationSettings.start_rank`), keeping the lowest
-        training objective.
-
+    options : ConfirmOptions
+        Evaluations per run, the noise test's level, when a candidate is continued or started
+        again, and whether the candidates run where the null reaches the noise.
     accept : callable, optional
         ``accept(candidate, null)``: whether a confirmed candidate explains the gap. Every
         candidate runs, in its order, also after one is accepted (the choice among those that
         explain the gap is the caller's); none run when the null recalibration reaches the noise, unless
-        ``need_gap`` is False. Once one is accepted (with ``need_gap``), a null is run from the
+        ``options.need_gap`` is False. Once one is accepted (with ``need_gap``), a null is run from the
         nominal with the candidates' budget; where it reaches the noise it is the null returned
         (the gap was the first calibration's, not the data's).
-    need_gap : bool
-        False: run the candidates even where the null reaches the noise (an ordinary parameter
-        that ended on its bound: the calibration reached the data only by pushing it to the edge
-        of its spread, and the candidate asks whether it lies beyond).
     sizes : dict, optional
         ``{effect name: values}``: the joint search's fitted size of each sensor candidate.
+    progress : callable, optional
+        ``progress(message)`` after each recalibration.
 
     Returns
     -------
     null : Confirmed
     confirmed : list of Confirmed, one per candidate run
     """
-    names = [p.name for p in first.params]
-    run = _Recalibration(nominal, data, held_data, dict(zip(names, np.asarray(first.u, float))), settings,
-                         q_cmd, meas, frf, bands, held, max_iter, p_noise, sizes or {},
+    names = [p.name for p in setup.first.params]
+    run = _Recalibration(setup, dict(zip(names, np.asarray(setup.first.u, float))), options, sizes or {},
                          progress or (lambda msg: None))
+    need_gap = options.need_gap
     null = run(None)
     done = []
     if need_gap and not null.significant:        # the ordinary parameters alone reach the noise
@@ -372,7 +408,7 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
     # accepted, the wrist's mass, listed before the flange's, was named at confidence 1.00)
     if accept is not None and any(accept(c, null) for c in done):
         return _same_chance(run, null, need_gap), done
-    promising = [c for c in done if c.significant and c.shrink_against(null) >= min_shrink]
+    promising = [c for c in done if c.significant and c.shrink_against(null) >= options.min_shrink]
     if not promising:
         return null, done
     best = min(promising, key=lambda c: c.chi2_held)
@@ -383,18 +419,26 @@ def confirm(nominal, data, held_data, first, candidates, *, q_cmd, meas, frf, ba
         return null, done
     if any(accept(c, null) for c in done):
         return _same_chance(run, null, need_gap), done
-    # Still short of the noise: the fit may have ended in another basin than the data's. The
-    # coarse residual that picked its gross start does not rank the basins, so the next starts
-    # are tried, and the lower training objective kept (calibration bench, seed 27994 robot 19: a
-    # foundation sliding 58 µm/kN under a tilting one, held-out χ² 1,716 on 712 from the best
-    # start, 82 from the second)
-    for rank in range(1, further + 1):
+    return _further_starts(run, null, best, done, accept, options)
+
+
+def _further_starts(run, null: Confirmed, best: Confirmed, done: list, accept, options: ConfirmOptions) -> tuple:
+    """A promising candidate ``best`` still short of the noise after its continuation, run from
+    the nominal's next ``options.further`` gross starts, each kept where its training objective
+    is lower, until one is accepted. Returns the null and the candidates run (``done``, with
+    ``best`` replaced by its kept run).
+
+    The fit may have ended in another basin than the data's. The coarse residual that picked its
+    gross start does not rank the basins, so the next starts are tried, and the lower training
+    objective kept (calibration bench, seed 27994 robot 19: a foundation sliding 58 µm/kN under a
+    tilting one, held-out χ² 1,716 on 712 from the best start, 82 from the second)."""
+    for rank in range(1, options.further + 1):
         other = run(best.effect, rank=rank)
         if other.train_objective < best.train_objective:
             best = other
             done = [best if c.effect is best.effect else c for c in done]
         if accept(best, null):
-            return _same_chance(run, null, need_gap, rank=rank), done
+            return _same_chance(run, null, options.need_gap, rank=rank), done
     return null, done
 
 

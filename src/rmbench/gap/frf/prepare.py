@@ -1,0 +1,222 @@
+"""The diagnosis's data, prepared: the measurement loaded (:func:`load_data`), its bands checked
+against the test design and the model, its modes fitted, the postures split into training and
+held-out ones (:func:`prepare`), and the records the search runs on (:class:`Prepared`,
+:class:`SearchData`)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from rmbench.calibrate.design import TestDesign
+from rmbench.calibrate.measured import fit_measured, frf_targets, measured_data, postures_of
+from rmbench.calibrate.residual import mode_residuals
+from rmbench.errors import InputError, UnreachablePosture
+from rmbench.gap.frf.effects import Change
+from rmbench.gap.frf.model import ModelBench
+
+__all__ = ["Prepared", "SearchData", "load_data", "prepare", "xyt"]
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """What every FRF diagnosis starts from, once the data are in (:func:`prepare`).
+
+    Attributes
+    ----------
+    robot : Robot
+        The nominal robot.
+    ds : xarray.Dataset
+        The measured FRFs (:func:`rmbench.calibrate.measured.measured_data`).
+    design : TestDesign
+    bands : list of str
+        The bands of the data, the design and the model.
+    postures : list of Posture
+    bench : ModelBench
+        ``robot`` under ``design`` at the measured postures (their joint commands ``bench.q_cmd``).
+    meas : list of dict
+        Per posture, ``{band: MeasuredModes}``.
+    frf : list of dict
+        Per posture, ``{band: FrfTarget}``.
+    train, held : list of int
+        Posture indices the candidates are fitted on and scored on.
+    """
+
+    robot: object
+    ds: object
+    design: TestDesign
+    bands: list
+    postures: list
+    bench: ModelBench
+    meas: list
+    frf: list
+    train: list
+    held: list
+
+
+@dataclass(frozen=True)
+class SearchData:
+    """What the search runs on, once the data are in.
+
+    Attributes
+    ----------
+    robot : Robot
+        The model searched from (the nominal, or the calibrated one).
+    design : TestDesign
+    bench : ModelBench
+        ``robot`` under ``design`` at the measured postures.
+    meas : tuple of dict
+        Per posture, ``{band: MeasuredModes}``.
+    frf : tuple of dict or None
+        Per posture, ``{band: FrfTarget}``; None for modes alone (a modal table).
+    bands : tuple of str
+    xyt : ndarray, shape (n_postures, 3)
+        Posture coordinates (x, y m; θ rad) of the gap map.
+    ds : xarray.Dataset or None
+        The measured FRFs (None for a modal table).
+    train, held : tuple of int
+        Posture indices the candidates are fitted on and scored on.
+    """
+
+    robot: object
+    design: TestDesign
+    bench: ModelBench
+    meas: tuple
+    frf: tuple | None
+    bands: tuple
+    xyt: np.ndarray
+    ds: object
+    train: tuple
+    held: tuple
+
+    @classmethod
+    def from_modes(cls, robot, postures, meas, *, design: TestDesign, train, held, bands=("low", "high"),
+                   bench: ModelBench | None = None) -> "SearchData":
+        """Measured modes alone (a modal table, no FRFs), on a split the caller chose.
+
+        Parameters
+        ----------
+        robot : Robot
+        postures : sequence of Posture
+        meas : sequence of dict
+            Per posture, ``{band: MeasuredModes}``.
+        design : TestDesign
+            The test design the modes were measured under.
+        train, held : sequence of int
+            Posture indices to fit the candidates on and to score them on.
+        bands : sequence of str
+        bench : ModelBench, optional
+            ``robot`` under ``design`` at ``postures``, to share its caches between calls (folds).
+        """
+        bench = bench if bench is not None else ModelBench.commanded(robot, design, list(postures))
+        coords = np.array([[p.x, p.y, p.theta] for p in postures])
+        return cls(robot, design, bench, tuple(meas), None, tuple(bands), coords, None, tuple(train), tuple(held))
+
+
+def load_data(data) -> xr.Dataset:
+    """A campaign dataset (netCDF path or Dataset) or a UFF58 directory, as a Dataset."""
+    if isinstance(data, xr.Dataset):
+        return data
+    p = Path(data)
+    if p.is_dir():
+        from rmbench.io import read_uff58
+
+        return read_uff58(p)
+    from rmbench.impact import open_campaign
+
+    return open_campaign(p)
+
+
+def prepare(nominal, data, test, tool, workers, settings, say, t) -> Prepared:
+    """What every FRF diagnosis starts from: the robot, the measured dataset and its test design,
+    the bands, postures and model bench, the measured modes and FRF targets, and the training and
+    held-out postures. ``test``, ``tool``, ``workers``: :func:`~rmbench.gap.frf.diagnosis.diagnose`'s;
+    ``settings``: the :class:`~rmbench.gap.frf.settings.DiagnosisSettings` (the split);
+    ``say``: the progress callback; ``t``: the step times, to which the modal fit's is added."""
+    from rmbench.robot import Robot
+
+    robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal, tool=tool)
+    ds = measured_data(load_data(data))
+    design = TestDesign.of_dataset(ds, test)
+    bands = _bands(ds, design, robot)
+    postures = postures_of(ds)
+    try:
+        bench = ModelBench.commanded(robot, design, postures)
+    except UnreachablePosture as err:
+        raise InputError(f"the data's postures are not this model's: {err}") from None
+    say(f"nominal model at {len(postures)} postures")
+    meas, fit = fit_measured(ds, bands, workers=workers)
+    frf = frf_targets(ds, fit, bands, design.averages(), design.direction_scatter())
+    t["fit"] = time.perf_counter()
+    say("measured FRFs fitted")
+    _check_match(bench, meas, bands)
+    train, held = _split(ds, settings.heldout)
+    train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
+    return Prepared(robot, ds, design, bands, postures, bench, meas, frf, train, held)
+
+
+def xyt(ds) -> np.ndarray:
+    """Posture coordinates of a dataset, shape (n_postures, 3): x, y in m, θ in rad."""
+    return np.column_stack([ds.x.values, ds.y.values, ds.theta.values])
+
+
+def _bands(ds, design, robot) -> list[str]:
+    """Bands present in the data, in the design and overlapping the model's bands."""
+    data_bands = [b for b in ("low", "high") if np.any(ds.band.values == b)]
+    if not data_bands:
+        raise InputError("the data hold no low- or high-band lines")
+    out = []
+    for b in data_bands:
+        if b not in design.band_names:
+            raise InputError(f"the test design has no {b} band, which the data have")
+        f = ds.freq.values[ds.band.values == b]
+        m = robot.bands.get(b)
+        if m is None or f[-1] <= m.f_min or f[0] >= m.f_max:
+            raise InputError(f"the data's {b} band ({f[0]:g}-{f[-1]:g} Hz) does not overlap the "
+                             f"model's ({m.f_min:g}-{m.f_max:g} Hz)" if m else
+                             f"the model has no {b} band")
+        out.append(b)
+    return out
+
+
+def _check_match(bench, meas, bands, *, least: float = 0.3) -> None:
+    """Data of another robot or sensor layout: most measured modes have no model partner."""
+    total = paired = 0
+    for p in range(bench.n_postures):
+        for b in bands:
+            _, pairing = mode_residuals(meas[p][b], bench.modes(Change(), p, b))
+            total += len(meas[p][b])
+            paired += len(pairing.meas)
+    if total == 0:
+        raise InputError("no modes could be fitted in the measured data")
+    if paired < least * total:
+        raise InputError(f"the data do not look like this model under this test design: only "
+                         f"{paired} of {total} measured modes have a model mode within 15 % in "
+                         "frequency and alike in shape (another robot, tool or sensor layout?)")
+
+
+def _split(ds, heldout: float) -> tuple[list[int], list[int]]:
+    """Training and held-out postures: every other posture in (θ, x, y) order (a share
+    ``heldout`` held out), so both cover the workspace."""
+    n = ds.sizes["posture"]
+    order = np.lexsort((ds.y.values, ds.x.values, ds.theta.values))
+    if n < 2:
+        raise InputError("a diagnosis needs at least 2 measured postures (fit on some, score on "
+                         "the others)")
+    k = max(1, min(n - 1, int(round(heldout * n))))
+    step = n / k
+    held = sorted({int(order[int(i * step + step / 2) % n]) for i in range(k)})
+    train = [p for p in range(n) if p not in held]
+    return train, held
+
+
+def _spread(train, most: int) -> list[int]:
+    """At most ``most`` of the postures ``train``, spread evenly over them."""
+    if len(train) <= most:
+        return list(train)
+    idx = np.linspace(0, len(train) - 1, most).round().astype(int)
+    return [train[i] for i in idx]
