@@ -1,6 +1,7 @@
 """Specification of the parameter kinds' registry (:mod:`rmbench.robot.kinds`): it covers every
-parameter a set holds, each kind writes a compiled model and a specification alike, and a fast
-kind's matrix perturbation is the re-linearised model's change."""
+parameter a set holds, each kind writes a compiled model and a specification alike, a fast kind's
+matrix perturbation is the re-linearised model's change, and the bearing tilt kind is rigid at its
+nominal and soft when asked."""
 
 import copy
 
@@ -9,14 +10,17 @@ import numpy as np
 import pytest
 
 from rmbench.calibrate.model import FAST_KINDS
+from rmbench.errors import InputError
 from rmbench.robot import Posture
 from rmbench.robot.kinds import KINDS
 from rmbench.robot.linear import linearize
-from rmbench.robot.parameters import Parameter, ParameterSet, parameter_set
+from rmbench.robot.parameters import GROUPS, Parameter, ParameterSet, parameter_set, parse_groups
 
 POSTURE = Posture.from_mm_deg(1800, -200, 0)      # the irb_op fixture's
-# every group, and a parameter of each structural form: a compliance, a stiffness, a body mass
-EVERY = ("base.lateral_compliance", "spindle.radial", "motor2.mass")
+TILT = "j2_flex.tilt_compliance"
+# every group, and a parameter of each structural form: a compliance, a stiffness, a bearing tilt,
+# a body mass
+EVERY = ("base.lateral_compliance", "spindle.radial", "motor2.mass", TILT)
 _FIELDS = ("jnt_stiffness", "dof_damping", "actuator_gainprm", "actuator_biasprm", "body_mass", "body_inertia",
            "body_ipos")
 
@@ -24,6 +28,12 @@ _FIELDS = ("jnt_stiffness", "dof_damping", "actuator_gainprm", "actuator_biasprm
 @pytest.fixture(scope="module")
 def every(irb):
     return parameter_set(irb, "all", extra=EVERY)
+
+
+@pytest.fixture(scope="module")
+def tilted(irb):
+    """The robot with its J2 bearing's tilt hinges (rigid), the tilt compliance last in the set."""
+    return parameter_set(irb, ("joints",), extra=(TILT,))
 
 
 def _with(robot, params, u):
@@ -95,3 +105,38 @@ def test_matrix_perturbation_is_the_relinearised_change(every, kind):
         # entrywise 1e-8 relative; entries the change leaves (zero included) to the differences' rounding
         np.testing.assert_allclose(K, again.K, rtol=1e-8, atol=1e-8 * change, err_msg=f"{p.name} K")
         np.testing.assert_allclose(C, again.C, rtol=1e-8, atol=1e-8 * change, err_msg=f"{p.name} C")
+
+
+def test_rigid_bearing_tilt_leaves_the_modes(irb_op, tilted):
+    robot, params = tilted
+    assert params.params[-1].nominal == 0.0 and robot.model.njnt == irb_op.robot.model.njnt + 2
+    nominal = irb_op.linear.modes()
+    modes = robot.at(POSTURE).linear.modes()
+    n = len(nominal.f_n)        # the two hinges' own modes are far above every other
+    np.testing.assert_allclose(modes.f_n[:n], nominal.f_n, rtol=1e-6)
+    np.testing.assert_allclose(modes.zeta[:n], nominal.zeta, rtol=1e-6)
+
+
+def test_soft_bearing_tilt_lowers_the_lowest_modes(irb_op, tilted):
+    robot, params = tilted
+    u = np.zeros(len(params))
+    u[-1] = 50.0        # µrad/(kN·m)
+    soft = _with(robot, params, u).at(irb_op.q_cmd).linear.modes().f_n[:6]
+    rigid = irb_op.linear.modes().f_n[:6]
+    # freeing a constraint lowers every natural frequency (Rayleigh): the tilt is a spring in series
+    # with the arm's bending across J2's axis, which the gearbox does not see; the side sway of the
+    # whole arm, the lowest such mode, loses several per cent
+    assert np.all(soft <= rigid * (1 + 1e-6))
+    assert np.min(soft / rigid) < 0.98
+
+
+def test_tilt_group_is_named_and_not_in_all(irb):
+    assert "tilt" not in parse_groups("all") and parse_groups("all") == GROUPS
+    _, params = parameter_set(irb, parse_groups("joints,tilt"))
+    tilts = [p.name for p in params if p.kind == "tilt"]
+    assert tilts == [f"j{i}_flex.tilt_compliance" for i in range(1, 7)]
+
+
+def test_tilt_of_a_missing_joint_is_refused(irb):
+    with pytest.raises(InputError, match="no hinge joint 'j9_flex' for j9_flex.tilt_compliance"):
+        parameter_set(irb, ("joints",), extra=("j9_flex.tilt_compliance",))

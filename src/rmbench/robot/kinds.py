@@ -13,9 +13,10 @@ kind             edits                                                       str
 ``mass``         a body's mass, its inertia scaled with it                   --           no
 ``com``          one component of a body's centre of mass                    --           no
 ``base``         a foundation's compliance (its tilt or lateral joints)      foundation   yes
+``tilt``         a joint bearing's tilt compliance (two hinges after it)     two hinges   yes
 ===============  ==========================================================  ===========  ==========
 
-A compliance (``base``) is the inverse stiffness of its joints, 0 rigid
+A compliance (``base``, ``tilt``) is the inverse stiffness of its joints, 0 rigid
 (:data:`RIGID`); their damping follows the stiffness at :data:`DAMPING_RATIO` of critical
 against the mass the parameter carries at 1 m (:attr:`Parameter.carried`).
 
@@ -34,7 +35,8 @@ import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["Kind", "KINDS", "RIGID", "COMPLIANCE_UNIT", "DAMPING_RATIO", "compliance_damping"]
+__all__ = ["Kind", "KINDS", "RIGID", "COMPLIANCE_UNIT", "DAMPING_RATIO", "compliance_damping",
+           "tilt_joints"]
 
 RIGID = 1e14                  # N/m or N·m/rad: a joint this stiff is rigid in every band
 COMPLIANCE_UNIT = 1e-9        # 1 µrad/(kN·m) in rad/(N·m) (1 µm/kN in m/N)
@@ -61,7 +63,7 @@ class Kind:
         gives.
     structure : callable ``(spec, where) -> bool``, optional
         Add to an ``MjSpec`` the elements a parameter of this kind at ``where`` edits (the
-        foundation), rigid at the nominal; False if the spec has them
+        foundation, a bearing's tilt hinges), rigid at the nominal; False if the spec has them
         already (they are kept: their state is the nominal). None: the kind edits what is there.
     perturb : callable ``(model, dofs, p, u_old, u_new, C, K) -> None``, optional
         Add to the linearised C and K (shape (n_dof, n_dof), rows named by ``dofs``), in place,
@@ -95,6 +97,11 @@ def compliance_damping(k: float, carried: float) -> float:
     """Damping (N·m·s/rad or N·s/m) of a compliance's joint of stiffness ``k``: :data:`DAMPING_RATIO`
     of critical against ``carried`` kg at 1 m (at least 1 kg)."""
     return 2 * DAMPING_RATIO * np.sqrt(k * max(carried, 1.0))
+
+
+def tilt_joints(joint: str) -> tuple[str, str]:
+    """Names of the two hinges that tilt the bearing of ``joint`` (kind ``tilt``)."""
+    return f"{joint}_tilt_u", f"{joint}_tilt_v"
 
 
 # --- joints' stiffness and damping ---------------------------------------------------------------
@@ -245,6 +252,29 @@ def _add_foundation(spec, where: str) -> bool:
     return True
 
 
+def _add_bearing_tilt(spec, joint: str) -> bool:
+    """Two hinges appended to the body of the hinge ``joint``, after it (between the joint and its
+    link), through its position and about the two axes perpendicular to its axis: the bearing's
+    tilt, rigid and damped as :func:`compliance_damping` against the link and all it carries."""
+    u_name, v_name = tilt_joints(joint)
+    if spec.joint(u_name) is not None:
+        return False
+    j = spec.joint(joint)
+    if j is None or j.type != mujoco.mjtJoint.mjJNT_HINGE:
+        raise InputError(f"the robot has no hinge joint {joint!r} for {joint}.tilt_compliance")
+    axis = np.asarray(j.axis, float) / np.linalg.norm(j.axis)
+    e = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    u = e - (e @ axis) * axis
+    u /= np.linalg.norm(u)
+    body = j.parent
+    carried = float(spec.compile().body(body.name).subtreemass[0])
+    c = compliance_damping(RIGID, carried)
+    for name, ax in ((u_name, u), (v_name, np.cross(u, axis))):
+        body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=ax, pos=np.array(j.pos, float),
+                       stiffness=[RIGID, 0, 0], damping=[c, 0, 0])
+    return True
+
+
 _COMPLIANCE = dict(write_model=_compliance_model, write_spec=_compliance_spec, perturb=_compliance_perturb,
                    display=_per_unit, resolution=2 * COMPLIANCE_UNIT, wide=_compliance_wide,
                    gross=_compliance_gross)
@@ -257,4 +287,5 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
          gross=lambda p: [0.0, float(np.log(0.7)), float(np.log(1.5))]),
     Kind("com", _com_model, _com_spec, display=lambda value: 1e3 * value, resolution=0.005),
     Kind("base", structure=_add_foundation, **_COMPLIANCE),
+    Kind("tilt", structure=_add_bearing_tilt, **_COMPLIANCE),
 )}

@@ -18,15 +18,18 @@ Groups (``--params``): ``joints`` (gearbox stiffness of each ``*_flex`` joint), 
 damping), ``servo`` (position gain kp of each arm actuator), ``masses`` (mass of each arm link of
 5 kg or more, inertia scaled with it), ``com`` (the three components of those links' centres of
 mass, in the link's frame), ``base`` (tilt compliance of a foundation the robot is mounted on),
-``tool`` (translational and rotational stiffness of the tool-holder contact).
+``tool`` (translational and rotational stiffness of the tool-holder contact). ``tilt`` (the tilt
+compliance of each ``*_flex`` joint's bearing, :data:`OPTIONAL_GROUPS`) is asked for by name
+only: ``all`` leaves it out, so that ``--params all`` fits the model it always fitted.
 
 What a parameter edits, and how, is its kind's (:data:`rmbench.robot.kinds.KINDS`): a parameter
-is data, and writing it into a model, adding the structure it needs (a foundation) and its change
-of the linearised C and K are one registry entry per kind.
+is data, and writing it into a model, adding the structure it needs (a foundation, a bearing's
+tilt hinges) and its change of the linearised C and K are one registry entry per kind.
 
 Structural parameters (:data:`STRUCTURAL`, ``extra=`` of :func:`parameter_set`) are in no group:
-the foundation's lateral compliance, the spindle bearings' radial and tilt stiffness, and any
-body's mass. A gap diagnosis adds the ones a candidate effect edits and fits them with no prior
+the foundation's lateral compliance, the spindle bearings' radial and tilt stiffness, the tilt
+compliance of a joint's bearing (``JOINT.tilt_compliance``) and any body's mass. A gap diagnosis
+adds the ones a candidate effect edits and fits them with no prior
 (:meth:`ParameterSet.freed`), beside the ordinary ones: the same description and the same
 solver for every parameter.
 """
@@ -40,18 +43,23 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.robot.kinds import (COMPLIANCE_UNIT, DAMPING_RATIO, KINDS, RIGID, _WIDE_LOG, _WIDE_MASS,
-                                 _WIDE_COMPLIANCE)
+                                 _WIDE_COMPLIANCE, tilt_joints)
 
-__all__ = ["GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet", "parameter_set",
-           "parse_groups", "BASE_DAMPING_RATIO"]
+__all__ = ["GROUPS", "OPTIONAL_GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet",
+           "parameter_set", "parse_groups", "BASE_DAMPING_RATIO"]
 
 GROUPS = ("joints", "damping", "servo", "masses", "com", "base", "tool")
+# groups asked for by name only, not in ``all``: adding one there would change what every
+# ``--params all`` calibration fits
+OPTIONAL_GROUPS = ("tilt",)
 DEFAULT_GROUPS = ("joints", "damping", "servo", "masses")
 BASE_DAMPING_RATIO = DAMPING_RATIO     # of the foundation's tilt, against the arm's mass at 1 m
 _MIN_LINK_KG = 5.0
-# parameters in no group, added by name (``extra=``); also ``BODY.mass`` of any body
+# parameters in no group, added by name (``extra=``); also ``BODY.mass`` of any body and
+# ``JOINT.tilt_compliance`` of any hinge
 STRUCTURAL = ("base.lateral_compliance", "spindle.radial", "spindle.tilt", "tool_contact.translation",
               "tool_contact.rotation")
+_TILT = ".tilt_compliance"
 
 
 @dataclass(frozen=True)
@@ -64,12 +72,12 @@ class Parameter:
     ----------
     name : str
         ``TARGET.FIELD``: ``j2_flex.stiffness``, ``a2.kp``, ``upper_arm.mass``, ``upper_arm.com_y``,
-        ``base.tilt_compliance``, ``tool_contact.rotation``.
+        ``base.tilt_compliance``, ``tool_contact.rotation``, ``j2_flex.tilt_compliance``.
     group : str
-        One of :data:`GROUPS`, or ``structural``.
+        One of :data:`GROUPS` or :data:`OPTIONAL_GROUPS`, or ``structural``.
     kind : str
         What it edits and how, a key of :data:`rmbench.robot.kinds.KINDS`: ``stiffness``,
-        ``damping``, ``kp``, ``mass``, ``com``, ``base``.
+        ``damping``, ``kp``, ``mass``, ``com``, ``base``, ``tilt``.
     targets : tuple of str
         MJCF names of the elements it edits (a joint, several joints, an actuator, a body).
     index : int
@@ -87,8 +95,8 @@ class Parameter:
     scales : tuple of float
         Each target's nominal over :attr:`nominal`, for joints edited together (empty: all 1).
     carried : float
-        Mass a compliance (``base``) carries, kg: its joints' damping is a ratio of critical
-        against it at 1 m (:func:`~rmbench.robot.kinds.compliance_damping`); 0 otherwise.
+        Mass a compliance (``base``, ``tilt``) carries, kg: its joints' damping is a ratio of
+        critical against it at 1 m (:func:`~rmbench.robot.kinds.compliance_damping`); 0 otherwise.
     """
 
     name: str
@@ -222,7 +230,7 @@ class ParameterSet:
 
 def parse_groups(text: str | None) -> tuple[str, ...]:
     """``"joints,damping"`` → ``("joints", "damping")``; None or ``"default"`` gives the default
-    groups, ``"all"`` every group.
+    groups, ``"all"`` every group of :data:`GROUPS` (those of :data:`OPTIONAL_GROUPS` by name only).
 
     Raises
     ------
@@ -234,9 +242,9 @@ def parse_groups(text: str | None) -> tuple[str, ...]:
     if text.strip() == "all":
         return GROUPS
     out = tuple(g.strip() for g in text.split(",") if g.strip())
-    bad = [g for g in out if g not in GROUPS]
+    bad = [g for g in out if g not in GROUPS + OPTIONAL_GROUPS]
     if bad:
-        raise InputError(f"unknown parameter group {bad[0]!r}; groups are {', '.join(GROUPS)}")
+        raise InputError(f"unknown parameter group {bad[0]!r}; groups are {', '.join(GROUPS + OPTIONAL_GROUPS)}")
     return tuple(dict.fromkeys(out))
 
 
@@ -248,18 +256,19 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
     robot : Robot
         The nominal robot (with its tool).
     groups : sequence of str
-        Of :data:`GROUPS`.
+        Of :data:`GROUPS` and :data:`OPTIONAL_GROUPS`.
     extra : sequence of str
         Further parameters by name, appended after the groups' (one a group already holds is not
-        repeated): :data:`STRUCTURAL` or ``BODY.mass``. ``base.lateral_compliance`` mounts the
-        robot on a foundation as the ``base`` group does.
+        repeated): :data:`STRUCTURAL`, ``BODY.mass`` or ``JOINT.tilt_compliance``.
+        ``base.lateral_compliance`` mounts the robot on a foundation as the ``base`` group does.
 
     Returns
     -------
     robot : Robot
         ``robot`` itself, or a copy with the structure the parameters' kinds need
         (:attr:`~rmbench.robot.kinds.Kind.structure`): with the ``base`` group, mounted on a
-        foundation, rigid at the nominal (zero compliance) and softened by the set. A robot that has the structure
+        foundation; with a bearing's tilt compliance, two tilt hinges after its joint; each rigid at
+        the nominal (zero compliance) and softened by the set. A robot that has the structure
         already (a calibrated one, ``calibrated.xml``) keeps it: the compliance it has is the
         parameter's nominal, so a calibrated model can be calibrated again on new data.
     params : ParameterSet
@@ -291,11 +300,13 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
 
 
 def _structures(robot, groups, extra) -> list:
-    """``(kind, where)`` of each structure the parameters need (a foundation)."""
+    """``(kind, where)`` of each structure the parameters need (a foundation, a bearing's tilt)."""
     out = []
     if "base" in groups or "base.lateral_compliance" in extra:
         out.append(("base", "base_mount"))
-    return out
+    tilted = list(_Names.of(robot).flex) if "tilt" in groups else []
+    tilted += [n[:-len(_TILT)] for n in extra if n.endswith(_TILT)]
+    return out + [("tilt", j) for j in dict.fromkeys(tilted)]
 
 
 def _with_structure(robot, structures):
@@ -336,7 +347,8 @@ class _Names:
 
 
 def _group(g: str, m, names: _Names) -> list:
-    """The parameters of group ``g`` (of :data:`GROUPS`) of the model ``m``."""
+    """The parameters of group ``g`` (of :data:`GROUPS` and :data:`OPTIONAL_GROUPS`) of the model
+    ``m``."""
     ln = np.log
     if g == "joints":
         return [Parameter(f"{j}.stiffness", g, "stiffness", (j,), 0, float(m.jnt_stiffness[m.joint(j).id]),
@@ -357,6 +369,8 @@ def _group(g: str, m, names: _Names) -> list:
     if g == "base":
         return [_compliance("base.tilt_compliance", g, "base", ("base_rx", "base_ry"), _base_tilt(m),
                             _carried(m, "base_mount"), "µrad/(kN·m)")]
+    if g == "tilt":
+        return [_tilt(f"{j}{_TILT}", g, m) for j in names.flex]
     # the tool group
     contact = [f"tool_contact_{a}" for a in ("x", "y", "rx", "ry")]
     if not all(c in names.joints for c in contact):
@@ -372,7 +386,8 @@ def _group(g: str, m, names: _Names) -> list:
 
 
 def _structural(robot, name: str) -> Parameter:
-    """A parameter in no group (:data:`STRUCTURAL`, ``BODY.mass``), its prior range the freed one."""
+    """A parameter in no group (:data:`STRUCTURAL`, ``BODY.mass``, ``JOINT.tilt_compliance``), its
+    prior range the freed one."""
     m = robot.model
     joints = [m.joint(j).name for j in range(m.njnt)]
 
@@ -391,6 +406,8 @@ def _structural(robot, name: str) -> Parameter:
         return _compliance(name, "structural", "base", ("base_x", "base_y"),
                            _compliance_of(float(m.jnt_stiffness[m.joint("base_x").id])),
                            _carried(m, "base_mount"), "µm/kN")
+    if name.endswith(_TILT):
+        return _tilt(name, "structural", m)
     if name in ("spindle.radial", "spindle.tilt"):
         return pair("spindle", ("x", "y") if name.endswith("radial") else ("rx", "ry"), "stiffness",
                     "N/m" if name.endswith("radial") else "N·m/rad")
@@ -403,7 +420,8 @@ def _structural(robot, name: str) -> Parameter:
             raise InputError(f"the robot has no body {body!r} for {name}")
         return Parameter(name, "structural", "mass", (body,), 0, float(m.body(body).mass[0]), True, 1.0,
                          *_WIDE_MASS, "kg")
-    raise InputError(f"unknown structural parameter {name!r}; one of {', '.join(STRUCTURAL)} or BODY.mass")
+    raise InputError(f"unknown structural parameter {name!r}; one of {', '.join(STRUCTURAL)}, BODY.mass "
+                     f"or JOINT{_TILT}")
 
 
 def _compliance(name, group, kind, targets, c0: float, carried: float, label: str) -> Parameter:
@@ -412,6 +430,18 @@ def _compliance(name, group, kind, targets, c0: float, carried: float, label: st
     u0 = c0 / COMPLIANCE_UNIT
     return Parameter(name, group, kind, targets, 0, c0, False, COMPLIANCE_UNIT, -u0, _WIDE_COMPLIANCE - u0,
                      label, carried=carried)
+
+
+def _tilt(name: str, group: str, m) -> Parameter:
+    """The tilt compliance of the bearing of the joint ``name`` is of (``JOINT.tilt_compliance``):
+    about the two axes perpendicular to the joint's, both alike."""
+    joint = name[:-len(_TILT)]
+    targets = tilt_joints(joint)
+    ks = [float(m.jnt_stiffness[m.joint(t).id]) for t in targets]
+    if not np.isclose(ks[0], ks[1], rtol=1e-6):
+        raise InputError(f"the bearing of {joint} tilts unequally about {targets[0]} and {targets[1]}")
+    return _compliance(name, group, "tilt", targets, _compliance_of(ks[0]),
+                       _carried(m, m.body(int(m.jnt_bodyid[m.joint(targets[0]).id])).name), "µrad/(kN·m)")
 
 
 def _base_tilt(m) -> float:
