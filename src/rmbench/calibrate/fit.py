@@ -46,6 +46,7 @@ from rmbench.calibrate.residual import FRF_SEGMENTS, UNPAIRED, Pairing, frf_resi
 from rmbench.calibrate.solver import IDENTIFIABLE, WEAK, identifiability, posterior, solve
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.modeshape import mac, pair_modes
+from rmbench.robot.kinds import KINDS
 from rmbench.robot.parameters import DEFAULT_GROUPS, parameter_set
 
 __all__ = ["CalibrationSettings", "ParameterEstimate", "Calibration", "calibrate", "linearisation",
@@ -700,12 +701,8 @@ def _start(params, fun, lo, hi, say, free=(), rank: int = 0) -> np.ndarray:
 def _gross_sizes(p) -> list[float]:
     """A freed parameter's trial sizes in ``u``: its nominal and a structural fault's gross sizes
     (a foundation a fifth and half of its range soft, a stiffness a third or three times, a mass
-    0.7 or 1.5 times)."""
-    if p.kind == "base":
-        return [p.lower + f * (p.upper - p.lower) for f in (0.0, 0.2, 0.5)]
-    if p.kind == "mass":
-        return [0.0, float(np.log(0.7)), float(np.log(1.5))]
-    return [0.0, float(np.log(1 / 3)), float(np.log(3.0))]
+    0.7 or 1.5 times): its kind's (:attr:`~rmbench.robot.kinds.Kind.gross`)."""
+    return KINDS[p.kind].gross(p)
 
 
 def _free_start(params, free, fun, z0, lo, hi, say) -> np.ndarray:

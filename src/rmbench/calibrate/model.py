@@ -25,13 +25,15 @@ from rmbench.calibrate.modes import ModelModes, modes_seen
 from rmbench.errors import RmbenchError
 from rmbench.impact.measure import hammer_rows
 from rmbench.impact.sensors import COORDS
+from rmbench.robot.kinds import KINDS
 from rmbench.robot.linear import equilibrium, linearize, perturbed_modes_many
 from rmbench.robot.model import OperatingPoint
 from rmbench.robot.variant import with_tool_masses
 
 __all__ = ["ModalModel", "FAST_KINDS"]
 
-FAST_KINDS = ("stiffness", "damping", "kp", "base")
+# kinds whose change enters the linearisation through C and K alone (a matrix perturbation)
+FAST_KINDS = tuple(name for name, kind in KINDS.items() if kind.perturb is not None)
 
 
 class ModalModel:
@@ -186,22 +188,9 @@ def _seen(cm, out, inp, b, freq, band_peak=None):
 
 
 def _perturb(model, names, prm, u_old, u_new, C, K, params) -> None:
-    """Add to C and K, in place, what moving ``prm`` from ``u_old`` to ``u_new`` changes."""
-    if prm.kind == "base":
-        k0, k1 = (1 / max(prm.value(x), 1e-14) for x in (u_old, u_new))
-        for t in prm.targets:
-            d = names.index(t)
-            K[d, d] += k1 - k0
-            C[d, d] += params.base_damping(k1) - params.base_damping(k0)
-        return
-    old, new = prm.target_values(u_old), prm.target_values(u_new)
-    for t, a, c in zip(prm.targets, old, new):
-        if prm.kind == "kp":
-            d = names.index(model.joint(int(model.actuator(t).trnid[0])).name)
-            K[d, d] += c - a
-        elif prm.kind == "stiffness":
-            K[names.index(t), names.index(t)] += c - a
-        elif prm.kind == "damping":
-            C[names.index(t), names.index(t)] += c - a
-        else:  # pragma: no cover - FAST_KINDS only
-            raise RmbenchError(f"no matrix perturbation for {prm.kind}")
+    """Add to C and K, in place, what moving ``prm`` from ``u_old`` to ``u_new`` changes: its
+    kind's matrix perturbation (:attr:`~rmbench.robot.kinds.Kind.perturb`)."""
+    perturb = KINDS[prm.kind].perturb
+    if perturb is None:  # pragma: no cover - FAST_KINDS only
+        raise RmbenchError(f"no matrix perturbation for {prm.kind}")
+    perturb(model, names, prm, u_old, u_new, C, K)

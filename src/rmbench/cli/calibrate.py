@@ -18,13 +18,13 @@ _DATA_HELP = ("measured modes: a campaign (.nc), a UFF58 directory, a modal fit 
 
 
 def register_model_commands(msub) -> None:
-    from rmbench.robot.parameters import GROUPS
+    from rmbench.robot.parameters import GROUPS, OPTIONAL_GROUPS
 
     cal = msub.add_parser("calibrate", help="fit a robot's ordinary parameters to measured modes (model updating)")
     _common(cal)
     cal.add_argument("--params", default=None, metavar="GROUPS",
                      help=f"parameter groups, comma-separated, of {', '.join(GROUPS)}; 'all' for every group "
-                          "(default joints,damping,servo,masses)")
+                          f"(default joints,damping,servo,masses); {', '.join(OPTIONAL_GROUPS)} by name only")
     cal.add_argument("--heldout", type=int, default=0, metavar="K",
                      help="hold K postures out of the fit (spread over the data) and report their errors")
     cal.add_argument("--out", default=None, metavar="CAL.xml",

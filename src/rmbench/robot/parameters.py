@@ -18,11 +18,18 @@ Groups (``--params``): ``joints`` (gearbox stiffness of each ``*_flex`` joint), 
 damping), ``servo`` (position gain kp of each arm actuator), ``masses`` (mass of each arm link of
 5 kg or more, inertia scaled with it), ``com`` (the three components of those links' centres of
 mass, in the link's frame), ``base`` (tilt compliance of a foundation the robot is mounted on),
-``tool`` (translational and rotational stiffness of the tool-holder contact).
+``tool`` (translational and rotational stiffness of the tool-holder contact). ``tilt`` (the tilt
+compliance of each ``*_flex`` joint's bearing, :data:`OPTIONAL_GROUPS`) is asked for by name
+only: ``all`` leaves it out, so that ``--params all`` fits the model it always fitted.
+
+What a parameter edits, and how, is its kind's (:data:`rmbench.robot.kinds.KINDS`): a parameter
+is data, and writing it into a model, adding the structure it needs (a foundation, a bearing's
+tilt hinges) and its change of the linearised C and K are one registry entry per kind.
 
 Structural parameters (:data:`STRUCTURAL`, ``extra=`` of :func:`parameter_set`) are in no group:
-the foundation's lateral compliance, the spindle bearings' radial and tilt stiffness, and any
-body's mass. A gap diagnosis adds the ones a candidate effect edits and fits them with no prior
+the foundation's lateral compliance, the spindle bearings' radial and tilt stiffness, the tilt
+compliance of a joint's bearing (``JOINT.tilt_compliance``) and any body's mass. A gap diagnosis
+adds the ones a candidate effect edits and fits them with no prior
 (:meth:`ParameterSet.freed`), beside the ordinary ones: the same description and the same
 solver for every parameter.
 """
@@ -35,21 +42,24 @@ import mujoco
 import numpy as np
 
 from rmbench.errors import InputError
+from rmbench.robot.kinds import (COMPLIANCE_UNIT, DAMPING_RATIO, KINDS, RIGID, _WIDE_LOG, _WIDE_MASS,
+                                 _WIDE_COMPLIANCE, tilt_joints)
 
-__all__ = ["GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet", "parameter_set",
-           "parse_groups", "BASE_DAMPING_RATIO"]
+__all__ = ["GROUPS", "OPTIONAL_GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet",
+           "parameter_set", "parse_groups", "BASE_DAMPING_RATIO"]
 
 GROUPS = ("joints", "damping", "servo", "masses", "com", "base", "tool")
+# groups asked for by name only, not in ``all``: adding one there would change what every
+# ``--params all`` calibration fits
+OPTIONAL_GROUPS = ("tilt",)
 DEFAULT_GROUPS = ("joints", "damping", "servo", "masses")
-BASE_DAMPING_RATIO = 0.05     # of the foundation's tilt, against the arm's mass at 1 m
-_RIGID = 1e14                 # N/m or N·m/rad: a mount this stiff is rigid in every band
-_BASE_UNIT = 1e-9             # 1 µrad/(kN·m) in rad/(N·m)
+BASE_DAMPING_RATIO = DAMPING_RATIO     # of the foundation's tilt, against the arm's mass at 1 m
 _MIN_LINK_KG = 5.0
-# parameters in no group, added by name (``extra=``); also ``BODY.mass`` of any body
+# parameters in no group, added by name (``extra=``); also ``BODY.mass`` of any body and
+# ``JOINT.tilt_compliance`` of any hinge
 STRUCTURAL = ("base.lateral_compliance", "spindle.radial", "spindle.tilt", "tool_contact.translation",
               "tool_contact.rotation")
-_WIDE_LOG = (np.log(0.1), np.log(10.0))     # a freed factor: a tenth to ten times the nominal
-_WIDE_MASS = (np.log(0.5), np.log(3.0))     # a freed mass: half to three times
+_TILT = ".tilt_compliance"
 
 
 @dataclass(frozen=True)
@@ -62,11 +72,12 @@ class Parameter:
     ----------
     name : str
         ``TARGET.FIELD``: ``j2_flex.stiffness``, ``a2.kp``, ``upper_arm.mass``, ``upper_arm.com_y``,
-        ``base.tilt_compliance``, ``tool_contact.rotation``.
+        ``base.tilt_compliance``, ``tool_contact.rotation``, ``j2_flex.tilt_compliance``.
     group : str
-        One of :data:`GROUPS`.
+        One of :data:`GROUPS` or :data:`OPTIONAL_GROUPS`, or ``structural``.
     kind : str
-        What it edits: ``stiffness``, ``damping``, ``kp``, ``mass``, ``com``, ``base``.
+        What it edits and how, a key of :data:`rmbench.robot.kinds.KINDS`: ``stiffness``,
+        ``damping``, ``kp``, ``mass``, ``com``, ``base``, ``tilt``.
     targets : tuple of str
         MJCF names of the elements it edits (a joint, several joints, an actuator, a body).
     index : int
@@ -83,6 +94,9 @@ class Parameter:
         Unit of the displayed value (``N·m/rad``, ``kg``, ``mm``, ``µrad/(kN·m)``).
     scales : tuple of float
         Each target's nominal over :attr:`nominal`, for joints edited together (empty: all 1).
+    carried : float
+        Mass a compliance (``base``, ``tilt``) carries, kg: its joints' damping is a ratio of
+        critical against it at 1 m (:func:`~rmbench.robot.kinds.compliance_damping`); 0 otherwise.
     """
 
     name: str
@@ -97,17 +111,20 @@ class Parameter:
     upper: float
     label: str
     scales: tuple = ()
+    carried: float = 0.0
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"unknown parameter kind {self.kind!r} of {self.name}; one of {', '.join(KINDS)}")
 
     @property
     def resolution(self) -> float:
         """The smallest difference that matters, in ``u``: 5 % of a log-scaled value, 5 mm of a
-        centre of mass, 2 µrad/(kN·m) of the base's compliance. A parameter the data fix to within
-        this (95 % interval) is called identifiable."""
+        centre of mass, 2 µrad/(kN·m) of a compliance (its kind's). A parameter the data fix to
+        within this (95 % interval) is called identifiable."""
         if self.log:
             return float(np.log(1.05))
-        if self.kind == "com":
-            return 0.005 / self.unit
-        return 2 * _BASE_UNIT / self.unit
+        return KINDS[self.kind].resolution / self.unit
 
     @property
     def sigma(self) -> float:
@@ -131,12 +148,8 @@ class Parameter:
         return float(np.log(value / self.nominal)) if self.log else float((value - self.nominal) / self.unit)
 
     def display(self, value: float) -> float:
-        """An SI value in the unit of :attr:`label` (mm for positions, µrad/(kN·m) for the base)."""
-        if self.kind == "com":
-            return 1e3 * value
-        if self.kind == "base":
-            return value / _BASE_UNIT
-        return value
+        """An SI value in the unit of :attr:`label` (mm for positions, µrad/(kN·m) for a compliance)."""
+        return KINDS[self.kind].display(value)
 
 
 class ParameterSet:
@@ -145,16 +158,13 @@ class ParameterSet:
     Parameters
     ----------
     params : sequence of Parameter
-    base_mass : float
-        Mass carried by the foundation's tilt (arm and base plate), kg; sets the base damping.
     """
 
-    def __init__(self, params, *, base_mass: float = 0.0):
+    def __init__(self, params):
         self.params = tuple(params)
         names = [p.name for p in self.params]
         if len(set(names)) != len(names):
             raise ValueError("parameter names must be unique")
-        self.base_mass = float(base_mass)
 
     def __len__(self) -> int:
         return len(self.params)
@@ -172,7 +182,8 @@ class ParameterSet:
 
     def freed(self, names) -> "ParameterSet":
         """The same set with the parameters ``names`` given wide bounds (a factor 0.1-10, a mass
-        0.5-3 times, a foundation 0-300 units): what a fit without their prior may need."""
+        0.5-3 times, a compliance 0-300 units: their kind's): what a fit without their prior may
+        need."""
         from dataclasses import replace
 
         names = set(names)
@@ -182,14 +193,10 @@ class ParameterSet:
         out = []
         for p in self.params:
             if p.name in names:
-                if p.kind == "base":
-                    lo, hi = min(p.lower, -p.nominal / p.unit), max(p.upper, 300.0 - p.nominal / p.unit)
-                else:
-                    lo, hi = _WIDE_MASS if p.kind == "mass" else _WIDE_LOG
-                    lo, hi = min(p.lower, lo), max(p.upper, hi)
-                p = replace(p, lower=float(lo), upper=float(hi))
+                lo, hi = KINDS[p.kind].wide(p)
+                p = replace(p, lower=float(min(p.lower, lo)), upper=float(max(p.upper, hi)))
             out.append(p)
-        return ParameterSet(out, base_mass=self.base_mass)
+        return ParameterSet(out)
 
     def lower(self) -> np.ndarray:
         return np.array([p.lower for p in self.params])
@@ -211,82 +218,19 @@ class ParameterSet:
         nominal values are those the set was built on, as :meth:`robot` gives).
         """
         for p, x in zip(self.params, np.asarray(u, float)):
-            v = p.value(x)
-            if p.kind == "stiffness":
-                for t, vt in zip(p.targets, p.target_values(x)):
-                    model.jnt_stiffness[model.joint(t).id] = vt
-            elif p.kind == "damping":
-                for t, vt in zip(p.targets, p.target_values(x)):
-                    model.dof_damping[model.jnt_dofadr[model.joint(t).id]] = vt
-            elif p.kind == "kp":
-                a = model.actuator(p.targets[0]).id
-                model.actuator_gainprm[a, 0] = v
-                model.actuator_biasprm[a, 1] = -v
-            elif p.kind == "mass":
-                b = model.body(p.targets[0]).id
-                model.body_inertia[b] *= v / model.body_mass[b]
-                model.body_mass[b] = v
-            elif p.kind == "com":
-                model.body_ipos[model.body(p.targets[0]).id, p.index] = v
-            elif p.kind == "base":
-                k = _base_stiffness(v)
-                for t in p.targets:
-                    j = model.joint(t).id
-                    model.jnt_stiffness[j] = k
-                    model.dof_damping[model.jnt_dofadr[j]] = self.base_damping(k)
+            KINDS[p.kind].write_model(model, p, x)
         data = mujoco.MjData(model)
         mujoco.mj_setConst(model, data)
 
     def apply_spec(self, spec: mujoco.MjSpec, u) -> None:
         """Write the values at ``u`` into a specification (to save it as MJCF), in place."""
         for p, x in zip(self.params, np.asarray(u, float)):
-            v = p.value(x)
-            if p.kind in ("stiffness", "damping"):
-                for t, vt in zip(p.targets, p.target_values(x)):
-                    j = spec.joint(t)
-                    arr = np.array(getattr(j, p.kind), float)
-                    arr[0] = vt
-                    setattr(j, p.kind, arr)
-            elif p.kind == "kp":
-                act = spec.actuator(p.targets[0])
-                gain, bias = np.array(act.gainprm, float), np.array(act.biasprm, float)
-                gain[0], bias[1] = v, -v
-                act.gainprm, act.biasprm = gain, bias
-            elif p.kind == "mass":
-                body = spec.body(p.targets[0])
-                if not body.explicitinertial:
-                    _make_inertial_explicit(spec, body)
-                scale = v / body.mass
-                body.mass = v
-                if body.fullinertia is not None and np.any(np.isfinite(body.fullinertia)) and \
-                        np.any(np.array(body.fullinertia)[:3] > 0):
-                    body.fullinertia = np.array(body.fullinertia) * scale
-                body.inertia = np.array(body.inertia) * scale
-            elif p.kind == "com":
-                body = spec.body(p.targets[0])
-                pos = np.array(body.ipos, float)
-                pos[p.index] = v
-                body.ipos = pos
-            elif p.kind == "base":
-                k = _base_stiffness(v)
-                for t in p.targets:
-                    j = spec.joint(t)
-                    j.stiffness = [k, 0, 0]
-                    j.damping = [self.base_damping(k), 0, 0]
-
-    def base_damping(self, k: float) -> float:
-        """Damping (N·m·s/rad) of a base tilt of stiffness ``k`` (N·m/rad): :data:`BASE_DAMPING_RATIO`
-        of critical against :attr:`base_mass` at 1 m."""
-        return 2 * BASE_DAMPING_RATIO * np.sqrt(k * max(self.base_mass, 1.0))
-
-
-def _base_stiffness(compliance: float) -> float:
-    return 1 / max(compliance, 1 / _RIGID)
+            KINDS[p.kind].write_spec(spec, p, x)
 
 
 def parse_groups(text: str | None) -> tuple[str, ...]:
     """``"joints,damping"`` → ``("joints", "damping")``; None or ``"default"`` gives the default
-    groups, ``"all"`` every group.
+    groups, ``"all"`` every group of :data:`GROUPS` (those of :data:`OPTIONAL_GROUPS` by name only).
 
     Raises
     ------
@@ -298,9 +242,9 @@ def parse_groups(text: str | None) -> tuple[str, ...]:
     if text.strip() == "all":
         return GROUPS
     out = tuple(g.strip() for g in text.split(",") if g.strip())
-    bad = [g for g in out if g not in GROUPS]
+    bad = [g for g in out if g not in GROUPS + OPTIONAL_GROUPS]
     if bad:
-        raise InputError(f"unknown parameter group {bad[0]!r}; groups are {', '.join(GROUPS)}")
+        raise InputError(f"unknown parameter group {bad[0]!r}; groups are {', '.join(GROUPS + OPTIONAL_GROUPS)}")
     return tuple(dict.fromkeys(out))
 
 
@@ -312,19 +256,21 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
     robot : Robot
         The nominal robot (with its tool).
     groups : sequence of str
-        Of :data:`GROUPS`.
+        Of :data:`GROUPS` and :data:`OPTIONAL_GROUPS`.
     extra : sequence of str
         Further parameters by name, appended after the groups' (one a group already holds is not
-        repeated): :data:`STRUCTURAL` or ``BODY.mass``. ``base.lateral_compliance`` mounts the
-        robot on a foundation as the ``base`` group does.
+        repeated): :data:`STRUCTURAL`, ``BODY.mass`` or ``JOINT.tilt_compliance``.
+        ``base.lateral_compliance`` mounts the robot on a foundation as the ``base`` group does.
 
     Returns
     -------
     robot : Robot
-        ``robot`` itself, or, with the ``base`` group, a copy mounted on a foundation that is
-        rigid at the nominal (zero tilt compliance) and whose tilt the set can soften. A robot
-        already on a foundation (a calibrated one, ``calibrated.xml``) keeps it: the tilt it has
-        is the parameter's nominal, so a calibrated model can be calibrated again on new data.
+        ``robot`` itself, or a copy with the structure the parameters' kinds need
+        (:attr:`~rmbench.robot.kinds.Kind.structure`): with the ``base`` group, mounted on a
+        foundation; with a bearing's tilt compliance, two tilt hinges after its joint; each rigid at
+        the nominal (zero compliance) and softened by the set. A robot that has the structure
+        already (a calibrated one, ``calibrated.xml``) keeps it: the compliance it has is the
+        parameter's nominal, so a calibrated model can be calibrated again on new data.
     params : ParameterSet
 
     Raises
@@ -335,16 +281,12 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
     """
     groups = parse_groups(",".join(groups)) if not isinstance(groups, str) else parse_groups(groups)
     extra = tuple(dict.fromkeys(extra))
-    base_mass = 0.0
-    base_c0 = 0.0
-    if "base" in groups or "base.lateral_compliance" in extra:
-        robot, base_c0 = _on_foundation(robot, "base.lateral_compliance" in extra)
-        base_mass = float(robot.model.body_subtreemass[robot.model.body("base_mount").id])
+    robot = _with_structure(robot, _structures(robot, groups, extra))
     m = robot.model
     names = _Names.of(robot)
     out: list[Parameter] = []
     for g in groups:
-        out += _group(g, m, names, base_c0)
+        out += _group(g, m, names)
     have = {p.name for p in out}
     for name in extra:
         if name not in have:
@@ -354,48 +296,29 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
     for g in groups:
         if not any(p.group == g for p in out):
             raise InputError(f"the robot has no parameters in the group {g!r}")
-    return robot, ParameterSet(out, base_mass=base_mass)
+    return robot, ParameterSet(out)
 
 
-def _make_inertial_explicit(spec: mujoco.MjSpec, body) -> None:
-    """Give ``body`` the inertia its geoms imply, explicitly: a mass set on a body whose inertia
-    comes from its geoms would not reach the compiled model (an older model's foundation plate)."""
-    b = spec.compile().body(body.name)
-    body.mass = float(b.mass[0])
-    body.ipos, body.iquat, body.inertia = b.ipos.copy(), b.iquat.copy(), b.inertia.copy()
-    body.explicitinertial = True
+def _structures(robot, groups, extra) -> list:
+    """``(kind, where)`` of each structure the parameters need (a foundation, a bearing's tilt)."""
+    out = []
+    if "base" in groups or "base.lateral_compliance" in extra:
+        out.append(("base", "base_mount"))
+    tilted = list(_Names.of(robot).flex) if "tilt" in groups else []
+    tilted += [n[:-len(_TILT)] for n in extra if n.endswith(_TILT)]
+    return out + [("tilt", j) for j in dict.fromkeys(tilted)]
 
 
-def _on_foundation(robot, lateral: bool):
-    """``(robot, c0)``: the robot on a foundation whose tilt the base group calibrates, and that
-    tilt's nominal compliance c0, rad/(N·m).
-
-    A robot already on one (a calibrated one) keeps it, its tilt the nominal; any other is mounted
-    on a copy of a foundation rigid at the nominal (c0 = 0). ``lateral``: the set will also soften
-    the foundation's lateral slides.
-    """
+def _with_structure(robot, structures):
+    """``robot``, or a copy with the structures ``(kind, where)`` its parameters need added."""
     from rmbench.robot.model import Robot
     from rmbench.robot.spec import spec_to_xml
-    from rmbench.robot.variant import add_compliant_base
 
-    if not any(b.name == "base_mount" for b in robot.spec.bodies):
-        spec = robot.spec
-        add_compliant_base(spec, _RIGID, _RIGID)
-        return Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool, spindle_rpm=robot.spindle_rpm,
-                     spec=spec), 0.0
-    m0 = robot.model
-    names = [m0.joint(j).name for j in range(m0.njnt)]
-    if not all(t in names for t in ("base_rx", "base_ry")):
-        raise InputError("the robot already stands on a base without tilt joints (base_rx, "
-                         "base_ry); calibrate it without the base group")
-    k_rx, k_ry = (float(m0.jnt_stiffness[m0.joint(t).id]) for t in ("base_rx", "base_ry"))
-    if not np.isclose(k_rx, k_ry, rtol=1e-6):
-        raise InputError("the robot's base tilts unequally about x and y; calibrate it without "
-                         "the base group")
-    if lateral and not all(t in names for t in ("base_x", "base_y")):
-        raise InputError("the robot's base has no lateral slides (base_x, base_y) for "
-                         "base.lateral_compliance")
-    return robot, (0.0 if k_rx >= _RIGID / 2 else 1 / k_rx)
+    spec = robot.spec
+    added = [KINDS[kind].structure(spec, where) for kind, where in structures]
+    if not any(added):
+        return robot
+    return Robot(spec_to_xml(spec), name=robot.name, tool=robot.tool, spindle_rpm=robot.spindle_rpm, spec=spec)
 
 
 @dataclass(frozen=True)
@@ -423,8 +346,9 @@ class _Names:
         return cls(joints, tuple(j for j in joints if j.endswith("_flex")), servos, links)
 
 
-def _group(g: str, m, names: _Names, base_c0: float) -> list:
-    """The parameters of group ``g`` (of :data:`GROUPS`) of the model ``m``."""
+def _group(g: str, m, names: _Names) -> list:
+    """The parameters of group ``g`` (of :data:`GROUPS` and :data:`OPTIONAL_GROUPS`) of the model
+    ``m``."""
     ln = np.log
     if g == "joints":
         return [Parameter(f"{j}.stiffness", g, "stiffness", (j,), 0, float(m.jnt_stiffness[m.joint(j).id]),
@@ -443,9 +367,10 @@ def _group(g: str, m, names: _Names, base_c0: float) -> list:
         return [Parameter(f"{b}.com_{axis}", g, "com", (b,), i, float(m.body(b).ipos[i]), False, 0.01,
                           -25.0, 25.0, "mm") for b in names.links for i, axis in enumerate("xyz")]
     if g == "base":
-        c0 = base_c0 / _BASE_UNIT
-        return [Parameter("base.tilt_compliance", g, "base", ("base_rx", "base_ry"), 0, base_c0, False,
-                          _BASE_UNIT, -c0, 300.0 - c0, "µrad/(kN·m)")]
+        return [_compliance("base.tilt_compliance", g, "base", ("base_rx", "base_ry"), _base_tilt(m),
+                            _carried(m, "base_mount"), "µrad/(kN·m)")]
+    if g == "tilt":
+        return [_tilt(f"{j}{_TILT}", g, m) for j in names.flex]
     # the tool group
     contact = [f"tool_contact_{a}" for a in ("x", "y", "rx", "ry")]
     if not all(c in names.joints for c in contact):
@@ -461,7 +386,8 @@ def _group(g: str, m, names: _Names, base_c0: float) -> list:
 
 
 def _structural(robot, name: str) -> Parameter:
-    """A parameter in no group (:data:`STRUCTURAL`, ``BODY.mass``), its prior range the freed one."""
+    """A parameter in no group (:data:`STRUCTURAL`, ``BODY.mass``, ``JOINT.tilt_compliance``), its
+    prior range the freed one."""
     m = robot.model
     joints = [m.joint(j).name for j in range(m.njnt)]
 
@@ -474,10 +400,14 @@ def _structural(robot, name: str) -> Parameter:
                          scales=tuple(k / ks[0] for k in ks))
 
     if name == "base.lateral_compliance":
-        k = float(m.jnt_stiffness[m.joint("base_x").id])
-        c0 = 0.0 if k >= _RIGID / 2 else 1 / k
-        return Parameter(name, "structural", "base", ("base_x", "base_y"), 0, c0, False, _BASE_UNIT,
-                         -c0 / _BASE_UNIT, 300.0 - c0 / _BASE_UNIT, "µm/kN")
+        if not all(t in joints for t in ("base_x", "base_y")):
+            raise InputError("the robot's base has no lateral slides (base_x, base_y) for "
+                             "base.lateral_compliance")
+        return _compliance(name, "structural", "base", ("base_x", "base_y"),
+                           _compliance_of(float(m.jnt_stiffness[m.joint("base_x").id])),
+                           _carried(m, "base_mount"), "µm/kN")
+    if name.endswith(_TILT):
+        return _tilt(name, "structural", m)
     if name in ("spindle.radial", "spindle.tilt"):
         return pair("spindle", ("x", "y") if name.endswith("radial") else ("rx", "ry"), "stiffness",
                     "N/m" if name.endswith("radial") else "N·m/rad")
@@ -490,4 +420,48 @@ def _structural(robot, name: str) -> Parameter:
             raise InputError(f"the robot has no body {body!r} for {name}")
         return Parameter(name, "structural", "mass", (body,), 0, float(m.body(body).mass[0]), True, 1.0,
                          *_WIDE_MASS, "kg")
-    raise InputError(f"unknown structural parameter {name!r}; one of {', '.join(STRUCTURAL)} or BODY.mass")
+    raise InputError(f"unknown structural parameter {name!r}; one of {', '.join(STRUCTURAL)}, BODY.mass "
+                     f"or JOINT{_TILT}")
+
+
+def _compliance(name, group, kind, targets, c0: float, carried: float, label: str) -> Parameter:
+    """A compliance of nominal ``c0`` (rad/(N·m) or m/N) in units of :data:`COMPLIANCE_UNIT`, its
+    prior half-normal from rigid to the freed range's end."""
+    u0 = c0 / COMPLIANCE_UNIT
+    return Parameter(name, group, kind, targets, 0, c0, False, COMPLIANCE_UNIT, -u0, _WIDE_COMPLIANCE - u0,
+                     label, carried=carried)
+
+
+def _tilt(name: str, group: str, m) -> Parameter:
+    """The tilt compliance of the bearing of the joint ``name`` is of (``JOINT.tilt_compliance``):
+    about the two axes perpendicular to the joint's, both alike."""
+    joint = name[:-len(_TILT)]
+    targets = tilt_joints(joint)
+    ks = [float(m.jnt_stiffness[m.joint(t).id]) for t in targets]
+    if not np.isclose(ks[0], ks[1], rtol=1e-6):
+        raise InputError(f"the bearing of {joint} tilts unequally about {targets[0]} and {targets[1]}")
+    return _compliance(name, group, "tilt", targets, _compliance_of(ks[0]),
+                       _carried(m, m.body(int(m.jnt_bodyid[m.joint(targets[0]).id])).name), "µrad/(kN·m)")
+
+
+def _base_tilt(m) -> float:
+    """The foundation's tilt compliance, rad/(N·m), checked: equal about x and y."""
+    names = [m.joint(j).name for j in range(m.njnt)]
+    if not all(t in names for t in ("base_rx", "base_ry")):
+        raise InputError("the robot already stands on a base without tilt joints (base_rx, "
+                         "base_ry); calibrate it without the base group")
+    k_rx, k_ry = (float(m.jnt_stiffness[m.joint(t).id]) for t in ("base_rx", "base_ry"))
+    if not np.isclose(k_rx, k_ry, rtol=1e-6):
+        raise InputError("the robot's base tilts unequally about x and y; calibrate it without "
+                         "the base group")
+    return _compliance_of(k_rx)
+
+
+def _compliance_of(k: float) -> float:
+    """The compliance of a joint of stiffness ``k``: 0 if it is rigid (:data:`RIGID`)."""
+    return 0.0 if k >= RIGID / 2 else 1 / k
+
+
+def _carried(m, body: str) -> float:
+    """Mass (kg) of ``body`` and all it carries."""
+    return float(m.body_subtreemass[m.body(body).id])

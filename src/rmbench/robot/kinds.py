@@ -1,0 +1,291 @@
+"""What each kind of model parameter edits: one registry entry per kind.
+
+A :class:`~rmbench.robot.parameters.Parameter` says *which* number it is (name, targets, nominal,
+scale, prior); its kind says *how* that number reaches a model. :data:`KINDS` maps each kind to a
+frozen :class:`Kind` holding the few functions that do it:
+
+===============  ==========================================================  ===========  ==========
+kind             edits                                                       structure    C, K only
+===============  ==========================================================  ===========  ==========
+``stiffness``    a joint's stiffness (several joints in fixed ratios)        --           yes
+``damping``      a joint's damping                                           --           yes
+``kp``           a position servo's gain (its gain and bias together)        --           yes
+``mass``         a body's mass, its inertia scaled with it                   --           no
+``com``          one component of a body's centre of mass                    --           no
+``base``         a foundation's compliance (its tilt or lateral joints)      foundation   yes
+``tilt``         a joint bearing's tilt compliance (two hinges after it)     two hinges   yes
+===============  ==========================================================  ===========  ==========
+
+A compliance (``base``, ``tilt``) is the inverse stiffness of its joints, 0 rigid
+(:data:`RIGID`); their damping follows the stiffness at :data:`DAMPING_RATIO` of critical
+against the mass the parameter carries at 1 m (:attr:`Parameter.carried`).
+
+Only the kinds whose change enters the linearisation through C and K alone have a matrix
+perturbation (:attr:`Kind.perturb`): a mass or a centre of mass moves the equilibrium and the
+gravity stiffness, so a model with a new one must be settled again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import mujoco
+import numpy as np
+
+from rmbench.errors import InputError
+
+__all__ = ["Kind", "KINDS", "RIGID", "COMPLIANCE_UNIT", "DAMPING_RATIO", "compliance_damping",
+           "tilt_joints"]
+
+RIGID = 1e14                  # N/m or N·m/rad: a joint this stiff is rigid in every band
+COMPLIANCE_UNIT = 1e-9        # 1 µrad/(kN·m) in rad/(N·m) (1 µm/kN in m/N)
+DAMPING_RATIO = 0.05          # of a compliance's joints, against the mass it carries at 1 m
+_WIDE_LOG = (np.log(0.1), np.log(10.0))     # a freed factor: a tenth to ten times the nominal
+_WIDE_MASS = (np.log(0.5), np.log(3.0))     # a freed mass: half to three times
+_WIDE_COMPLIANCE = 300.0                    # a freed compliance: rigid to 300 units
+
+
+@dataclass(frozen=True)
+class Kind:
+    """How parameters of one kind edit a robot model.
+
+    Each function takes the parameter ``p`` and its value in ``u`` (``p.value(x)`` in SI).
+
+    Attributes
+    ----------
+    name : str
+        The kind, as :attr:`Parameter.kind` names it.
+    write_model : callable ``(model, p, x) -> None``
+        Write the value into a compiled ``MjModel``, in place (the caller runs ``mj_setConst``).
+    write_spec : callable ``(spec, p, x) -> None``
+        Write the value into an ``MjSpec``, in place: compiled, it is the model ``write_model``
+        gives.
+    structure : callable ``(spec, where) -> bool``, optional
+        Add to an ``MjSpec`` the elements a parameter of this kind at ``where`` edits (the
+        foundation, a bearing's tilt hinges), rigid at the nominal; False if the spec has them
+        already (they are kept: their state is the nominal). None: the kind edits what is there.
+    perturb : callable ``(model, dofs, p, u_old, u_new, C, K) -> None``, optional
+        Add to the linearised C and K (shape (n_dof, n_dof), rows named by ``dofs``), in place,
+        what moving ``p`` from ``u_old`` to ``u_new`` changes, at the same settled state. None for
+        a kind that moves the equilibrium (mass, centre of mass).
+    display : callable ``float -> float``
+        An SI value in the unit of :attr:`Parameter.label`.
+    resolution : float or None
+        Of a linearly scaled parameter, the smallest difference that matters, SI (None: log-scaled,
+        5 %).
+    wide : callable ``p -> (lower, upper)``
+        A freed parameter's range in ``u`` (:meth:`ParameterSet.freed`), before its prior's range
+        is added to it.
+    gross : callable ``p -> list of float``
+        A freed parameter's trial sizes in ``u`` (the nominal and a structural fault's gross
+        sizes) for a fit's start.
+    """
+
+    name: str
+    write_model: Callable
+    write_spec: Callable
+    structure: Callable | None = None
+    perturb: Callable | None = None
+    display: Callable = lambda value: value
+    resolution: float | None = None
+    wide: Callable = lambda p: _WIDE_LOG
+    gross: Callable = lambda p: [0.0, float(np.log(1 / 3)), float(np.log(3.0))]
+
+
+def compliance_damping(k: float, carried: float) -> float:
+    """Damping (N·m·s/rad or N·s/m) of a compliance's joint of stiffness ``k``: :data:`DAMPING_RATIO`
+    of critical against ``carried`` kg at 1 m (at least 1 kg)."""
+    return 2 * DAMPING_RATIO * np.sqrt(k * max(carried, 1.0))
+
+
+def tilt_joints(joint: str) -> tuple[str, str]:
+    """Names of the two hinges that tilt the bearing of ``joint`` (kind ``tilt``)."""
+    return f"{joint}_tilt_u", f"{joint}_tilt_v"
+
+
+# --- joints' stiffness and damping ---------------------------------------------------------------
+
+def _stiffness_model(model, p, x) -> None:
+    for t, v in zip(p.targets, p.target_values(x)):
+        model.jnt_stiffness[model.joint(t).id] = v
+
+
+def _damping_model(model, p, x) -> None:
+    for t, v in zip(p.targets, p.target_values(x)):
+        model.dof_damping[model.jnt_dofadr[model.joint(t).id]] = v
+
+
+def _joint_spec(field: str) -> Callable:
+    def write(spec, p, x) -> None:
+        for t, v in zip(p.targets, p.target_values(x)):
+            j = spec.joint(t)
+            arr = np.array(getattr(j, field), float)
+            arr[0] = v
+            setattr(j, field, arr)
+    return write
+
+
+def _diagonal(matrix: str) -> Callable:
+    """Perturbation of joints' stiffness (``"K"``) or damping (``"C"``): their diagonal entries."""
+    def perturb(model, dofs, p, u_old, u_new, C, K) -> None:
+        m = K if matrix == "K" else C
+        for t, a, c in zip(p.targets, p.target_values(u_old), p.target_values(u_new)):
+            m[dofs.index(t), dofs.index(t)] += c - a
+    return perturb
+
+
+# --- servo gain ----------------------------------------------------------------------------------
+
+def _kp_model(model, p, x) -> None:
+    v = p.value(x)
+    a = model.actuator(p.targets[0]).id
+    model.actuator_gainprm[a, 0] = v
+    model.actuator_biasprm[a, 1] = -v
+
+
+def _kp_spec(spec, p, x) -> None:
+    v = p.value(x)
+    act = spec.actuator(p.targets[0])
+    gain, bias = np.array(act.gainprm, float), np.array(act.biasprm, float)
+    gain[0], bias[1] = v, -v
+    act.gainprm, act.biasprm = gain, bias
+
+
+def _kp_perturb(model, dofs, p, u_old, u_new, C, K) -> None:
+    for t, a, c in zip(p.targets, p.target_values(u_old), p.target_values(u_new)):
+        d = dofs.index(model.joint(int(model.actuator(t).trnid[0])).name)
+        K[d, d] += c - a
+
+
+# --- mass and centre of mass ---------------------------------------------------------------------
+
+def _mass_model(model, p, x) -> None:
+    v = p.value(x)
+    b = model.body(p.targets[0]).id
+    model.body_inertia[b] *= v / model.body_mass[b]
+    model.body_mass[b] = v
+
+
+def _mass_spec(spec, p, x) -> None:
+    v = p.value(x)
+    body = spec.body(p.targets[0])
+    if not body.explicitinertial:
+        _make_inertial_explicit(spec, body)
+    scale = v / body.mass
+    body.mass = v
+    if body.fullinertia is not None and np.any(np.isfinite(body.fullinertia)) and \
+            np.any(np.array(body.fullinertia)[:3] > 0):
+        body.fullinertia = np.array(body.fullinertia) * scale
+    body.inertia = np.array(body.inertia) * scale
+
+
+def _make_inertial_explicit(spec: mujoco.MjSpec, body) -> None:
+    """Give ``body`` the inertia its geoms imply, explicitly: a mass set on a body whose inertia
+    comes from its geoms would not reach the compiled model (an older model's foundation plate)."""
+    b = spec.compile().body(body.name)
+    body.mass = float(b.mass[0])
+    body.ipos, body.iquat, body.inertia = b.ipos.copy(), b.iquat.copy(), b.inertia.copy()
+    body.explicitinertial = True
+
+
+def _com_model(model, p, x) -> None:
+    model.body_ipos[model.body(p.targets[0]).id, p.index] = p.value(x)
+
+
+def _com_spec(spec, p, x) -> None:
+    body = spec.body(p.targets[0])
+    pos = np.array(body.ipos, float)
+    pos[p.index] = p.value(x)
+    body.ipos = pos
+
+
+# --- compliances: the foundation, a bearing's tilt ------------------------------------------------
+
+def _stiffness_of(compliance: float) -> float:
+    return 1 / max(compliance, 1 / RIGID)
+
+
+def _compliance_model(model, p, x) -> None:
+    k = _stiffness_of(p.value(x))
+    for t in p.targets:
+        j = model.joint(t).id
+        model.jnt_stiffness[j] = k
+        model.dof_damping[model.jnt_dofadr[j]] = compliance_damping(k, p.carried)
+
+
+def _compliance_spec(spec, p, x) -> None:
+    k = _stiffness_of(p.value(x))
+    for t in p.targets:
+        j = spec.joint(t)
+        j.stiffness = [k, 0, 0]
+        j.damping = [compliance_damping(k, p.carried), 0, 0]
+
+
+def _compliance_perturb(model, dofs, p, u_old, u_new, C, K) -> None:
+    k0, k1 = (_stiffness_of(p.value(x)) for x in (u_old, u_new))
+    for t in p.targets:
+        d = dofs.index(t)
+        K[d, d] += k1 - k0
+        C[d, d] += compliance_damping(k1, p.carried) - compliance_damping(k0, p.carried)
+
+
+def _compliance_wide(p) -> tuple:
+    return -p.nominal / p.unit, _WIDE_COMPLIANCE - p.nominal / p.unit
+
+
+def _compliance_gross(p) -> list:
+    return [p.lower + f * (p.upper - p.lower) for f in (0.0, 0.2, 0.5)]
+
+
+def _per_unit(value: float) -> float:
+    return value / COMPLIANCE_UNIT
+
+
+def _add_foundation(spec, where: str) -> bool:
+    """The robot on a foundation (:func:`~rmbench.robot.variant.add_compliant_base`), rigid."""
+    from rmbench.robot.variant import add_compliant_base
+
+    if any(b.name == "base_mount" for b in spec.bodies):
+        return False
+    add_compliant_base(spec, RIGID, RIGID)
+    return True
+
+
+def _add_bearing_tilt(spec, joint: str) -> bool:
+    """Two hinges appended to the body of the hinge ``joint``, after it (between the joint and its
+    link), through its position and about the two axes perpendicular to its axis: the bearing's
+    tilt, rigid and damped as :func:`compliance_damping` against the link and all it carries."""
+    u_name, v_name = tilt_joints(joint)
+    if spec.joint(u_name) is not None:
+        return False
+    j = spec.joint(joint)
+    if j is None or j.type != mujoco.mjtJoint.mjJNT_HINGE:
+        raise InputError(f"the robot has no hinge joint {joint!r} for {joint}.tilt_compliance")
+    axis = np.asarray(j.axis, float) / np.linalg.norm(j.axis)
+    e = np.eye(3)[int(np.argmin(np.abs(axis)))]
+    u = e - (e @ axis) * axis
+    u /= np.linalg.norm(u)
+    body = j.parent
+    carried = float(spec.compile().body(body.name).subtreemass[0])
+    c = compliance_damping(RIGID, carried)
+    for name, ax in ((u_name, u), (v_name, np.cross(u, axis))):
+        body.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=ax, pos=np.array(j.pos, float),
+                       stiffness=[RIGID, 0, 0], damping=[c, 0, 0])
+    return True
+
+
+_COMPLIANCE = dict(write_model=_compliance_model, write_spec=_compliance_spec, perturb=_compliance_perturb,
+                   display=_per_unit, resolution=2 * COMPLIANCE_UNIT, wide=_compliance_wide,
+                   gross=_compliance_gross)
+
+KINDS: dict[str, Kind] = {k.name: k for k in (
+    Kind("stiffness", _stiffness_model, _joint_spec("stiffness"), perturb=_diagonal("K")),
+    Kind("damping", _damping_model, _joint_spec("damping"), perturb=_diagonal("C")),
+    Kind("kp", _kp_model, _kp_spec, perturb=_kp_perturb),
+    Kind("mass", _mass_model, _mass_spec, wide=lambda p: _WIDE_MASS,
+         gross=lambda p: [0.0, float(np.log(0.7)), float(np.log(1.5))]),
+    Kind("com", _com_model, _com_spec, display=lambda value: 1e3 * value, resolution=0.005),
+    Kind("base", structure=_add_foundation, **_COMPLIANCE),
+    Kind("tilt", structure=_add_bearing_tilt, **_COMPLIANCE),
+)}
