@@ -22,7 +22,7 @@ import sys
 from rmbench.errors import InputError
 
 __all__ = ["THREAD_VARIABLES", "available_cores", "process_threads", "default_workers",
-           "limit_threads",
+           "limit_threads", "one_blas_thread",
            "worker_init", "run_concurrently"]
 
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS",
@@ -79,6 +79,27 @@ def limit_threads(n: int) -> None:
     threadpool_limits(limits=n)   # the pools already loaded (numpy's OpenBLAS, scipy's, torch's OpenMP)
     if "torch" in sys.modules:    # torch reads OMP_NUM_THREADS only when it loads
         sys.modules["torch"].set_num_threads(n)
+
+
+def one_blas_thread(fn):
+    """Decorate ``fn`` to run with one BLAS thread in this process.
+
+    For the identification engines, whose matrices are tens to a few hundred wide (a robot's
+    46-state eigenproblem, a residual's Jacobian): a second BLAS thread only waits at every call,
+    and beside worker processes or other work it waits for a core (a 46 x 46 eigenproblem took 16 ms
+    instead of 1.6 ms in a diagnosis beside other processes). Their parallel work is in worker
+    processes (:func:`worker_init`).
+    """
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1, user_api="blas"):
+            return fn(*args, **kwargs)
+
+    return wrapper
 
 
 def worker_init() -> None:

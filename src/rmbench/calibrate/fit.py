@@ -48,6 +48,7 @@ from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.modeshape import mac, pair_modes
 from rmbench.robot.kinds import KINDS
 from rmbench.robot.parameters import DEFAULT_GROUPS, parameter_set
+from rmbench.threads import one_blas_thread
 
 __all__ = ["CalibrationSettings", "ParameterEstimate", "Calibration", "calibrate", "linearisation",
            "mode_errors", "error_summary", "IDENTIFIABLE", "WEAK"]
@@ -411,6 +412,7 @@ def _track(base, stepped) -> np.ndarray:
     return out
 
 
+@one_blas_thread
 def calibrate(robot, data, *, held=(), settings: CalibrationSettings = CalibrationSettings(),
               start: dict | None = None, progress=None) -> Calibration:
     """Calibrate a nominal robot's ordinary parameters to measured modes.

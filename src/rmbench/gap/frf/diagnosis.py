@@ -31,13 +31,14 @@ from rmbench.gap.frf.search import Fitted, Objective, Refiner, peak_residual, pe
 from rmbench.gap.frf.settings import DiagnosisSettings, structural_kinds
 from rmbench.gap.frf.where import gap_map
 from rmbench.gap.selection import significant
-from rmbench.threads import default_workers
+from rmbench.threads import default_workers, one_blas_thread
 
 # the results, settings and data loading live in their own modules; imported from here as before
 __all__ = ["diagnose", "diagnose_modes", "Diagnosis", "EffectResult", "load_data", "DiagnosisSettings",
            "SearchData", "structural_kinds", "remaining_gap", "RemainingGap"]
 
 
+@one_blas_thread
 def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int | None = None,
              settings: DiagnosisSettings = DiagnosisSettings(), progress=None) -> Diagnosis:
     """Diagnose the gap between a nominal model and measured FRFs.
@@ -95,6 +96,7 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
     return dg
 
 
+@one_blas_thread
 def diagnose_modes(data: SearchData, *, settings: DiagnosisSettings = DiagnosisSettings(),
                    workers: int | None = None, notes=(), progress=None) -> Diagnosis:
     """The search on measured modes alone (a modal table, no FRFs), on a split the caller chose.

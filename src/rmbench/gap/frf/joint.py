@@ -65,10 +65,11 @@ class Ordinary:
                     rows.append(np.zeros((FRF_SEGMENTS * 16, k)))
         return np.vstack(rows) if rows else np.zeros((0, k))
 
-    def step(self, e: np.ndarray, J: np.ndarray) -> np.ndarray:
-        """``δz`` minimising ``‖e + J δz‖² + ‖z + δz‖²``."""
-        k = len(self.z)
-        return np.linalg.solve(J.T @ J + np.eye(k), -(J.T @ e + self.z))
+    def step(self, e: np.ndarray, J: np.ndarray, gram: np.ndarray | None = None) -> np.ndarray:
+        """``δz`` minimising ``‖e + J δz‖² + ‖z + δz‖²`` (``gram``: ``JᵀJ + I``, where already formed)."""
+        if gram is None:
+            gram = J.T @ J + np.eye(len(self.z))
+        return np.linalg.solve(gram, -(J.T @ e + self.z))
 
 
 class JointObjective(Objective):
@@ -90,6 +91,8 @@ class JointObjective(Objective):
         self.ordinary = ordinary
         self.fitted_on = fitted_on
         self._J = ordinary.jacobian(self)
+        # the normal matrix of every step: J is fixed, only the gap vector changes
+        self._gram = self._J.T @ self._J + np.eye(len(ordinary.z))
         self._last = None          # (key of a change, δz) of the last training evaluation
 
     def subset(self, postures) -> "JointObjective":
@@ -105,14 +108,14 @@ class JointObjective(Objective):
         if self._last is not None and self._last[0] == key:
             return self._last[1]
         e = Objective.vector(self, change)
-        dz = self.ordinary.step(e, self._J)
+        dz = self.ordinary.step(e, self._J, self._gram)
         self._last = (key, dz)
         return dz
 
     def _joined(self, e: np.ndarray, change) -> np.ndarray:
         if self.fitted_on is not None:
             return e + self._J @ self.fitted_on.delta(change)
-        dz = self.ordinary.step(e, self._J)
+        dz = self.ordinary.step(e, self._J, self._gram)
         self._last = (repr(change), dz)
         return np.concatenate([e + self._J @ dz, self.ordinary.z + dz])
 
