@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 RMBENCH = str(Path(sys.executable).with_name("rmbench"))
+HERE = Path(__file__).resolve().parent
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -45,6 +46,18 @@ def blind_cases(args, *extra: str) -> list[dict]:
                     *extra, "--out", str(lines), "--json"], check=True, stdout=subprocess.DEVNULL)
     cases = [json.loads(s) for s in lines.read_text().splitlines() if s.strip()]
     return [c for c in cases if c["index"] < args.cases]
+
+
+def ship_bench_modules() -> None:
+    """Send the bench's helper modules (``_stats``, ``_calibrate_truth``, ...: beside the scripts,
+    not installed) to a dask cluster with the cases' functions, by value, so that its workers need
+    only rmbench. The bench imports them at its top: an import inside a case's function would run
+    on the worker, where they are not."""
+    import cloudpickle
+
+    for name, module in list(sys.modules.items()):
+        if name.startswith("_") and Path(getattr(module, "__file__", None) or "/").resolve().parent == HERE:
+            cloudpickle.register_pickle_by_value(module)
 
 
 def resumed_cases(lines: Path, seed: int) -> list[dict]:

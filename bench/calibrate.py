@@ -37,7 +37,9 @@ code, and a draw redrawn after a rejected one is a different robot), so a rerun 
 robots named. Cases go to a JSON-lines file keyed by seed, settings and a digest of the code it runs (its syntax tree without docstrings: a
 comment does not start a new run); a rerun with the same key resumes, another key starts a new
 file. A robot that cannot hold a posture is rejected: counted, printed and kept in the file, never
-silently redrawn.
+silently redrawn. With ``--scheduler ADDRESS`` the robots run on an existing dask cluster, one a
+single-threaded worker (its workers need rmbench and the file system of ``bench/.cache``), and
+are written as they finish: the same lines as a run here, but for the seconds.
 
 Last line: ``{"cases", "heldout_f_p95_before", "heldout_f_p95_after", "zeta_p95_after",
 "ident_within5", "coverage95", "gap_top1_after_calibration", "unexplained_ok",
@@ -47,6 +49,7 @@ the verdict "explained" and the hidden effect ranked first).
 
 usage: python bench/calibrate.py [--robots 40] [--seed S] [--workers 2] [--method time] [--plain]
                                  [--groups G] [--gap-groups G] [--time-default] [--only I,J,...]
+                                 [--scheduler ADDRESS]
 """
 
 from __future__ import annotations
@@ -60,18 +63,20 @@ import tempfile
 import time
 import warnings
 from collections import Counter
+from functools import partial
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _calibrate_truth import IN_LIBRARY, draw_truth  # noqa: E402
-from _stats import code_digest, fresh_seed, resumed_cases  # noqa: E402
+from _calibrate_truth import IN_LIBRARY, draw_structural, draw_truth, inject_structural, scaled_structural  # noqa: E402
+from _stats import code_digest, fresh_seed, resumed_cases, ship_bench_modules  # noqa: E402
 
 from rmbench.calibrate import (CalibrationSettings, ModalModel, TestDesign, calibrate, error_summary,  # noqa: E402
                                load_modal_data)
 from rmbench.calibrate.residual import pair  # noqa: E402
+from rmbench.parallel import map_cases  # noqa: E402
 from rmbench.robot import Posture, Robot, seed_grid  # noqa: E402
 from rmbench.robot.parameters import ParameterSet, parse_groups  # noqa: E402
 
@@ -257,6 +262,14 @@ def run_case(i: int, seed: int, args) -> dict:
                         "score": round(time.perf_counter() - t2, 1)}}
 
 
+def run_robot(i: int, *, seed: int, args) -> dict:
+    """Robot ``i``'s JSON line: its case, or why it was rejected."""
+    try:
+        return run_case(i, seed, args) if args.plain else run_gap_case(i, seed, args)
+    except RuntimeError as err:     # counted, printed and kept: never silently redrawn
+        return {"index": i, "seed": seed, "rejected": str(err)}
+
+
 # the truth parameters a structural effect also moves: not scored (the calibration is right to
 # put the effect elsewhere, or wrong in a way the gap search, not the parameter score, judges)
 def _touched(hidden) -> set:
@@ -327,8 +340,6 @@ def _structural(nominal, xml: str, postures, args, seed: int, i: int, rng, in_li
     """The robot's structural effect, enlarged until visible (:func:`_visibility`): the drawn
     effect, the one measured, its MJCF, placement errors and spindle speed, the visibility record
     and the draws rejected as hidden at ``MAX_SCALE``."""
-    from _calibrate_truth import draw_structural, inject_structural, scaled_structural
-
     rejected = []
     while True:
         drawn = h = draw_structural(rng, in_library=in_library)
@@ -516,6 +527,8 @@ def main(argv=None) -> None:
     ap.add_argument("--time-default", action="store_true", help="time the default 24-parameter calibration")
     ap.add_argument("--only", default=None, metavar="I,J,...", help="run only these robots (indices)")
     ap.add_argument("--lines", default=None, help="JSON-lines file (default: bench/results/calibrate_<key>.jsonl)")
+    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="address of an existing dask scheduler: the robots run on its cluster, one a worker")
     args = ap.parse_args(argv)
     seed = args.seed if args.seed is not None else fresh_seed()
     groups = args.groups if args.plain else "gap-" + args.gap_groups
@@ -527,13 +540,14 @@ def main(argv=None) -> None:
     for c in resumed_cases(lines, seed):
         (rejected if "rejected" in c else done)[c["index"]] = c
     only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
-    for i in range(args.robots):
-        if i in done or i in rejected or (only is not None and i not in only):
-            continue
-        try:
-            c = run_case(i, seed, args) if args.plain else run_gap_case(i, seed, args)
-        except RuntimeError as err:     # counted, printed and kept: never silently redrawn
-            c = {"index": i, "seed": seed, "rejected": str(err)}
+    todo = [i for i in range(args.robots)
+            if not (i in done or i in rejected or (only is not None and i not in only))]
+    if args.scheduler is not None:
+        ship_bench_modules()
+    # on a cluster a robot is one worker's: single-threaded inside, no worker processes of its own
+    one = partial(run_robot, seed=seed, args=args if args.scheduler is None
+                  else argparse.Namespace(**{**vars(args), "workers": 0}))
+    for i, c in map_cases(one, todo, workers=1, scheduler=args.scheduler):
         with open(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
         if "rejected" in c:

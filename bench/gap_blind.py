@@ -22,8 +22,11 @@ A fresh seed is drawn per run unless ``--seed`` is given, and printed; the cases
 so a rerun resumes only the same code's run and never re-prints another's case list. Draws the
 generator rejected (invisible, or postures the changed robot cannot hold) are counted and printed.
 
+With ``--scheduler ADDRESS`` the cases run on an existing dask cluster (``rmbench gap blind
+--scheduler``), one a single-threaded worker; the speed timing stays here.
+
 usage: python bench/gap_blind.py [--cases 40] [--seed S] [--time-share 0.3] [--workers 2]
-                                 [--lines FILE] [--no-speed]
+                                 [--lines FILE] [--no-speed] [--scheduler ADDRESS]
 """
 
 from __future__ import annotations
@@ -52,7 +55,8 @@ HERE = Path(__file__).resolve().parent
 
 def run_cases(args) -> list:
     return [case_from_dict(c) for c in blind_cases(
-        args, "--method", "mixed", "--time-share", str(args.time_share), "--workers", str(args.workers))]
+        args, "--method", "mixed", "--time-share", str(args.time_share), "--workers", str(args.workers),
+        *(() if args.scheduler is None else ("--scheduler", args.scheduler)))]
 
 
 def speed(args) -> tuple[float, str]:
@@ -149,6 +153,8 @@ def main() -> int:
     ap.add_argument("--lines", default=None,
                     help="JSON-lines file (default: bench/results/gap_blind_s<seed>_<code digest>.jsonl)")
     ap.add_argument("--no-speed", action="store_true", help="skip the 112-posture timing")
+    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="address of an existing dask scheduler: the cases run on its cluster, one a worker")
     args = ap.parse_args()
     keyed_run(args, "gap_blind", __file__)
     cases = run_cases(args)

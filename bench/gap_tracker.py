@@ -23,7 +23,11 @@ robots' structural sources (issue 43) are enlarged likewise until a test that kn
 see them beyond the ordinary parameters' spread with probability 0.95 (``VISIBLE_POWER``); a source
 still hidden at 8 times its drawn size is rejected, counted, printed and redrawn.
 
-usage: python bench/gap_tracker.py [--cases 40] [--seed S] [--lines FILE]
+With ``--scheduler ADDRESS`` both kinds of case run on an existing dask cluster, one a
+single-threaded worker, and are written as they finish: the same lines as a run here, but for the
+seconds.
+
+usage: python bench/gap_tracker.py [--cases 40] [--seed S] [--lines FILE] [--scheduler ADDRESS]
 """
 
 from __future__ import annotations
@@ -36,21 +40,24 @@ import sys
 import tempfile
 import time
 from collections import Counter
+from functools import partial
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _stats import RMBENCH, blind_cases, keyed_run, rate, resumed_cases  # noqa: E402
+from _stats import RMBENCH, blind_cases, keyed_run, rate, resumed_cases, ship_bench_modules  # noqa: E402
+from _tracker_truth import SpreadRobot, campaign, draw_structural, scaled, spread_xml  # noqa: E402
 
 from rmbench.gap.cases.tracker_blind import summarise_tracker  # noqa: E402
+from rmbench.parallel import map_cases  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 
 
 def run_cases(args) -> list:
-    return blind_cases(args, "--data", "tracker")
+    return blind_cases(args, "--data", "tracker", *(() if args.scheduler is None else ("--scheduler", args.scheduler)))
 
 
 def speed() -> tuple[float, str]:
@@ -159,8 +166,6 @@ def _truth(i: int, seed: int, nominal, xml: str, source, q, order, previous, t, 
     """The case's true robot with its structural source enlarged until visible (``VISIBLE_POWER``);
     a source hidden at ``MAX_SCALE`` is rejected and another of its class drawn from ``rng``.
     Returns the robot, its visibility record and the rejected draws."""
-    from _tracker_truth import SpreadRobot, draw_structural, scaled
-
     def build(src):     # the same tracker placement at every size
         return SpreadRobot(xml, src, np.random.default_rng([seed, i, 43, 1]), tool=nominal.tool)
 
@@ -186,10 +191,9 @@ def _truth(i: int, seed: int, nominal, xml: str, source, q, order, previous, t, 
                                  n_joint=len(nominal.arm_joints))
 
 
-def run_spread_case(i: int, seed: int, box: str = "calibration") -> dict:
+def run_spread_case(i: int, *, seed: int, box: str = "calibration") -> dict:
     """One spread robot (``bench/_tracker_truth.py``), read over the joint ranges ``box``, diagnosed
     with and without ``--calibrate``."""
-    from _tracker_truth import campaign, draw_structural, spread_xml
 
     from rmbench.gap.tracker.diagnosis import TrackerSettings, diagnose_tracker
     from rmbench.robot import Robot
@@ -327,10 +331,11 @@ def run_spread(args) -> dict:
     lines = Path(args.lines).with_name(Path(args.lines).name.replace("gap_tracker_", stem))
     done = {c["index"]: c for c in resumed_cases(lines, args.seed)}
     only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
-    for i in range(args.spread):
-        if i in done or (only is not None and i not in only):
-            continue
-        c = run_spread_case(i, args.seed, args.spread_box)
+    todo = [i for i in range(args.spread) if not (i in done or (only is not None and i not in only))]
+    if args.scheduler is not None:
+        ship_bench_modules()
+    one = partial(run_spread_case, seed=args.seed, box=args.spread_box)
+    for i, c in map_cases(one, todo, workers=1, scheduler=args.scheduler):
         with open(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
         done[i] = c
@@ -370,6 +375,8 @@ def main() -> int:
                     help="run only these spread robots (indices; parallel processes, each with its own --lines copy)")
     ap.add_argument("--lines", default=None,
                     help="JSON-lines file (default: bench/results/gap_tracker_s<seed>_<code digest>.jsonl)")
+    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="address of an existing dask scheduler: the cases run on its cluster, one a worker")
     args = ap.parse_args()
     keyed_run(args, "gap_tracker", __file__, extra=("_tracker_truth.py", "_stats.py"),
               modules=("rmbench.gap.tracker.diagnosis", "rmbench.gap.cases.tracker_blind", "rmbench.robot", "rmbench.tracker"))

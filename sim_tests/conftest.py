@@ -23,7 +23,7 @@ def pytest_configure(config):
 # (--no-loadscope-reorder): heavy files first and the many light ones last, the workers finish
 # together; ordered by test count, as xdist does by default, one worker idled ~20 s at the end.
 HEAVIEST_FIRST = ("test_any_robot.py", "test_report.py", "test_predict_gp.py", "test_gap_diagnose.py",
-                  "test_predict_cluster.py", "test_gap_calibrated.py", "test_rcsa_cli.py",
+                  "test_parallel.py", "test_predict_cluster.py", "test_gap_calibrated.py", "test_rcsa_cli.py",
                   "test_impact_campaign.py", "test_path.py", "test_cli_json.py", "test_calibrate.py",
                   "test_gap_tracker.py", "test_docs.py", "test_threads.py", "test_stability.py",
                   "test_predict_gauge.py", "test_truth_vs_time.py", "test_cli_campaign.py",

@@ -59,6 +59,8 @@ def register(sub) -> None:
     b.add_argument("--out", default=None,
                    help="JSON-lines file of the cases (resumed if it exists; each finished case is appended)")
     b.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    b.add_argument("--scheduler", default=None,
+                   help="address of an existing dask scheduler: the cases run on its cluster, one a worker")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
     b.set_defaults(func=cmd_blind)
 
@@ -210,7 +212,7 @@ def _blind_tracker(args) -> int:
             print(f"case {i}: hidden {hidden}; {case['verdict']}, chosen "
                   f"{', '.join(case['chosen']) or '-'}", file=sys.stderr)
 
-    cases = run_tracker_blind(args.cases, args.seed, out=args.out, progress=progress)
+    cases = run_tracker_blind(args.cases, args.seed, out=args.out, progress=progress, scheduler=args.scheduler)
     s = summarise_tracker(cases)
     if args.json:
         print_json(s)
@@ -241,7 +243,8 @@ def cmd_blind(args) -> int:
                   f"shrink {100 * case.shrink:.0f} %", file=sys.stderr)
 
     report = run_blind(args.cases, args.seed, method=args.method, time_share=args.time_share,
-                       workers=args.workers, progress=progress, out=args.out or None)
+                       workers=args.workers, scheduler=args.scheduler, progress=progress,
+                       out=args.out or None)
     s = report.summary
     if args.json:
         print_json(s)

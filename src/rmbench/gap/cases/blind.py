@@ -525,12 +525,23 @@ def summarise(cases) -> dict:
 
 
 def run_blind(cases: int, seed: int, *, method: str = "linear", time_share: float = 0.25,
-              workers: int | None = None, workdir=None, progress=None, start: int = 0,
-              out=None) -> BlindReport:
+              workers: int | None = None, scheduler: str | None = None, workdir=None, progress=None,
+              start: int = 0, out=None, n_postures: int = 16) -> BlindReport:
     """Run ``cases`` blind cases (``method`` "linear", "time", or "mixed": a ``time_share`` of
     time-domain cases). With ``out`` (a JSON-lines path) each finished case is appended to it, and
     the cases it already holds are not run again: a killed run resumes. ``progress(case)`` is
-    called after each case run here."""
+    called after each case run here.
+
+    Without ``scheduler`` the cases run one after the other, each on ``workers`` processes
+    (default: all cores); with the address of an existing dask scheduler they are tasks of its
+    cluster, each in one single-threaded worker, and are written as they finish: the lines of a
+    run here but for the seconds, bit for bit where this process is single-threaded too (as the
+    benches run it, ``OMP_NUM_THREADS=1``; with more BLAS threads the last digits may differ).
+    ``n_postures``: each case's campaign."""
+    from functools import partial
+
+    from rmbench.parallel import map_cases
+
     results = {}
     out = Path(out) if out is not None else None
     if out is not None and out.is_file():
@@ -539,16 +550,18 @@ def run_blind(cases: int, seed: int, *, method: str = "linear", time_share: floa
                 case = case_from_dict(json.loads(line))
                 results[case.index] = case
     n_time = int(round(time_share * cases)) if method == "mixed" else (cases if method == "time" else 0)
-    for i in range(start, start + cases):
-        if i in results:
-            continue
-        m = "time" if (i - start) < n_time else "linear"
-        results[i] = run_case(i, seed, m, workers=workers, workdir=workdir)
+    todo = [(i, "time" if (i - start) < n_time else "linear") for i in range(start, start + cases)
+            if i not in results]
+    # on a cluster a case is one worker's: single-threaded inside (no worker processes of its own)
+    one = partial(_run_one, seed=seed, workers=workers if scheduler is None else 0, workdir=workdir,
+                  n_postures=n_postures)
+    for (i, _), case in map_cases(one, todo, workers=1, scheduler=scheduler):
+        results[i] = case
         if out is not None:
             with open(out, "a") as fh:
-                fh.write(dumps(results[i]) + "\n")
+                fh.write(dumps(case) + "\n")
         if progress is not None:
-            progress(results[i])
+            progress(case)
     ordered = tuple(results[i] for i in sorted(results) if start <= i < start + cases)
     return BlindReport(cases=ordered, summary=summarise(ordered))
 
@@ -569,3 +582,9 @@ def dumps(case: CaseResult) -> str:
     """One JSON line of ``case``, strict JSON: a visibility the robot could not be probed for
     (NaN) is null."""
     return strict_dumps(case.to_dict())
+
+
+def _run_one(case: tuple, *, seed: int, workers, workdir, n_postures: int) -> CaseResult:
+    """:func:`run_case` of ``(index, method)``: one task of :func:`run_blind`."""
+    index, method = case
+    return run_case(index, seed, method, n_postures=n_postures, workers=workers, workdir=workdir)

@@ -331,9 +331,22 @@ def _true_shares(truth, robot, hidden, q, t, previous, p_true) -> dict:
     return {k: (v / total if total > 0 else 0.0) for k, v in drops.items()}
 
 
-def run_tracker_blind(cases: int, seed: int, *, out=None, progress=None, **kw) -> list:
-    """Run cases ``0 .. cases-1``; with ``out`` (JSON lines) finished cases are kept and resumed."""
+def _case_dict(index: int, *, seed: int, **kw) -> dict:
+    """One case of :func:`run_tracker_blind`, as the dict its JSON line holds."""
+    return run_tracker_case(index, seed, **kw).to_dict()
+
+
+def run_tracker_blind(cases: int, seed: int, *, out=None, progress=None, workers: int = 1,
+                      scheduler: str | None = None, **kw) -> list:
+    """Run cases ``0 .. cases-1``; with ``out`` (JSON lines) finished cases are kept and resumed.
+
+    The cases run here one after the other, on ``workers`` local processes, or as tasks of the
+    cluster of an existing dask scheduler (``scheduler``, its address); each is written as it
+    finishes, and ``progress(index, case)`` called. ``kw`` goes to :func:`run_tracker_case`."""
+    from functools import partial
     from pathlib import Path
+
+    from rmbench.parallel import map_cases
 
     done = {}
     if out is not None and Path(out).exists():
@@ -341,19 +354,16 @@ def run_tracker_blind(cases: int, seed: int, *, out=None, progress=None, **kw) -
             if line.strip():
                 d = json.loads(line)
                 done[d["index"]] = d
-    results = []
-    for i in range(cases):
-        if i in done:
-            results.append(done[i])
-            continue
-        case = run_tracker_case(i, seed, **kw).to_dict()
+    todo = [i for i in range(cases) if i not in done]
+    for i, case in map_cases(partial(_case_dict, seed=seed, **kw), todo, workers=workers,
+                             scheduler=scheduler):
         if out is not None:
             with open(out, "a") as f:
                 f.write(strict_dumps(case) + "\n")
-        results.append(case)
+        done[i] = case
         if progress:
             progress(i, case)
-    return results
+    return [done[i] for i in range(cases)]
 
 
 def summarise_tracker(cases) -> dict:

@@ -1,0 +1,111 @@
+"""Independent cases on worker pools (rmbench.parallel): here, local processes or a dask cluster give
+the same results, and the blind check run on a cluster writes the lines of a run here."""
+
+import json
+
+import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
+
+from rmbench.errors import InputError
+from rmbench.gap.cases.blind import run_blind
+from rmbench.parallel import map_cases
+
+
+def _square(x):
+    return x * x, max(p["num_threads"] for p in threadpool_info())
+
+
+def _fail_on_three(x):
+    return 1 / (x - 3)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=50) as c:
+        yield c.scheduler_address
+
+
+def _pool(where, request) -> dict:
+    """map_cases's keywords for running here, on two local processes or on the test's cluster."""
+    if where == "dask":
+        return {"scheduler": request.getfixturevalue("cluster")}
+    return {"workers": 0 if where == "here" else 2}
+
+
+@pytest.mark.parametrize("where", ["here", "processes", "dask"], ids=["here", "processes", "dask"])
+def test_every_case_comes_back_once_with_its_result(where, request):
+    got = list(map_cases(_square, range(6), **_pool(where, request)))
+    assert sorted((x, r[0]) for x, r in got) == [(x, x * x) for x in range(6)]
+
+
+@pytest.mark.parametrize("where", ["processes", "dask"], ids=["processes", "dask"])
+def test_workers_run_single_threaded(where, request):
+    assert {r[1] for _, r in map_cases(_square, range(4), **_pool(where, request))} == {1}
+
+
+def test_cases_run_here_come_back_in_the_order_given():
+    assert [x for x, _ in map_cases(_square, [3, 1, 2], workers=1)] == [3, 1, 2]
+
+
+@pytest.mark.parametrize("workers", [0, 2], ids=["here", "processes"])
+def test_a_failing_case_raises_its_error(workers):
+    with pytest.raises(ZeroDivisionError):
+        list(map_cases(_fail_on_three, range(5), workers=workers))
+
+
+@pytest.mark.parametrize("workers", [-1, 1.5, True], ids=["negative", "fraction", "bool"])
+def test_workers_must_be_a_whole_number(workers):
+    with pytest.raises(InputError, match="workers must be a whole number"):
+        list(map_cases(_square, range(2), workers=workers))
+
+
+def _lines(path) -> set:
+    """The JSON lines of a blind run without their timing."""
+    cases = [json.loads(s) for s in path.read_text().splitlines() if s.strip()]
+    return {json.dumps({k: v for k, v in c.items() if k != "seconds"}, sort_keys=True) for c in cases}
+
+
+@pytest.fixture(scope="module")
+def local_blind(tmp_path_factory):
+    """Two small blind cases (4-posture linear campaigns) run here, single-threaded as a bench
+    runs them (OMP_NUM_THREADS=1): their JSON lines. (With more BLAS threads here the held-out
+    shrink differs from a single-threaded worker's in its 13th digit.)"""
+    out = tmp_path_factory.mktemp("blind") / "local.jsonl"
+    with threadpool_limits(limits=1):
+        run_blind(2, 5, method="linear", workers=0, n_postures=4, out=out)
+    return out
+
+
+@pytest.mark.slow
+def test_blind_cases_on_a_dask_cluster_write_the_lines_of_a_run_here(local_blind, cluster, tmp_path):
+    remote = tmp_path / "remote.jsonl"
+    report = run_blind(2, 5, method="linear", n_postures=4, scheduler=cluster, out=remote)
+    assert _lines(remote) == _lines(local_blind)
+    assert [c.index for c in report.cases] == [0, 1]
+
+
+@pytest.mark.slow
+def test_a_blind_run_on_a_cluster_resumes_without_running_the_cases_written(local_blind, cluster, tmp_path):
+    remote = tmp_path / "resumed.jsonl"
+    remote.write_text(local_blind.read_text().splitlines()[0] + "\n")
+    ran = []
+    run_blind(2, 5, method="linear", n_postures=4, scheduler=cluster, out=remote,
+              progress=lambda case: ran.append(case.index))
+    first = json.loads(local_blind.read_text().splitlines()[0])["index"]
+    assert ran == [1 - first]
+    assert _lines(remote) == _lines(local_blind)
+
+
+def test_tracker_blind_cases_on_a_dask_cluster_write_the_lines_of_a_run_here(cluster, tmp_path):
+    from rmbench.gap.cases.tracker_blind import run_tracker_blind
+
+    small = {"n_config": 120, "levels": False, "n_workspace": 2000}
+    local, remote = tmp_path / "local.jsonl", tmp_path / "remote.jsonl"
+    with threadpool_limits(limits=1):
+        run_tracker_blind(3, 3, out=local, **small)
+    cases = run_tracker_blind(3, 3, out=remote, scheduler=cluster, **small)
+    assert _lines(remote) == _lines(local)
+    assert [c["index"] for c in cases] == [0, 1, 2]
