@@ -407,3 +407,18 @@ def test_candidates_with_parallel_signatures_are_reported_as_look_alikes():
     same = [-2.0, 0.1, 0.0]                 # cos 0.9988
     near = [1.0, 0.2, 0.0]                  # cos 0.981
     assert equivalent([screen("a", a), screen("b", same), screen("c", near)]) == (("a", "b"),)
+
+
+def test_cli_report_is_drawn_from_the_diagnosis_and_saves_nothing_without_out(tmp_path, capsys, monkeypatch):
+    import rmbench.gap
+    from rmbench.cli.main import main
+    from rmbench.gap.frf.result import Diagnosis
+
+    data = tmp_path / "measured.nc"
+    data.write_bytes(b"")
+    monkeypatch.setattr(rmbench.gap, "diagnose", lambda *a, **k: _small_diagnosis())
+    monkeypatch.setattr(Diagnosis, "save", lambda self, directory: pytest.fail("saved"))
+    report = tmp_path / "r.html"
+    assert main(["gap", "diagnose", "--data", str(data), "--report", str(report)]) == 0
+    assert f"wrote {report}" in capsys.readouterr().out
+    assert "Gap diagnosis: explained" in report.read_text()

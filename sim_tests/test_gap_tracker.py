@@ -417,3 +417,20 @@ def test_a_source_the_others_made_redundant_is_pruned():
     scored = []
     assert pruned(eng, best, scored, base=("cal",)).sources == ("cal", "b")
     assert {f.sources for f in scored} == {("cal", "b"), ("cal", "a")}
+
+
+def test_cli_report_is_drawn_from_the_diagnosis_and_saves_nothing_without_out(mh180, tmp_path, capsys,
+                                                                             monkeypatch):
+    import rmbench.gap.tracker.diagnosis as diagnosis_module
+    from rmbench.cli.main import main
+    from rmbench.io.tracker_csv import TrackerReadings, write_tracker_csv
+
+    d = _readings(mh180, (), n=10, repeats=1)
+    path = tmp_path / "r.csv"
+    write_tracker_csv(path, TrackerReadings(d.location, d.joints, d.q, d.measured, None, None, (), d.t))
+    monkeypatch.setattr(diagnosis_module, "diagnose_tracker", lambda *a, **k: _small_tracker_diagnosis())
+    monkeypatch.setattr(type(_small_tracker_diagnosis()), "save", lambda self, directory: pytest.fail("saved"))
+    report = tmp_path / "r.html"
+    assert main(["gap", "diagnose", "--readings", str(path), "--report", str(report)]) == 0
+    assert f"wrote {report}" in capsys.readouterr().out
+    assert "Tracker gap diagnosis: explained" in report.read_text()
