@@ -90,6 +90,25 @@ def cli(capsys):
     return run
 
 
+@pytest.fixture
+def gap_reports(tmp_path):
+    """``reports(dg)``: the HTML of a gap diagnosis's report drawn from the result itself and
+    from the folder it saved (both with the same title and metadata)."""
+    from rmbench.report import Page
+    from rmbench.report.gap import gap_sections
+
+    def reports(dg):
+        dg.save(tmp_path / "saved")
+        pages = []
+        for source in (dg, tmp_path / "saved"):
+            page = Page("gap", {"data": "d"})
+            gap_sections(page, source)
+            pages.append(page.html())
+        return pages
+
+    return reports
+
+
 def _missing(why: str):
     """Skip, except where the run demands the browser (.ci/run sets RMBENCH_REQUIRE_BROWSER)."""
     if os.environ.get("RMBENCH_REQUIRE_BROWSER"):

@@ -299,3 +299,33 @@ def test_the_null_gets_the_same_further_start_as_the_accepted_candidate(monkeypa
                                                  ("null", "fresh 1"): (140.0, 90.0, False)})
     assert calls[-2:] == [("null", "fresh 0"), ("null", "fresh 1")]
     assert null.start == "fresh 1"
+
+
+def _holder_diagnosis(ln_rotation):
+    """A joint search's explanation by the tool holder alone, on a first calibration that left the
+    holder's rotation at ×1.1 (the tool group's prior range is ×0.4-2.5)."""
+    from rmbench.gap.frf.result import Diagnosis, EffectResult
+
+    effect = EffectResult("tool_contact_stiffness@tool_contact", "tool_contact_stiffness", "tool_contact",
+                          {"ln_translation": 0.0, "ln_rotation": ln_rotation}, "holder", {}, {}, 0.8, (0.7, 0.9),
+                          1.0, chosen=True)
+    where = SimpleNamespace(describe=lambda: "", summary=lambda: {})
+    dg = Diagnosis(verdict="explained", effects=(effect,), where=where, where_after=None, localisation="",
+                   equivalent=(), nominal_chi2=1.0, n_residuals=1, nominal_peak=1.0, variant_xml=None,
+                   design_changes=(), train=(), held=(), models=(), seconds={})
+    cal = SimpleNamespace(params=[SimpleNamespace(name="tool_contact.rotation")], u=np.array([np.log(1.1)]))
+    first = SimpleNamespace(cal=cal, settings=SimpleNamespace(groups=("joints", "tool")))
+    return dg, first
+
+
+def test_an_explanation_whose_total_size_stays_inside_the_ordinary_spread_is_no_structural_gap(irb):
+    """×0.85 on a holder calibrated to ×1.1 is ×0.94 of the nominal: inside the spread, so the
+    calibration's prior merely held the holder back ("no significant gap"); ÷5 on top of it,
+    ×0.22, lies outside the spread and the explanation stands."""
+    from rmbench.gap.frf.rules import spread_checked
+
+    dg, first = _holder_diagnosis(np.log(0.85))
+    held_back = spread_checked(dg, irb, first)
+    assert held_back.verdict == "no significant gap" and "within its ordinary spread" in held_back.notes[-1]
+    dg, first = _holder_diagnosis(np.log(0.2))
+    assert spread_checked(dg, irb, first) is dg

@@ -307,3 +307,118 @@ def test_a_diagnosis_reads_as_a_few_lines_and_its_json_is_unchanged_by_the_alias
     assert dg.to_json("v.xml") == dg.to_dict("v.xml")
     with pytest.raises(ValueError, match="unknown verdict 'maybe'"):
         Diagnosis(**{**dg.__dict__, "verdict": "maybe"})
+
+
+def _small_diagnosis(verdict="explained"):
+    """An FRF diagnosis built directly: two postures, one tracked mode, two ranked effects."""
+    from rmbench.gap.frf.result import Diagnosis, EffectResult
+    from rmbench.gap.frf.where import GapMap
+
+    def record(posture, f_model):
+        return {"posture": posture, "x": 0.1 * posture, "y": 0.25, "theta": 0.5, "band": "low", "mode": 1,
+                "f_meas": 10.0, "f_model": f_model, "zeta_meas": 0.02, "zeta_model": 0.02, "df": f_model / 10 - 1,
+                "dzeta": 0.0, "dscale": 0.0, "mac": 0.99, "significant": True, "paired": True,
+                "z": {"f": 12.5, "zeta": -0.5, "scale": 0.25, "shape": 1.5}}
+
+    where = GapMap([record(0, 11.0), record(1, 11.5)], [], [])
+    gap = {"gap": 4.0, "f_err": 0.1, "zeta_err": 0.0, "mac": 0.99, "frf_db": 2.0}
+    after = {"gap": 1.0, "f_err": 0.01, "zeta_err": 0.0, "mac": 0.99, "frf_db": 0.5}
+    chosen = EffectResult("joint_stiffness@j3_flex", "joint_stiffness", "j3_flex", {"ln_factor": -0.2},
+                          "j3 20 % softer", gap, after, 0.75, (0.6, 0.85), 0.9, chosen=True)
+    other = EffectResult("servo_stiffness@a3", "servo_stiffness", "a3", {"ln_factor": -1.0}, "a3 servo softer",
+                         gap, {**after, "gap": 3.0}, 0.25, (0.1, 0.4), 0.1)
+    return Diagnosis(verdict=verdict, effects=(chosen, other), where=where, where_after=None,
+                     localisation="low band mode 1", equivalent=(), nominal_chi2=400.0, n_residuals=8,
+                     nominal_peak=12.5, variant_xml=None, design_changes=(), train=(0,), held=(1,), models=(),
+                     seconds={"total": 1.0})
+
+
+def test_a_diagnosis_plots_the_ranked_effects_shrink_with_its_interval():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dg = _small_diagnosis()
+    fig, ax = plt.subplots()
+    assert dg.plot(ax) is ax
+    bars = [p for p in ax.patches]
+    assert [round(b.get_width()) for b in bars] == [75, 25]
+    assert bars[0].get_facecolor() != bars[1].get_facecolor()      # the chosen effect stands out
+    assert "explained" in ax.get_title()
+    plt.close(fig)
+    new = dg.plot()                                                 # its own figure without an ax
+    assert new.figure is not fig
+    plt.close(new.figure)
+
+
+def test_the_report_of_a_diagnosis_is_the_same_from_the_object_and_from_its_folder(gap_reports, tmp_path):
+    from rmbench.report import Page
+    from rmbench.report.gap import diagnosis_document, gap_sections, read_diagnosis
+
+    dg = _small_diagnosis()
+    from_object, from_folder = gap_reports(dg)
+    assert from_object == from_folder and "Gap diagnosis: explained" in from_object
+    doc, read = diagnosis_document(dg), read_diagnosis(tmp_path / "saved")
+    assert doc["kind"] == read["kind"] == "frf" and len(doc["modes"]) == len(read["modes"]) == 2
+    with pytest.raises(TypeError, match="Diagnosis, TrackerDiagnosis or a diagnosis folder"):
+        gap_sections(Page("gap"), {"verdict": "explained"})
+
+
+def test_a_parameter_must_close_more_than_ln_n_of_the_held_out_chi2():
+    """The held-out score is BIC, χ² + k ln n: on 1000 held-out residuals a parameter costs
+    ln 1000 ≈ 6.9, so a one-parameter model must lower the held-out χ² by more than that."""
+    from rmbench.gap.selection import bic
+
+    n = 1000
+    assert bic(1000.0 - 7.0, 1, n) < bic(1000.0, 0, n) < bic(1000.0 - 6.8, 1, n)
+
+
+def test_with_fewer_than_four_held_out_units_the_weights_are_bic_weights_widened_by_the_misfit():
+    """Three units are too few to resample: the weights are exp(−ΔBIC / 2ĉ), ĉ the best model's
+    χ² per residual where it exceeds 1 (a model short of the data is less sure of its lead)."""
+    from rmbench.gap.selection import selection_weights
+
+    n_units = [100, 100, 100]
+    w = selection_weights([[100.0] * 3, [98.0] * 3], n_units, [0, 0])
+    np.testing.assert_allclose(w, np.array([np.exp(-3.0), 1.0]) / (1 + np.exp(-3.0)))
+    w = selection_weights([[200.0] * 3, [198.0] * 3], n_units, [0, 0])      # ĉ = 1.98
+    np.testing.assert_allclose(w, np.array([np.exp(-3.0 / 1.98), 1.0]) / (1 + np.exp(-3.0 / 1.98)))
+
+
+def test_an_effects_confidence_sums_the_weights_of_the_models_that_hold_it():
+    from rmbench.gap.selection import confidences
+
+    out = confidences([(), ("a",), ("a", "b")], [0.2, 0.5, 0.3])
+    assert out == pytest.approx({"a": 0.8, "b": 0.3})
+
+
+def test_candidates_with_parallel_signatures_are_reported_as_look_alikes():
+    """|cos| ≥ 0.995 between two candidates' first-order signatures (sign ignored) at every
+    training posture: the data cannot tell them apart; 0.98 they can."""
+    from types import SimpleNamespace
+
+    from rmbench.gap.frf.evidence import equivalent
+
+    def screen(name, v):
+        return SimpleNamespace(effect=SimpleNamespace(name=name), sensitivity=np.array(v, float)[:, None])
+
+    a = [1.0, 0.0, 0.0]
+    same = [-2.0, 0.1, 0.0]                 # cos 0.9988
+    near = [1.0, 0.2, 0.0]                  # cos 0.981
+    assert equivalent([screen("a", a), screen("b", same), screen("c", near)]) == (("a", "b"),)
+
+
+def test_cli_report_is_drawn_from_the_diagnosis_and_saves_nothing_without_out(tmp_path, capsys, monkeypatch):
+    import rmbench.gap
+    from rmbench.cli.main import main
+    from rmbench.gap.frf.result import Diagnosis
+
+    data = tmp_path / "measured.nc"
+    data.write_bytes(b"")
+    monkeypatch.setattr(rmbench.gap, "diagnose", lambda *a, **k: _small_diagnosis())
+    monkeypatch.setattr(Diagnosis, "save", lambda self, directory: pytest.fail("saved"))
+    report = tmp_path / "r.html"
+    assert main(["gap", "diagnose", "--data", str(data), "--report", str(report)]) == 0
+    assert f"wrote {report}" in capsys.readouterr().out
+    assert "Gap diagnosis: explained" in report.read_text()

@@ -334,3 +334,103 @@ def test_a_source_is_confident_only_where_its_model_leaves_noise():
     peaked = _adequate_confidences([nominal, _unit_fit(("c",), np.full(40, 6.0), 1, peak=8.0)], [6] * 40, settings)
     assert found["a"] == pytest.approx(1.0)
     assert partial.get("b", 0.0) == 0.0 and peaked.get("c", 0.0) == 0.0
+
+
+def _small_tracker_diagnosis(verdict="explained"):
+    """A tracker diagnosis built directly: one chosen source, one alone, a two-joint error map."""
+    from rmbench.gap.tracker.diagnosis import PoseErrorMap, SourceResult, TrackerDiagnosis
+
+    edges = np.linspace(-1.0, 1.0, 4)
+    where = PoseErrorMap(rms=np.array([0.3e-3, 0.2e-3, 0.1e-3]), rms_total=0.4e-3, max_total=1.1e-3,
+                         noise_rms=0.05e-3, above_noise=0.9, explains={"q_j2": 0.6, "tau_j2": 0.3},
+                         bins={"j2": (edges, np.array([0.3e-3, np.nan, 0.5e-3])),
+                               **{f"tcp_{a}": (edges, np.full(3, 0.4e-3)) for a in "xyz"}})
+    chosen = SourceResult("payload@tool", "payload", "tool", {"mass": 25.0}, "25 kg at the TCP", 0.8, 0.95,
+                          {"rms": 0.1e-3, "max": 0.3e-3}, True)
+    alone = SourceResult("gear_periodic_error@j4:h2", "gear_periodic_error", "j4", {"sin": 1e-4, "cos": 0.0},
+                         "j4 gear, 2nd harmonic", 0.0, 0.05, {"rms": 0.35e-3, "max": 0.9e-3}, False)
+    return TrackerDiagnosis(
+        verdict=verdict, sources=(chosen, alone), where=where,
+        heldout_before={"rms": 0.4e-3, "max": 1.1e-3, "chi2_per_n": 60.0, "rms_interval": [0.35e-3, 0.45e-3]},
+        heldout_after={"rms": 0.1e-3, "max": 0.3e-3, "chi2_per_n": 1.0, "rms_interval": [0.09e-3, 0.11e-3]},
+        shrink=0.75, shrink_interval=(0.7, 0.8), equivalent=(), absorbed=("joint_offset@j1",),
+        values={"payload@tool": [25.0]}, models=(), n_readings=120, train=(0, 2), held=(1, 3), seconds=1.0)
+
+
+def test_a_tracker_diagnosis_has_a_literal_verdict_and_its_json_is_unchanged_by_the_alias():
+    import dataclasses
+    from typing import get_args, get_type_hints
+
+    from rmbench.gap.selection import VERDICTS
+    from rmbench.gap.tracker.diagnosis import TrackerDiagnosis
+
+    dg = _small_tracker_diagnosis()
+    assert dataclasses.is_dataclass(dg) and TrackerDiagnosis.__dataclass_params__.frozen
+    assert get_args(get_type_hints(TrackerDiagnosis)["verdict"]) == VERDICTS
+    assert dg.to_json() == dg.to_dict()
+    assert json.loads(json.dumps(dg.to_dict()))["where"]["bins"]["j2"]["empty"] == [1]
+    with pytest.raises(ValueError, match="unknown verdict 'maybe'"):
+        _small_tracker_diagnosis("maybe")
+
+
+def test_a_tracker_diagnosis_reads_as_a_few_lines():
+    lines = _small_tracker_diagnosis().summary().splitlines()
+    assert lines[0].startswith("verdict: explained (120 readings; held-out rms 0.400 -> 0.100 mm")
+    assert lines[1] == "chosen payload@tool: 25 kg at the TCP; 80 % of the error, confidence 0.95"
+    assert lines[-1].startswith("where: rms 0.400 mm")
+
+
+def test_a_tracker_diagnosis_plots_each_sources_error_against_the_nominal_and_the_noise():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    dg = _small_tracker_diagnosis()
+    fig, ax = plt.subplots()
+    assert dg.plot(ax) is ax
+    bars = ax.containers[0]
+    assert [round(b.get_width(), 3) for b in bars] == [0.1, 0.35]          # mm, best first
+    assert [t.get_text() for t in ax.get_yticklabels()] == ["payload@tool", "gear_periodic_error@j4:h2"]
+    labels = ax.get_legend_handles_labels()[1]
+    assert labels == ["nominal 0.400 mm", "chosen model 0.100 mm", "noise"]
+    plt.close(fig)
+
+
+def test_the_report_of_a_tracker_diagnosis_is_the_same_from_the_object_and_from_its_folder(gap_reports):
+    from_object, from_folder = gap_reports(_small_tracker_diagnosis())
+    assert from_object == from_folder and "Tracker gap diagnosis: explained" in from_object
+
+
+def test_a_source_the_others_made_redundant_is_pruned():
+    """Each chosen source is dropped in turn and the model refitted: where a smaller model scores
+    better held out (its source added nothing the others did not), it goes; the calibrated
+    ordinary sources are never dropped."""
+    from types import SimpleNamespace
+
+    from rmbench.gap.tracker.engine import pruned
+
+    scores = {("cal", "a", "b"): 100.0, ("cal", "b"): 99.0, ("cal", "a"): 130.0, ("cal",): 400.0}
+    eng = SimpleNamespace(fit=lambda sources, values: SimpleNamespace(sources=sources, values=values,
+                                                                      score=scores[sources]))
+    best = SimpleNamespace(sources=("cal", "a", "b"), values=(0, 1, 2), score=100.0)
+    scored = []
+    assert pruned(eng, best, scored, base=("cal",)).sources == ("cal", "b")
+    assert {f.sources for f in scored} == {("cal", "b"), ("cal", "a")}
+
+
+def test_cli_report_is_drawn_from_the_diagnosis_and_saves_nothing_without_out(mh180, tmp_path, capsys,
+                                                                             monkeypatch):
+    import rmbench.gap.tracker.diagnosis as diagnosis_module
+    from rmbench.cli.main import main
+    from rmbench.io.tracker_csv import TrackerReadings, write_tracker_csv
+
+    d = _readings(mh180, (), n=10, repeats=1)
+    path = tmp_path / "r.csv"
+    write_tracker_csv(path, TrackerReadings(d.location, d.joints, d.q, d.measured, None, None, (), d.t))
+    monkeypatch.setattr(diagnosis_module, "diagnose_tracker", lambda *a, **k: _small_tracker_diagnosis())
+    monkeypatch.setattr(type(_small_tracker_diagnosis()), "save", lambda self, directory: pytest.fail("saved"))
+    report = tmp_path / "r.html"
+    assert main(["gap", "diagnose", "--readings", str(path), "--report", str(report)]) == 0
+    assert f"wrote {report}" in capsys.readouterr().out
+    assert "Tracker gap diagnosis: explained" in report.read_text()

@@ -345,7 +345,7 @@ def _demo_tracker_gap(out: Path, page) -> None:
     from rmbench.report.gap import gap_sections
 
     page.part("Sim-to-real gap on tracker readings (MH180)")
-    gap_sections(page, out / "demo_tracker_gap")
+    gap_sections(page, dg)
     _demo_tracker_calibrated(out, page)
 
 
@@ -396,7 +396,7 @@ def _demo_tracker_calibrated(out: Path, page) -> None:
     dg.save(out / "demo_tracker_calibrated")
     print(f"  wrote {out / 'demo_tracker_calibrated'}: diagnosis.json (with its calibration), sources.csv")
     page.part("Tracker gap with --calibrate: a robot off its data sheet (MH180)")
-    gap_sections(page, out / "demo_tracker_calibrated")
+    gap_sections(page, dg)
 
 
 def _demo_gap(out: Path, workers, page) -> None:
@@ -422,7 +422,7 @@ def _demo_gap(out: Path, workers, page) -> None:
     from rmbench.report.gap import gap_sections
 
     page.part("Sim-to-real gap on FRF data (j3 20 % softer)")
-    gap_sections(page, out / "demo_gap")
+    gap_sections(page, dg)
 
 
 def _commanded_campaign(out: Path, name: str, edits, shift: int, workers) -> Path:

@@ -65,22 +65,16 @@ def register(sub) -> None:
     b.set_defaults(func=cmd_blind)
 
 
-def _report(args, dg, paths) -> None:
-    """The diagnosis's report, read back from its saved folder (a temporary one without --out)."""
-    import tempfile
-
+def _report(args, dg) -> None:
+    """The diagnosis's report, drawn from the result ``dg`` itself."""
     from rmbench.report import Page
     from rmbench.report.gap import gap_sections
 
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = args.out if paths else tmp
-        if not paths:
-            dg.save(tmp)
-        page = Page(f"Gap diagnosis of {Path(args.data or args.readings).name}",
-                    {"data": args.data or args.readings, "robot": args.robot or "", "tool": args.tool or "",
-                     "saved in": args.out or ""})
-        gap_sections(page, folder)
-        page.write(args.report)
+    page = Page(f"Gap diagnosis of {Path(args.data or args.readings).name}",
+                {"data": args.data or args.readings, "robot": args.robot or "", "tool": args.tool or "",
+                 "saved in": args.out or ""})
+    gap_sections(page, dg)
+    page.write(args.report)
     if not args.json:
         print(f"wrote {args.report}")
 
@@ -121,7 +115,7 @@ def cmd_diagnose(args) -> int:
             print(f"rmbench: warning: {w.message}", file=sys.stderr)
     paths = dg.save(args.out) if args.out else {}
     if args.report:
-        _report(args, dg, paths)
+        _report(args, dg)
     if args.json:
         print_json(dg.to_json(paths.get("variant")))
         return 0
@@ -173,7 +167,7 @@ def _diagnose_readings(args) -> int:
     dg = diagnose_tracker(robot, data, settings=settings, progress=say)
     paths = dg.save(args.out) if args.out else {}
     if args.report:
-        _report(args, dg, paths)
+        _report(args, dg)
     if args.json:
         print_json(dg.to_json())
         return 0

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_diagnosis", "plot_mode_gaps", "plot_workspace", "plot_effects", "plot_pose_errors"]
+__all__ = ["plot_diagnosis", "plot_mode_gaps", "plot_workspace", "plot_effects", "plot_sources", "plot_pose_errors"]
 
 
 def _plt():
@@ -19,6 +19,15 @@ def _plt():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def _axes(ax, figsize=(9, 4.5)):
+    """``ax``, or the axes of a new figure on the user's own backend (a result's ``.plot()``)."""
+    if ax is not None:
+        return ax
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(figsize=figsize)[1]
 
 
 def plot_mode_gaps(where, ax=None, *, title="frequency gap of each tracked mode"):
@@ -82,10 +91,9 @@ def plot_workspace(where, path, *, title="gap over the workspace"):
 
 
 def plot_effects(dg, ax=None):
-    """Held-out shrink (with its bootstrap interval) and confidence of the ranked effects."""
-    plt = _plt()
-    if ax is None:
-        _, ax = plt.subplots(figsize=(9, 4.5))
+    """Held-out shrink (with its bootstrap interval) and confidence of the ranked effects of an FRF
+    diagnosis ``dg`` (a :class:`~rmbench.gap.frf.result.Diagnosis`); returns the Axes."""
+    ax = _axes(ax)
     eff = list(dg.effects)[:10]
     y = np.arange(len(eff))[::-1]
     shrink = [100 * e.shrink for e in eff]
@@ -128,6 +136,33 @@ def plot_diagnosis(dg, directory) -> list[Path]:
     return [p for p in out if p is not None]
 
 
+def plot_sources(dg, ax=None, *, n: int = 8):
+    """A tracker diagnosis ``dg`` (a :class:`~rmbench.gap.tracker.diagnosis.TrackerDiagnosis`):
+    the held-out rms pose error with each of the ``n`` best-ranked sources (the chosen model for a
+    chosen source, green, with its share of the error; the source alone otherwise, grey), against
+    the nominal's and the chosen model's, each with its 95 % bootstrap interval (shaded), and the
+    readings' noise. Returns the Axes."""
+    ax = _axes(ax)
+    shown = list(dg.sources[:n])
+    y = np.arange(len(shown))
+    ax.barh(y, [1e3 * s.heldout_after["rms"] for s in shown], color=["C2" if s.chosen else "C7" for s in shown])
+    for yi, s in zip(y, shown):
+        if s.chosen:
+            ax.text(0, yi, f" {100 * s.share:.0f} % of the error", va="center", fontsize=7)
+    for h, colour, name in ((dg.heldout_before, "C3", "nominal"), (dg.heldout_after, "C2", "chosen model")):
+        rms = 1e3 * h["rms"]
+        ax.axvline(rms, color=colour, lw=1, label=f"{name} {rms:.3f} mm")
+        if h.get("rms_interval"):
+            ax.axvspan(*(1e3 * np.asarray(h["rms_interval"])), color=colour, alpha=0.15)
+    ax.axvline(1e3 * dg.where.noise_rms, color="k", lw=0.6, ls="--", label="noise")
+    ax.set_yticks(y, [s.name for s in shown], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("held-out rms pose error (mm)")
+    ax.set_title(f"{dg.verdict}: chosen (green), alone (grey)")
+    ax.legend(fontsize=7)
+    return ax
+
+
 def plot_pose_errors(dg, path) -> Path:
     """A tracker diagnosis: the nominal pose error over each joint's angle and over the workspace,
     and the held-out rms and largest error before and after each ranked source."""
@@ -151,17 +186,7 @@ def plot_pose_errors(dg, path) -> Path:
     a1.set_ylabel("rms pose error (mm)")
     a1.set_title("nominal model, over the workspace")
     a1.legend(fontsize=7)
-    shown = list(dg.sources[:8])
-    before = 1e3 * dg.heldout_before["rms"]
-    y = np.arange(len(shown))
-    a2.barh(y, [1e3 * s.heldout_after["rms"] for s in shown],
-            color=["C2" if s.chosen else "C7" for s in shown])
-    a2.axvline(before, color="C3", lw=1, label=f"nominal {before:.3f} mm")
-    a2.set_yticks(y, [s.name for s in shown], fontsize=7)
-    a2.invert_yaxis()
-    a2.set_xlabel("held-out rms pose error (mm)")
-    a2.set_title(f"{dg.verdict}: chosen (green), alone (grey)")
-    a2.legend(fontsize=7)
+    plot_sources(dg, a2)
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=110)

@@ -8,12 +8,16 @@ close more of the held-out gap than its parameters are worth.
 * :func:`selection_weights`: bootstrap model-selection frequencies over the held-out units
   (Buckland, Burnham & Augustin 1997), or over-dispersed BIC weights with fewer than four units;
 * :func:`confidences`: an effect's confidence, the summed weight of the models containing it;
-* :func:`bootstrap_shrink`: how much of the held-out gap a model closes, with its interval.
+* :func:`bootstrap_shrink`: how much of the held-out gap a model closes, with its interval;
+* :data:`Verdict`: what a diagnosis of either kind concludes.
+
+The rules, their thresholds and the tests that specify them: docs/design.md, "Verdict rules".
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 from scipy.stats import chi2 as chi2_dist
@@ -21,7 +25,14 @@ from scipy.stats import norm
 
 from rmbench.errors import InputError
 
-__all__ = ["SearchSettings", "significant", "bic", "selection_weights", "confidences", "bootstrap_shrink"]
+__all__ = ["Verdict", "VERDICTS", "SearchSettings", "significant", "bic", "selection_weights", "confidences",
+           "bootstrap_shrink"]
+
+Verdict = Literal["explained", "unexplained", "no significant gap"]
+"""What a diagnosis concludes: a model of the library explains the gap, none does, or the data
+show no gap beyond the noise."""
+
+VERDICTS: tuple = get_args(Verdict)
 
 
 @dataclass(frozen=True)

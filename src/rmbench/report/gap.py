@@ -1,6 +1,11 @@
-"""Report sections of a sim-to-real gap diagnosis, read from the folder the diagnosis saved
-(``diagnosis.json`` and its CSV tables; parsed, never evaluated): the verdict, the ranked effects
-with their held-out evidence, gap maps over the workspace, and before/after overlays."""
+"""Report sections of a sim-to-real gap diagnosis: the verdict, the ranked effects with their
+held-out evidence, gap maps over the workspace, and before/after overlays.
+
+The sections are built from the diagnosis's document (:func:`diagnosis_document`): from the
+result itself (a :class:`~rmbench.gap.frf.result.Diagnosis` or
+:class:`~rmbench.gap.tracker.diagnosis.TrackerDiagnosis`), or from the folder it saved
+(:func:`read_diagnosis`: ``diagnosis.json`` and its CSV tables; parsed, never evaluated). Both are
+the result's own JSON form and per-mode tables, drawn by one path."""
 
 from __future__ import annotations
 
@@ -13,7 +18,27 @@ import numpy as np
 from rmbench.errors import InputError
 from rmbench.report.page import Page, arr, label
 
-__all__ = ["gap_sections", "read_diagnosis"]
+__all__ = ["gap_sections", "read_diagnosis", "diagnosis_document"]
+
+
+def diagnosis_document(dg) -> dict:
+    """The document :func:`read_diagnosis` reads from a saved folder, from the result ``dg`` (a
+    :class:`~rmbench.gap.frf.result.Diagnosis` or a
+    :class:`~rmbench.gap.tracker.diagnosis.TrackerDiagnosis`): its JSON form, with ``kind`` and,
+    for FRFs, the per-mode tables ``modes`` and ``modes_after``."""
+    from rmbench.gap.frf.files import mode_rows
+    from rmbench.gap.frf.result import Diagnosis
+    from rmbench.gap.jsonable import jsonable
+    from rmbench.gap.tracker.diagnosis import TrackerDiagnosis
+
+    if isinstance(dg, TrackerDiagnosis):
+        return {**dg.to_dict(), "kind": "tracker"}
+    if not isinstance(dg, Diagnosis):
+        raise TypeError(f"a Diagnosis, TrackerDiagnosis or a diagnosis folder expected, got {type(dg).__name__}")
+    doc = {**jsonable(dg.to_dict()), "kind": "frf", "modes": mode_rows(dg.where)}
+    if dg.where_after is not None:
+        doc["modes_after"] = mode_rows(dg.where_after)
+    return doc
 
 
 def read_diagnosis(directory) -> dict:
@@ -39,13 +64,18 @@ def read_diagnosis(directory) -> dict:
     return doc
 
 
-def gap_sections(page: Page, directory) -> None:
-    """Add the diagnosis's sections (FRF or tracker diagnosis, told apart by its JSON)."""
-    doc = read_diagnosis(directory)
+def gap_sections(page: Page, diagnosis) -> None:
+    """Add a diagnosis's sections (FRF or tracker): ``diagnosis`` the result itself (a
+    :class:`~rmbench.gap.frf.result.Diagnosis` or
+    :class:`~rmbench.gap.tracker.diagnosis.TrackerDiagnosis`) or the folder it saved."""
+    if isinstance(diagnosis, (str, Path)):
+        doc, where = read_diagnosis(diagnosis), str(diagnosis)
+    else:
+        doc, where = diagnosis_document(diagnosis), "the diagnosis"
     try:
         (_frf if doc["kind"] == "frf" else _tracker)(page, doc)
     except (KeyError, TypeError, ValueError, AttributeError) as err:
-        raise InputError(f"{directory}: malformed diagnosis ({type(err).__name__}: {err})") from None
+        raise InputError(f"{where}: malformed diagnosis ({type(err).__name__}: {err})") from None
 
 
 def _num(v, default=np.nan) -> float:

@@ -248,8 +248,9 @@ def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=None) -> _T
                       lambda u: np.array([m0 * np.exp(u[name]) - m0]))
     if k == "base_compliance":
         # the plate's mass is fitted too, with its prior (half to three times): a foundation's moving
-        # mass is never known, and at the library's 1000 kg a foundation whose slab weighs 2000 kg
-        # is found 48 % too soft (calibration bench, seed 54927 robot 3: 56.3 against 38.0 µm/kN)
+        # mass is never known, and its sway frequency fixes compliance and mass together, so a mass
+        # held wrong biases the compliance (e.g. at the library's 1000 kg, a slab of 2000 kg made
+        # the foundation 48 % too soft: 56.3 against 38.0 µm/kN)
         lat, plate = "base.lateral_compliance", "base_mount.mass"
         if effect.n_params == 1:          # lateral only, on a calibrated foundation
             return _Terms((lat, plate), (lat,), groups, lambda u: np.array([u[lat]]))
@@ -333,9 +334,10 @@ class _Recalibration:
           moved them back (a sliding foundation found 40 % short).
         * From the null's end, the freed parameters where it left them (at their gross sizes
           where it lacks them). From the nominal, the modes-alone stage trades the freed sizes
-          against the centres of mass and the foundation and can end far off: calibration bench,
-          seed 28832 robot 2, a tool holder ×3.40: training objective 341 + 27 from the nominal,
-          127 + 15 from the null's end, where the truth's parameters give 227 + 10.
+          against the centres of mass and the foundation, which the modes alone cannot tell
+          apart, and can end in another basin (e.g. a tool holder ×3.40: training objective
+          341 + 27 from the nominal, 127 + 15 from the null's end; the truth's parameters give
+          227 + 10). Neither start is better on every kind, so the lower training objective decides.
         """
         from rmbench.calibrate import calibrate
 
@@ -403,9 +405,9 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
     for effect in candidates:
         done.append(run(effect, null=null))
     # every candidate runs, also after one explains the gap: a look-alike further down the list
-    # may explain it better, and the choice among them and its confidence need all of them
-    # (calibration bench, seed 13128 robot 3: a mass added to the flange; stopped at the first
-    # accepted, the wrist's mass, listed before the flange's, was named at confidence 1.00)
+    # may explain it better, and the choice among them and its confidence (a selection frequency
+    # among the models run) need all of them; stopped at the first accepted, the first look-alike
+    # would win at confidence 1 (e.g. a wrist's mass listed before the flange's that was added)
     if accept is not None and any(accept(c, null) for c in done):
         return _same_chance(run, null, need_gap), done
     promising = [c for c in done if c.significant and c.shrink_against(null) >= options.min_shrink]
@@ -430,8 +432,9 @@ def _further_starts(run, null: Confirmed, best: Confirmed, done: list, accept, o
 
     The fit may have ended in another basin than the data's. The coarse residual that picked its
     gross start does not rank the basins, so the next starts are tried, and the lower training
-    objective kept (calibration bench, seed 27994 robot 19: a foundation sliding 58 µm/kN under a
-    tilting one, held-out χ² 1,716 on 712 from the best start, 82 from the second)."""
+    objective kept: the training data, not the held-out ones, choose among fits of one model
+    (e.g. a foundation sliding 58 µm/kN under a tilting one, held-out χ² 1,716 on 712 residuals
+    from the best start, 82 from the second)."""
     for rank in range(1, options.further + 1):
         other = run(best.effect, rank=rank)
         if other.train_objective < best.train_objective:

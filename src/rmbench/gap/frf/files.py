@@ -9,7 +9,7 @@ from pathlib import Path
 from rmbench.gap.jsonable import write_whole
 from rmbench.io.strict_json import strict_dumps
 
-__all__ = ["write_diagnosis"]
+__all__ = ["write_diagnosis", "mode_rows"]
 
 _EFFECT_COLUMNS = ["rank", "name", "chosen", "description", "confidence", "shrink", "gap_before", "gap_after",
                    "f_err_before", "f_err_after", "frf_db_before", "frf_db_after"]
@@ -55,6 +55,15 @@ def write_diagnosis(dg, directory: str | Path) -> dict:
     return out
 
 
+def mode_rows(gm) -> list:
+    """A gap map's records (:class:`~rmbench.gap.frf.where.GapMap`) as the rows of
+    ``gap_modes.csv``, one dict per measured mode: the columns of :data:`_MODE_COLUMNS` and the
+    four z-scores ``z_f``, ``z_zeta``, ``z_scale``, ``z_shape`` (what the report reads, from the
+    object or from the file)."""
+    zs = ("z_f", "z_zeta", "z_scale", "z_shape")
+    return [{**{c: r[c] for c in _MODE_COLUMNS}, **dict(zip(zs, r["z"].values()))} for r in gm.records]
+
+
 def _write_effects(path: Path, effects) -> None:
     """``effects.csv``: one row per ranked effect, its held-out gap, frequency and FRF errors."""
     with open(path, "w", newline="") as fh:
@@ -71,6 +80,7 @@ def _write_modes(path: Path, gm) -> None:
     """A gap map's records (:class:`~rmbench.gap.frf.where.GapMap`), one row per measured mode."""
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh, lineterminator="\n")
+        rows = mode_rows(gm)
         w.writerow(_MODE_COLUMNS + ["z_f", "z_zeta", "z_scale", "z_shape"])
-        for r in gm.records:
-            w.writerow([r[c] for c in _MODE_COLUMNS] + [f"{v:.4g}" for v in r["z"].values()])
+        for r in rows:
+            w.writerow([r[c] for c in _MODE_COLUMNS] + [f"{r[z]:.4g}" for z in ("z_f", "z_zeta", "z_scale", "z_shape")])

@@ -21,8 +21,9 @@ def confirm_picks(models, lib: dict, n: int) -> list:
     the others (a sliding foundation's sway is what the first joints' stiffness and the base's
     tilt mimic best), and the recalibration is what can tell them apart. The foundation is the
     effect the ordinary parameters mimic most completely (the base group's tilt and the links'
-    centres of mass take a slide up), so it is confirmed even when four others rank above it:
-    on the calibration bench (seed 17832, robot 2) a foundation sliding 94 µm/kN came fifth."""
+    centres of mass take a slide up, so that little of its signature is left on the calibrated
+    model), so it is confirmed even when others fill the quota (e.g. a foundation sliding
+    94 µm/kN ranked fifth)."""
     from rmbench.gap.frf.confirm import DESIGN_KINDS, confirmable
 
     best = {}
@@ -56,8 +57,10 @@ def fitted_sizes(models) -> dict:
 
 def pinned(cal, lib: dict) -> list:
     """The confirmable effects behind the ordinary parameters the calibration ``cal`` left on a
-    bound of their prior range (a spread-only robot leaves none there: 0 of 20 on the calibration
-    bench's seeds 54196 and 57124), in the calibration's parameter order."""
+    bound of their prior range, in the calibration's parameter order. The range is the spread of
+    robots of the type (±2σ); a robot inside it calibrates to values inside it, so a value pressed
+    onto the edge says the data ask for more than the spread allows (robots of the spread alone
+    left none there: 0 of 20 on two bench seeds)."""
     out = []
     for p in cal.params:
         # a parameter whose nominal is its bound (a rigid foundation) rests there by default

@@ -6,18 +6,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, get_args
-
 from rmbench.gap.frf.where import GapMap
+from rmbench.gap.selection import VERDICTS, Verdict
 
 __all__ = ["Verdict", "VERDICTS", "EffectResult", "Diagnosis", "RemainingGap", "model_row", "step_seconds"]
-
-Verdict = Literal["explained", "unexplained", "no significant gap"]
-"""What a diagnosis concludes: an effect of the library explains the gap, none does, or the data
-show no gap beyond the noise."""
-
-VERDICTS: tuple = get_args(Verdict)
-
 
 @dataclass(frozen=True)
 class EffectResult:
@@ -171,6 +163,23 @@ class Diagnosis:
                          f"{e.shrink:.2f} [{lo:.2f}, {hi:.2f}], confidence {e.confidence:.2f}")
         lines.append(f"where: {self.localisation}")
         return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """The ranked effects' held-out shrink of the gap with its 95 % bootstrap interval, the
+        chosen ones green, each with its confidence (:func:`rmbench.gap.plot.plot_effects`).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Drawn into; a new figure's by default.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        from rmbench.gap.plot import plot_effects
+
+        return plot_effects(self, ax)
 
     def save(self, directory: str | Path) -> dict:
         """Write ``diagnosis.json``, ``effects.csv``, ``gap_modes.csv`` (and

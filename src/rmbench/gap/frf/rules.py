@@ -1,7 +1,9 @@
 """The verdict rules of the FRF gap diagnosis: when a fitted effect explains the gap, when a
 recalibration with a structural effect freed confirms it, and when a parameter's size lies inside
 or beyond its ordinary spread. Each rule is one function; the thresholds come from the settings
-(:class:`~rmbench.gap.frf.settings.DiagnosisSettings`) or are stated here with their reasons.
+(:class:`~rmbench.gap.frf.settings.DiagnosisSettings`) or are stated here with their reasons;
+docs/design.md, "Verdict rules", lists every rule of both diagnoses once, with the test that
+specifies it.
 
 Vocabulary: the *held-out* χ² is the sum of squared normalised residuals (modes and FRFs, each
 divided by its noise standard deviation) on the postures no fit saw; the *rms gap* is its square
@@ -56,10 +58,12 @@ def confirms(c, null, *, gap: bool, pinned, first_chi2: float, min_shrink: float
       of its spread, ``pinned``): the candidate explains the data with less strain on the ordinary
       parameters (a lower training objective, data and prior), its held-out residual is noise, and
       its size lies beyond the spread with 95 % confidence (:func:`beyond_spread`). The held-out
-      shrink is no measure here: the calibration, pressed against the bound, had already mimicked
-      most of the effect, so even the truth closes little of what is left (calibration bench, seed
-      28832 robot 2: a tool holder ×3.40, the null 1.37 times the noise test's threshold, the
-      freed holder to the noise at ×3.67, a shrink of 46 %).
+      shrink is no measure here: a calibration pressed against the bound has already taken up the
+      part of the effect that its ordinary parameter can mimic, so what is left lies just above the
+      noise and even the true effect closes only part of it. The evidence is instead the strain
+      the freed effect takes off the fit (data and prior) and a size no robot of the type reaches
+      (e.g. a tool holder ×3.40: the null 1.37 times the noise test's threshold, the freed holder
+      at the noise, a shrink of 46 %).
     * **Any other candidate**, only where the null leaves a gap (``gap``, and the null fails the
       noise test): held-out residual at the noise, at least ``min_shrink`` of the baseline's
       held-out rms gap closed (the baseline is the better of the null and the first calibration;

@@ -33,7 +33,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.gap.jsonable import jsonable, write_whole
-from rmbench.gap.selection import SearchSettings, bootstrap_shrink, selection_weights, significant
+from rmbench.gap.selection import VERDICTS, SearchSettings, Verdict, bootstrap_shrink, selection_weights, significant
 from rmbench.gap.tracker.data import (TrackerData, check_readings, default_covariance, default_sigma,
                                       split_readings, tracker_data)
 from rmbench.gap.tracker.engine import Engine, Fit, pruned, signatures
@@ -199,8 +199,8 @@ class TrackerDiagnosis:
 
     Attributes
     ----------
-    verdict : str
-        "explained", "unexplained" or "no significant gap".
+    verdict : Verdict
+        ``"explained"``, ``"unexplained"`` or ``"no significant gap"``.
     sources : tuple of SourceResult
         Chosen sources first (by share), then the others by held-out score.
     where : PoseErrorMap
@@ -230,7 +230,7 @@ class TrackerDiagnosis:
         The chosen (else the nominal) model and the registered nominal one.
     """
 
-    verdict: str
+    verdict: Verdict
     sources: tuple
     where: PoseErrorMap
     heldout_before: dict
@@ -250,12 +250,18 @@ class TrackerDiagnosis:
     fitted: FittedPose | None = field(default=None, repr=False, compare=False)
     nominal_fitted: FittedPose | None = field(default=None, repr=False, compare=False)
 
+    def __post_init__(self):
+        if self.verdict not in VERDICTS:
+            raise ValueError(f"unknown verdict {self.verdict!r}; one of {', '.join(map(repr, VERDICTS))}")
+
     @property
     def chosen(self) -> tuple:
         return tuple(s for s in self.sources if s.chosen)
 
-    def to_json(self) -> dict:
-        """The FRF diagnosis's JSON shape: verdict, effects best first, where, variant."""
+    def to_dict(self) -> dict:
+        """The CLI's ``--json`` and ``diagnosis.json``, in the FRF diagnosis's shape: verdict,
+        effects (the sources) best first, where, variant (the chosen model's values), the held-out
+        error before and after, the models scored, notes and calibration."""
         effects = [{"name": s.name, "location": s.location, "params": s.params,
                     "description": s.description,
                     "heldout_before": self.heldout_before, "heldout_after": s.heldout_after,
@@ -271,6 +277,36 @@ class TrackerDiagnosis:
                        "models": list(self.models), "n_readings": self.n_readings,
                        "seconds": self.seconds, "notes": list(self.notes), "calibration": self.calibration})
 
+    def to_json(self) -> dict:
+        """:meth:`to_dict` (the name the CLI and older callers use)."""
+        return self.to_dict()
+
+    def summary(self) -> str:
+        """A few lines for a person: the verdict with the held-out error before and after, the
+        chosen sources with their share of the error and confidence (or the closest candidates),
+        and where the nominal model's error lies."""
+        b, a = self.heldout_before, self.heldout_after
+        lo, hi = self.shrink_interval
+        lines = [f"verdict: {self.verdict} ({self.n_readings} readings; held-out rms {1e3 * b['rms']:.3f} -> "
+                 f"{1e3 * a['rms']:.3f} mm, shrink {self.shrink:.2f} [{lo:.2f}, {hi:.2f}]; noise "
+                 f"{1e3 * self.where.noise_rms:.3f} mm rms)"]
+        for s in self.chosen or self.sources[:3]:
+            what = f"{100 * s.share:.0f} % of the error" if s.chosen else \
+                f"held-out rms {1e3 * s.heldout_after['rms']:.3f} mm alone"
+            lines.append(f"{'chosen' if s.chosen else 'candidate'} {s.name}: {s.description}; {what}, "
+                         f"confidence {s.confidence:.2f}")
+        lines.append(f"where: {self.where.describe()}")
+        return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """Draw into the matplotlib Axes ``ax`` (a new figure's by default) and return it: the
+        held-out rms pose error with each ranked source against the nominal's and the chosen
+        model's, with their 95 % bootstrap intervals, and the readings' noise
+        (:func:`rmbench.gap.plot.plot_sources`)."""
+        from rmbench.gap.plot import plot_sources
+
+        return plot_sources(self, ax)
+
     def save(self, directory) -> dict:
         """Write ``diagnosis.json``, ``sources.csv`` and ``pose_errors.png`` into ``directory``;
         their paths."""
@@ -278,7 +314,7 @@ class TrackerDiagnosis:
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / "diagnosis.json", "csv": out / "sources.csv",
                  "figure": out / "pose_errors.png"}
-        write_whole(paths["json"], strict_dumps(self.to_json(), indent=1))
+        write_whole(paths["json"], strict_dumps(self.to_dict(), indent=1))
         rows = ["name,kind,location,chosen,share,confidence,heldout_rms_m,heldout_max_m,description"]
         for s in self.sources:
             rows.append(f"{s.name},{s.kind},{s.location},{int(s.chosen)},{s.share:.4f},"
@@ -407,10 +443,11 @@ def _search(eng: Engine, library, start: Fit, base: tuple, e_all: np.ndarray, se
     else:
         # once calibrated, a model whose held-out readings are already noise takes a source only
         # on decisive evidence: a held-out drop (χ² and prior) that none of the candidates
-        # screened would reach by chance, at the noise test's level (Bonferroni). The BIC alone
-        # lets one robot in five with nothing to find take a source that fits the noise
-        # (a gear harmonic of the joint whose stiffness is furthest off), while a payload the
-        # calibration half absorbed still stands out by a drop of ~100
+        # screened would reach by chance, at the noise test's level (Bonferroni). The BIC charges
+        # k ln n for one model, but the best of N candidates fitted to noise drops by the largest
+        # of N χ²(k) draws, which grows with ln N: with ~30 candidates it passes the BIC often
+        # (e.g. a gear harmonic of the joint whose stiffness is furthest off, a drop of ~17),
+        # while a payload the calibration half absorbed still stands out (a drop of ~100)
         while len(best.sources) - len(base) < settings.max_sources:
             # a model must leave residuals to spare: the registration's 6 parameters and the
             # sources' fewer than the training residuals
