@@ -43,7 +43,7 @@ import numpy as np
 
 from rmbench.calibrate.model import ModalModel
 from rmbench.calibrate.residual import FRF_SEGMENTS, UNPAIRED, Pairing, frf_residuals, mode_residuals, pair
-from rmbench.calibrate.solver import IDENTIFIABLE, WEAK, identifiability, posterior, solve
+from rmbench.calibrate.solver import IDENTIFIABLE, WEAK, Bounds, SolverOptions, identifiability, posterior, solve
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.modeshape import mac, pair_modes
 from rmbench.robot.kinds import KINDS
@@ -497,7 +497,7 @@ def calibrate(robot, data, *, held=(), settings: CalibrationSettings = Calibrati
         else:
             z0 = _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say)
         sol = solve(lambda z: problem.residuals(z * sigma), lambda z: jac_at(z)[1], z0, prior_sd=prior_sd,
-                    lower=lo, upper=hi, max_nfev=settings.max_iter)
+                    bounds=Bounds(lo, hi), options=SolverOptions(max_nfev=settings.max_iter))
         z = sol.x
         r1, j1 = jac_at(z)
     finally:
@@ -580,8 +580,8 @@ def _coarse_start(mm, data, train, settings, params, w, lo, hi, problem, say) ->
                 return j * sigma[None, :]
 
             z0 = solve(lambda z: coarse.residuals(z * sigma), jac_c, z0,
-                       prior_sd=np.where(w > 0, 1.0 / np.where(w > 0, w, 1.0), np.inf), lower=lo, upper=hi,
-                       max_nfev=min(10, settings.max_iter), xtol=1e-3, ftol=1e-4).x
+                       prior_sd=np.where(w > 0, 1.0 / np.where(w > 0, w, 1.0), np.inf), bounds=Bounds(lo, hi),
+                       options=SolverOptions(max_nfev=min(10, settings.max_iter), xtol=1e-3, ftol=1e-4)).x
             say("coarse stage (frequencies in a wide window): done")
     finally:
         coarse.close()
