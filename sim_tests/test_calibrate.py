@@ -236,14 +236,14 @@ def test_an_identifiable_parameter_is_fixed_to_its_resolution(calibrated):
 def _interval_widths(irb, held):
     """95 % interval widths in ``u`` of three gearboxes, each seen alone by 10 residuals of unit
     sensitivity, fitted to the noise (training χ² = dof), with the held-out ``(χ², n)`` given."""
-    from rmbench.calibrate.fit import _account
+    from rmbench.calibrate.account import account
+    from rmbench.calibrate.solver import Bounds
 
     _, params = parameter_set(irb, ("joints",))
     params = ParameterSet(list(params)[:3])
     j = np.kron(np.eye(3), np.ones((10, 1)))
-    sigma = params.sigma()
-    out, _, _, notes, widening = _account(params, np.zeros(3), j, sigma, chi2=27.0, n=30, lo=-np.ones(3) * 9,
-                                          hi=np.ones(3) * 9, held=held)
+    out, _, _, notes, widening = account(params, np.zeros(3), j, chi2=27.0, n=30,
+                                         bounds=Bounds(-np.ones(3) * 9, np.ones(3) * 9), held=held)
     return np.array([np.log(p.interval[1] / p.interval[0]) for p in out]), widening, notes
 
 
@@ -365,7 +365,7 @@ def test_a_freed_parameter_reaches_far_beyond_its_prior_range(irb):
 def test_a_freed_foundation_starts_at_the_gross_size_the_data_prefer(irb):
     """A fit started at a rigid foundation (its bound) stalls there: a freed parameter starts at the
     best of its nominal and its gross sizes (a fifth and half of a foundation's range)."""
-    from rmbench.calibrate.fit import _free_start
+    from rmbench.calibrate.start import free_start
 
     _, params = parameter_set(irb, ("joints",), extra=("base.lateral_compliance",))
     params = params.freed(("base.lateral_compliance",))
@@ -375,7 +375,7 @@ def test_a_freed_foundation_starts_at_the_gross_size_the_data_prefer(irb):
     def fun(z):     # residuals least at a 60 µm/kN foundation (a fifth of 0-300)
         return np.array([z[i] * sigma[i] - 60.0])
 
-    z = _free_start(params, ("base.lateral_compliance",), fun, np.zeros(len(params)), lo, hi, lambda m: None)
+    z = free_start(params, ("base.lateral_compliance",), fun, np.zeros(len(params)), lo, hi, lambda m: None)
     assert z[i] * sigma[i] == pytest.approx(60.0)
     assert not np.any(z[:i])                      # the ordinary parameters keep their start
 
@@ -385,7 +385,7 @@ def test_a_freed_size_is_searched_jointly_with_the_ordinary_gross_starts(irb):
     """A base tilt mimics a foundation's slide: chosen first with the slide at its nominal, the tilt
     takes up the slide and the slide then stays at its nominal. Searched jointly, the start finds
     both (toy residuals: their combined compliance is 80 units, the slide's own signature 60)."""
-    from rmbench.calibrate.fit import _start
+    from rmbench.calibrate.start import gross_start
 
     _, params = parameter_set(irb, ("joints", "base"), extra=("base.lateral_compliance",))
     params = params.freed(("base.lateral_compliance",))
@@ -397,7 +397,7 @@ def test_a_freed_size_is_searched_jointly_with_the_ordinary_gross_starts(irb):
         tilt, slide = z[t] * sigma[t], z[s] * sigma[s]
         return np.array([(tilt + slide - 80.0) / 10.0, (slide - 60.0) / 30.0])
 
-    z = _start(params, fun, lo, hi, lambda m: None, free=("base.lateral_compliance",))
+    z = gross_start(params, fun, lo, hi, lambda m: None, free=("base.lateral_compliance",))
     assert z[s] * sigma[s] == pytest.approx(60.0)
     assert z[t] * sigma[t] == pytest.approx(20.0)
 
@@ -407,7 +407,7 @@ def test_a_start_rank_picks_the_gross_start_of_that_place_by_the_coarse_residual
     """The coarse residual does not rank the basins a fit ends in, so a fit can begin at the next
     gross starts; past the last, at the last (toy residual: least at gearboxes × 0.9, so the
     grid's 0.85 ranks first, the nominal second and 1.4 last)."""
-    from rmbench.calibrate.fit import _start
+    from rmbench.calibrate.start import gross_start
 
     _, params = parameter_set(irb, ("joints",))
     sigma = params.sigma()
@@ -416,7 +416,7 @@ def test_a_start_rank_picks_the_gross_start_of_that_place_by_the_coarse_residual
     def fun(z):
         return np.array([z[0] * sigma[0] - np.log(0.9)])
 
-    z = _start(params, fun, lo, hi, lambda m: None, rank=rank)
+    z = gross_start(params, fun, lo, hi, lambda m: None, rank=rank)
     np.testing.assert_allclose(np.exp(z * sigma), factor)     # every gearbox together
 
 def _with_frf(robot, design, data: ModalData) -> ModalData:

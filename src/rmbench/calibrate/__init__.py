@@ -16,11 +16,11 @@ gap diagnosis builds on it.
 
 from rmbench.calibrate.data import ModalData, load_modal_data, read_modal_table
 from rmbench.calibrate.design import SensorOffset, TestDesign
-from rmbench.calibrate.fit import (Calibration, CalibrationSettings, ParameterEstimate, calibrate, error_summary,
-                                   linearisation, mode_errors)
+from rmbench.calibrate.fit import CalibrationSettings, calibrate, linearisation
 from rmbench.calibrate.measured import MeasuredModes
 from rmbench.calibrate.model import ModalModel
 from rmbench.calibrate.modes import ModelModes, modes_seen
+from rmbench.calibrate.result import Calibration, ParameterEstimate, error_summary, mode_errors
 
 __all__ = ["calibrate", "Calibration", "CalibrationSettings", "ParameterEstimate", "mode_errors", "error_summary",
            "linearisation", "ModalData", "load_modal_data", "read_modal_table", "TestDesign", "SensorOffset",

@@ -15,9 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from rmbench.calibrate.data import ModalData
-from rmbench.calibrate.fit import CalibrationSettings, _Problem
+from rmbench.calibrate.fit import CalibrationSettings
 from rmbench.calibrate.measured import MeasuredModes
 from rmbench.calibrate.model import ModalModel
+from rmbench.calibrate.problem import Problem
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.robot.parameters import parameter_set
 
@@ -115,7 +116,7 @@ def suggest_postures(robot, data: ModalData, candidates, n: int = 4, *,
     sigma = params.sigma()
     info = np.zeros((len(params), len(params)))
     if n_data:
-        prob = _Problem(mm, full, range(n_data), settings)
+        prob = Problem(mm, full, range(n_data), settings)
         try:
             _, j = prob.jacobian(u0)
         finally:
@@ -124,7 +125,7 @@ def suggest_postures(robot, data: ModalData, candidates, n: int = 4, *,
         info = js.T @ js
     say(f"sensitivities of {len(usable)} candidates")
     rows = {}
-    prob = _Problem(mm, full, usable, settings)
+    prob = Problem(mm, full, usable, settings)
     try:
         _, j = prob.jacobian(u0)
     finally:
