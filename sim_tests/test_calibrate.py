@@ -269,6 +269,73 @@ def test_a_calibration_that_reaches_its_heldout_posture_is_not_widened(calibrate
     assert calibrated.n_held > 0 and calibrated.widening == 1.0
 
 
+def test_the_account_as_a_dict_is_strict_json_and_to_json_is_its_alias(calibrated):
+    out = calibrated.to_dict()
+    assert json.loads(json.dumps(out, allow_nan=False)) == json.loads(json.dumps(calibrated.to_json()))
+    assert [p["name"] for p in out["params"]] == [p.name for p in calibrated.params]
+    assert out["chi2_per_residual"]["after"] == calibrated.chi2_after / calibrated.n_residuals
+
+
+def test_the_summary_states_the_fit_the_heldout_errors_and_the_identifiable_parameters(calibrated):
+    text = calibrated.summary()
+    lines = text.splitlines()
+    assert len(lines) <= 5 + len(calibrated.params)
+    n = calibrated.n_residuals
+    assert f"{calibrated.chi2_before / n:.3g} before, {calibrated.chi2_after / n:.3g} after" in text
+    assert any(line.startswith("held-out errors: |f| mean") for line in lines)
+    known = [p.name for p in calibrated.params if p.identifiability == "identifiable"]
+    assert known and f"identifiable: {len(known)} of {len(calibrated.params)} parameters" in text
+    assert all(name in text for name in known)
+    assert not any(p.name in text for p in calibrated.params if p.name not in known)
+
+
+def test_the_calibration_plots_each_estimate_over_its_nominal_identifiable_ones_filled(calibrated):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = calibrated.plot()
+    try:
+        names = [t.get_text() for t in ax.get_yticklabels()]
+        assert names == [p.name for p in calibrated.params]        # every nominal here is non-zero
+        assert ax.get_xscale() == "log"
+        # one point per parameter, at value / nominal; the identifiable ones filled
+        drawn = {}
+        for line in ax.lines:
+            x, y = line.get_xdata(), line.get_ydata()
+            if len(x) and line.get_marker() == "o":
+                for xi, yi in zip(x, y):
+                    drawn[names[len(names) - 1 - int(round(yi))]] = (xi, line.get_markerfacecolor() != "none")
+        for p in calibrated.params:
+            ratio, filled = drawn[p.name]
+            assert ratio == pytest.approx(p.value / p.nominal, rel=1e-12)
+            assert filled == (p.identifiability == "identifiable"), p.name
+    finally:
+        plt.close(ax.figure)
+
+
+def test_a_parameter_of_nominal_zero_is_named_beside_the_plot_not_drawn():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rmbench.calibrate import ParameterEstimate
+    from rmbench.calibrate.plot import plot_estimates
+
+    params = [ParameterEstimate("j2_flex.stiffness", "joints", "N·m/rad", 2.0e6, 2.6e6, (2.5e6, 2.7e6),
+                                "identifiable", 0.05, False),
+              ParameterEstimate("forearm.com_x", "masses", "mm", 0.0, 12.0, (-3.0, 27.0), "weak", 0.5, False)]
+    fig, ax = plt.subplots()
+    try:
+        assert plot_estimates(params, ax=ax) is ax
+        assert [t.get_text() for t in ax.get_yticklabels()] == ["j2_flex.stiffness"]
+        assert any("nominal 0: forearm.com_x 12 [-3, 27] mm" in t.get_text() for t in ax.texts)
+    finally:
+        plt.close(fig)
+
+
 def test_each_parameter_states_the_resolution_that_matters(irb):
     _, params = parameter_set(irb, "all")
     by = {p.name: p for p in params}

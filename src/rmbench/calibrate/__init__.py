@@ -8,6 +8,8 @@
                     settings=CalibrationSettings(groups=("joints", "damping", "masses")))
     [(p.name, p.value, p.interval, p.identifiability) for p in cal.params]
     cal.heldout_summary()                                  # held-out errors before and after
+    print(cal.summary())                                   # χ² before/after, held-out errors, identifiable
+    cal.plot()                                             # each estimate over its nominal, 95 % interval
     Path("calibrated.xml").write_text(cal.xml)             # a robot every command accepts
 
 The measurement side (test design, measured modes, pairing and residuals) lives here too, and the
