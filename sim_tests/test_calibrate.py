@@ -236,14 +236,14 @@ def test_an_identifiable_parameter_is_fixed_to_its_resolution(calibrated):
 def _interval_widths(irb, held):
     """95 % interval widths in ``u`` of three gearboxes, each seen alone by 10 residuals of unit
     sensitivity, fitted to the noise (training χ² = dof), with the held-out ``(χ², n)`` given."""
-    from rmbench.calibrate.fit import _account
+    from rmbench.calibrate.account import account
+    from rmbench.calibrate.solver import Bounds
 
     _, params = parameter_set(irb, ("joints",))
     params = ParameterSet(list(params)[:3])
     j = np.kron(np.eye(3), np.ones((10, 1)))
-    sigma = params.sigma()
-    out, _, _, notes, widening = _account(params, np.zeros(3), j, sigma, chi2=27.0, n=30, lo=-np.ones(3) * 9,
-                                          hi=np.ones(3) * 9, held=held)
+    out, _, _, notes, widening = account(params, np.zeros(3), j, chi2=27.0, n=30,
+                                         bounds=Bounds(-np.ones(3) * 9, np.ones(3) * 9), held=held)
     return np.array([np.log(p.interval[1] / p.interval[0]) for p in out]), widening, notes
 
 
@@ -267,6 +267,73 @@ def test_a_heldout_fit_as_good_as_the_training_one_leaves_the_intervals(irb):
 def test_a_calibration_that_reaches_its_heldout_posture_is_not_widened(calibrated):
     # exact modes of a robot the parameters can reproduce: the held-out posture fits as well
     assert calibrated.n_held > 0 and calibrated.widening == 1.0
+
+
+def test_the_account_as_a_dict_is_strict_json_and_to_json_is_its_alias(calibrated):
+    out = calibrated.to_dict()
+    assert json.loads(json.dumps(out, allow_nan=False)) == json.loads(json.dumps(calibrated.to_json()))
+    assert [p["name"] for p in out["params"]] == [p.name for p in calibrated.params]
+    assert out["chi2_per_residual"]["after"] == calibrated.chi2_after / calibrated.n_residuals
+
+
+def test_the_summary_states_the_fit_the_heldout_errors_and_the_identifiable_parameters(calibrated):
+    text = calibrated.summary()
+    lines = text.splitlines()
+    assert len(lines) <= 5 + len(calibrated.params)
+    n = calibrated.n_residuals
+    assert f"{calibrated.chi2_before / n:.3g} before, {calibrated.chi2_after / n:.3g} after" in text
+    assert any(line.startswith("held-out errors: |f| mean") for line in lines)
+    known = [p.name for p in calibrated.params if p.identifiability == "identifiable"]
+    assert known and f"identifiable: {len(known)} of {len(calibrated.params)} parameters" in text
+    assert all(name in text for name in known)
+    assert not any(p.name in text for p in calibrated.params if p.name not in known)
+
+
+def test_the_calibration_plots_each_estimate_over_its_nominal_identifiable_ones_filled(calibrated):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = calibrated.plot()
+    try:
+        names = [t.get_text() for t in ax.get_yticklabels()]
+        assert names == [p.name for p in calibrated.params]        # every nominal here is non-zero
+        assert ax.get_xscale() == "log"
+        # one point per parameter, at value / nominal; the identifiable ones filled
+        drawn = {}
+        for line in ax.lines:
+            x, y = line.get_xdata(), line.get_ydata()
+            if len(x) and line.get_marker() == "o":
+                for xi, yi in zip(x, y):
+                    drawn[names[len(names) - 1 - int(round(yi))]] = (xi, line.get_markerfacecolor() != "none")
+        for p in calibrated.params:
+            ratio, filled = drawn[p.name]
+            assert ratio == pytest.approx(p.value / p.nominal, rel=1e-12)
+            assert filled == (p.identifiability == "identifiable"), p.name
+    finally:
+        plt.close(ax.figure)
+
+
+def test_a_parameter_of_nominal_zero_is_named_beside_the_plot_not_drawn():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rmbench.calibrate import ParameterEstimate
+    from rmbench.calibrate.plot import plot_estimates
+
+    params = [ParameterEstimate("j2_flex.stiffness", "joints", "N·m/rad", 2.0e6, 2.6e6, (2.5e6, 2.7e6),
+                                "identifiable", 0.05, False),
+              ParameterEstimate("forearm.com_x", "masses", "mm", 0.0, 12.0, (-3.0, 27.0), "weak", 0.5, False)]
+    fig, ax = plt.subplots()
+    try:
+        assert plot_estimates(params, ax=ax) is ax
+        assert [t.get_text() for t in ax.get_yticklabels()] == ["j2_flex.stiffness"]
+        assert any("nominal 0: forearm.com_x 12 [-3, 27] mm" in t.get_text() for t in ax.texts)
+    finally:
+        plt.close(fig)
 
 
 def test_each_parameter_states_the_resolution_that_matters(irb):
@@ -365,7 +432,7 @@ def test_a_freed_parameter_reaches_far_beyond_its_prior_range(irb):
 def test_a_freed_foundation_starts_at_the_gross_size_the_data_prefer(irb):
     """A fit started at a rigid foundation (its bound) stalls there: a freed parameter starts at the
     best of its nominal and its gross sizes (a fifth and half of a foundation's range)."""
-    from rmbench.calibrate.fit import _free_start
+    from rmbench.calibrate.start import free_start
 
     _, params = parameter_set(irb, ("joints",), extra=("base.lateral_compliance",))
     params = params.freed(("base.lateral_compliance",))
@@ -375,7 +442,7 @@ def test_a_freed_foundation_starts_at_the_gross_size_the_data_prefer(irb):
     def fun(z):     # residuals least at a 60 µm/kN foundation (a fifth of 0-300)
         return np.array([z[i] * sigma[i] - 60.0])
 
-    z = _free_start(params, ("base.lateral_compliance",), fun, np.zeros(len(params)), lo, hi, lambda m: None)
+    z = free_start(params, ("base.lateral_compliance",), fun, np.zeros(len(params)), lo, hi, lambda m: None)
     assert z[i] * sigma[i] == pytest.approx(60.0)
     assert not np.any(z[:i])                      # the ordinary parameters keep their start
 
@@ -385,7 +452,7 @@ def test_a_freed_size_is_searched_jointly_with_the_ordinary_gross_starts(irb):
     """A base tilt mimics a foundation's slide: chosen first with the slide at its nominal, the tilt
     takes up the slide and the slide then stays at its nominal. Searched jointly, the start finds
     both (toy residuals: their combined compliance is 80 units, the slide's own signature 60)."""
-    from rmbench.calibrate.fit import _start
+    from rmbench.calibrate.start import gross_start
 
     _, params = parameter_set(irb, ("joints", "base"), extra=("base.lateral_compliance",))
     params = params.freed(("base.lateral_compliance",))
@@ -397,7 +464,7 @@ def test_a_freed_size_is_searched_jointly_with_the_ordinary_gross_starts(irb):
         tilt, slide = z[t] * sigma[t], z[s] * sigma[s]
         return np.array([(tilt + slide - 80.0) / 10.0, (slide - 60.0) / 30.0])
 
-    z = _start(params, fun, lo, hi, lambda m: None, free=("base.lateral_compliance",))
+    z = gross_start(params, fun, lo, hi, lambda m: None, free=("base.lateral_compliance",))
     assert z[s] * sigma[s] == pytest.approx(60.0)
     assert z[t] * sigma[t] == pytest.approx(20.0)
 
@@ -407,7 +474,7 @@ def test_a_start_rank_picks_the_gross_start_of_that_place_by_the_coarse_residual
     """The coarse residual does not rank the basins a fit ends in, so a fit can begin at the next
     gross starts; past the last, at the last (toy residual: least at gearboxes × 0.9, so the
     grid's 0.85 ranks first, the nominal second and 1.4 last)."""
-    from rmbench.calibrate.fit import _start
+    from rmbench.calibrate.start import gross_start
 
     _, params = parameter_set(irb, ("joints",))
     sigma = params.sigma()
@@ -416,7 +483,7 @@ def test_a_start_rank_picks_the_gross_start_of_that_place_by_the_coarse_residual
     def fun(z):
         return np.array([z[0] * sigma[0] - np.log(0.9)])
 
-    z = _start(params, fun, lo, hi, lambda m: None, rank=rank)
+    z = gross_start(params, fun, lo, hi, lambda m: None, rank=rank)
     np.testing.assert_allclose(np.exp(z * sigma), factor)     # every gearbox together
 
 def _with_frf(robot, design, data: ModalData) -> ModalData:

@@ -4,7 +4,7 @@ a maximum a posteriori fit with a Gaussian prior per parameter, bounds, and its 
 import numpy as np
 import pytest
 
-from rmbench.calibrate.solver import identifiability, posterior, solve
+from rmbench.calibrate.solver import Bounds, SolverOptions, identifiability, posterior, solve
 
 
 def _linear(a, y):
@@ -15,7 +15,7 @@ def test_a_linear_problem_lands_on_the_closed_form_posterior_mean():
     rng = np.random.default_rng(0)
     a, y = rng.normal(size=(30, 3)), rng.normal(size=30)
     sd = np.array([0.5, 1.0, np.inf])
-    sol = solve(*_linear(a, y), np.zeros(3), prior_sd=sd, max_nfev=50)
+    sol = solve(*_linear(a, y), np.zeros(3), prior_sd=sd, options=SolverOptions(max_nfev=50))
     precision = np.array([4.0, 1.0, 0.0])
     expected = np.linalg.solve(a.T @ a + np.diag(precision), a.T @ y)
     # a linear problem is one Gauss-Newton step: the solver's tolerance (1e-4 of x) is the only gap
@@ -25,9 +25,20 @@ def test_a_linear_problem_lands_on_the_closed_form_posterior_mean():
 
 def test_a_bound_holds_the_parameter_the_data_push_past_it():
     a, y = np.eye(2), np.array([3.0, 0.5])
-    sol = solve(*_linear(a, y), np.zeros(2), prior_sd=[np.inf, np.inf], lower=[-1, -1], upper=[1, 1],
-                max_nfev=50)
+    sol = solve(*_linear(a, y), np.zeros(2), prior_sd=[np.inf, np.inf], bounds=Bounds([-1, -1], [1, 1]),
+                options=SolverOptions(max_nfev=50))
     assert sol.x[0] == pytest.approx(1.0, abs=1e-6) and sol.x[1] == pytest.approx(0.5, abs=1e-4)
+
+
+def test_a_one_sided_bound_leaves_the_other_side_open():
+    lo, hi = Bounds(lower=[0.0, -1.0]).arrays(2)
+    np.testing.assert_array_equal(lo, [0.0, -1.0])
+    assert np.all(np.isinf(hi)) and np.all(hi > 0)
+
+
+def test_solver_options_refuse_no_evaluations():
+    with pytest.raises(ValueError, match="max_nfev must be at least 1, got 0"):
+        SolverOptions(max_nfev=0)
 
 
 def test_a_parameter_the_data_do_not_see_keeps_its_prior_and_is_not_identifiable():

@@ -8,6 +8,8 @@
                     settings=CalibrationSettings(groups=("joints", "damping", "masses")))
     [(p.name, p.value, p.interval, p.identifiability) for p in cal.params]
     cal.heldout_summary()                                  # held-out errors before and after
+    print(cal.summary())                                   # χ² before/after, held-out errors, identifiable
+    cal.plot()                                             # each estimate over its nominal, 95 % interval
     Path("calibrated.xml").write_text(cal.xml)             # a robot every command accepts
 
 The measurement side (test design, measured modes, pairing and residuals) lives here too, and the
@@ -16,11 +18,11 @@ gap diagnosis builds on it.
 
 from rmbench.calibrate.data import ModalData, load_modal_data, read_modal_table
 from rmbench.calibrate.design import SensorOffset, TestDesign
-from rmbench.calibrate.fit import (Calibration, CalibrationSettings, ParameterEstimate, calibrate, error_summary,
-                                   linearisation, mode_errors)
+from rmbench.calibrate.fit import CalibrationSettings, calibrate, linearisation
 from rmbench.calibrate.measured import MeasuredModes
 from rmbench.calibrate.model import ModalModel
 from rmbench.calibrate.modes import ModelModes, modes_seen
+from rmbench.calibrate.result import Calibration, ParameterEstimate, error_summary, mode_errors
 
 __all__ = ["calibrate", "Calibration", "CalibrationSettings", "ParameterEstimate", "mode_errors", "error_summary",
            "linearisation", "ModalData", "load_modal_data", "read_modal_table", "TestDesign", "SensorOffset",

@@ -43,7 +43,7 @@ import numpy as np
 from rmbench.modeshape import pair_modes
 
 __all__ = ["overlap", "FLOORS", "UNPAIRED", "Pairing", "pair", "mode_residuals", "n_slots", "SLOT_NAMES", "penalties",
-           "FrfTarget", "frf_target", "frf_residuals", "FRF_FLOOR", "FRF_SEGMENTS", "hammer_leak"]
+           "coarse_residuals", "FrfTarget", "frf_target", "frf_residuals", "FRF_FLOOR", "FRF_SEGMENTS", "hammer_leak"]
 
 FLOORS = {"f": 1e-3, "zeta": 0.03, "scale": 0.03, "shape": 0.02}
 UNPAIRED = 10.0           # a missing or surplus mode weighs as a 10-sigma gap
@@ -153,6 +153,32 @@ def mode_residuals(meas, model, pairing: Pairing | None = None) -> tuple[np.ndar
         e[~np.isfinite(e)] = 0.0   # no shape measured: nothing to compare
     extra = UNPAIRED * np.sqrt(len(pairing.unpaired_model))
     return np.append(e.ravel(), extra), pairing
+
+
+_COARSE_F = 0.02          # coarse stage: frequency uncertainty (relative)
+_COARSE_SCALE = 0.4       # coarse pairing: 40 % in frequency weighs as much as MAC 0 -> 1
+_COARSE_MISSING = np.log(1.5) / _COARSE_F   # an unpaired mode weighs as a 50 % frequency error
+
+
+def coarse_residuals(meas, model, pairing: Pairing | None = None) -> tuple[np.ndarray, Pairing]:
+    """The coarse stage's residual of one posture and band, in the layout of
+    :func:`mode_residuals` (4 slots a measured mode, 1 a band): each
+    measured mode's frequency error over 2 %, paired by MAC and frequency in a window of ±50 %.
+
+    Far from the truth (a robot whose gearboxes and foundation differ from the data sheet by tens
+    of per cent) the fine residual's floors (0.1 % in frequency) make losing a mode cheaper than
+    pairing it 15 % off; here a lost mode costs more than any pairing, so the fit moves toward
+    pairing every mode.
+    """
+    n = len(meas)
+    if pairing is None:
+        rows, cols = pair_modes(meas.f_n, model.f_n, meas.residue, model.residue, freq_scale=_COARSE_SCALE,
+                                window=1.5, zero=1.0)
+        pairing = Pairing(rows, cols, np.setdiff1d(np.arange(n), rows), np.zeros(0, int))
+    e = np.zeros((n, 4))
+    e[pairing.unpaired_meas, 0] = _COARSE_MISSING
+    e[pairing.meas, 0] = np.log(model.f_n[pairing.model] / meas.f_n[pairing.meas]) / _COARSE_F
+    return np.append(e.ravel(), 0.0), pairing
 
 
 def _finite(x):

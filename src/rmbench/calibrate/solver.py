@@ -22,10 +22,57 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-__all__ = ["IDENTIFIABLE", "WEAK", "Solution", "Posterior", "solve", "posterior", "identifiability"]
+__all__ = ["IDENTIFIABLE", "WEAK", "Bounds", "SolverOptions", "Solution", "Posterior", "solve", "posterior",
+           "identifiability"]
 
 IDENTIFIABLE = 0.3     # posterior over reference standard deviation below this: identifiable
 WEAK = 0.7             # below this: weakly identifiable
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Bounds on x, ``lower ≤ x ≤ upper``.
+
+    Attributes
+    ----------
+    lower, upper : array_like, shape (k,), or None
+        In x's units; None: unbounded on that side.
+    """
+
+    lower: np.ndarray | None = None
+    upper: np.ndarray | None = None
+
+    def arrays(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(lower, upper)`` as float arrays of length ``k`` (±inf where unbounded)."""
+        lo = np.full(k, -np.inf) if self.lower is None else np.asarray(self.lower, float)
+        hi = np.full(k, np.inf) if self.upper is None else np.asarray(self.upper, float)
+        return lo, hi
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """When the solver stops, and how it scales x (scipy's ``least_squares`` options).
+
+    Attributes
+    ----------
+    max_nfev : int
+        Most residual evaluations.
+    x_scale : float, array_like or "jac"
+        scipy's variable scaling: 1 where x is already in comparable units (prior standard
+        deviations), ``"jac"`` where it is in SI of different sizes.
+    xtol, ftol, gtol : float
+        scipy's tolerances on the step, the cost's change and the gradient.
+    """
+
+    max_nfev: int = 16
+    x_scale: float | str | np.ndarray = 1.0
+    xtol: float = 1e-4
+    ftol: float = 1e-6
+    gtol: float = 1e-8
+
+    def __post_init__(self):
+        if int(self.max_nfev) < 1:
+            raise ValueError(f"max_nfev must be at least 1, got {self.max_nfev}")
 
 
 @dataclass(frozen=True)
@@ -83,8 +130,8 @@ def _weights(prior_sd) -> np.ndarray:
     return np.where(np.isfinite(sd), 1.0 / np.where(np.isfinite(sd), sd, 1.0), 0.0)
 
 
-def solve(residuals, jacobian, x0, *, prior_sd, lower=None, upper=None, max_nfev: int = 16,
-          x_scale=1.0, xtol: float = 1e-4, ftol: float = 1e-6, gtol: float = 1e-8) -> Solution:
+def solve(residuals, jacobian, x0, *, prior_sd, bounds: Bounds = Bounds(),
+          options: SolverOptions = SolverOptions()) -> Solution:
     """Minimise ``|r(x)|² + Σ (x_i/σ_i)²`` within bounds.
 
     Parameters
@@ -97,13 +144,10 @@ def solve(residuals, jacobian, x0, *, prior_sd, lower=None, upper=None, max_nfev
         The start (inside the bounds).
     prior_sd : array_like, shape (k,)
         The prior's standard deviation per parameter, in x's units; ``inf`` for none.
-    lower, upper : array_like, shape (k,), optional
-        Bounds (default none).
-    max_nfev : int
-        Most residual evaluations.
-    x_scale : float, array_like or "jac"
-        scipy's variable scaling: 1 where x is already in comparable units (prior standard
-        deviations), ``"jac"`` where it is in SI of different sizes.
+    bounds : Bounds
+        Bounds on x (default none).
+    options : SolverOptions
+        Most evaluations, scaling and tolerances.
     """
     x0 = np.asarray(x0, float)
     w = _weights(prior_sd)
@@ -115,13 +159,12 @@ def solve(residuals, jacobian, x0, *, prior_sd, lower=None, upper=None, max_nfev
         return np.vstack([jacobian(x), np.diag(w)])
 
     k = len(x0)
-    lo = np.full(k, -np.inf) if lower is None else np.asarray(lower, float)
-    hi = np.full(k, np.inf) if upper is None else np.asarray(upper, float)
+    lo, hi = bounds.arrays(k)
     # one BLAS thread: the solver's matrices are a few hundred by a few dozen, where a second
     # thread only waits (a 528 x 24 SVD: 0.5 ms on one thread, 200 ms on two beside other work)
     with threadpool_limits(limits=1, user_api="blas"):
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=x_scale,
-                            max_nfev=max_nfev, xtol=xtol, ftol=ftol, gtol=gtol)
+        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=options.x_scale,
+                            max_nfev=options.max_nfev, xtol=options.xtol, ftol=options.ftol, gtol=options.gtol)
     r = sol.fun[:len(sol.fun) - k]          # the data rows, as evaluated at the solution
     return Solution(x=sol.x, chi2=float(r @ r), chi2_prior=float(np.sum((w * sol.x) ** 2)),
                     nfev=int(sol.nfev), at_limit=sol.status == 0)

@@ -15,9 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from rmbench.calibrate.data import ModalData
-from rmbench.calibrate.fit import CalibrationSettings, _Problem
+from rmbench.calibrate.fit import CalibrationSettings
 from rmbench.calibrate.measured import MeasuredModes
 from rmbench.calibrate.model import ModalModel
+from rmbench.calibrate.problem import Problem
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
 from rmbench.robot.parameters import parameter_set
 
@@ -88,15 +89,7 @@ def suggest_postures(robot, data: ModalData, candidates, n: int = 4, *,
     if n < 1:
         raise InputError(f"-n must be at least 1, got {n}")
     rob, params = parameter_set(robot, settings.groups)
-    reach, q, skipped = [], [], []
-    for post in list(data.postures) + list(candidates):
-        try:
-            q.append(robot.ik(post).q)
-            reach.append(post)
-        except UnreachablePosture as err:
-            if post in data.postures:
-                raise InputError(f"the data's postures are not this robot's: {err}") from None
-            skipped.append(f"{post.label()}: unreachable")
+    reach, q, skipped = _reachable(robot, data, candidates)
     mm = ModalModel(rob, params, data.design, np.array(q), data.bands)
     u0 = np.zeros(len(params))
     n_data = len(data)
@@ -112,30 +105,55 @@ def suggest_postures(robot, data: ModalData, candidates, n: int = 4, *,
     if not usable:
         raise InputError("no candidate posture can be reached and held by this robot")
     full = ModalData(tuple(reach), tuple(modes), data.bands, data.design, data.source)
-    sigma = params.sigma()
     info = np.zeros((len(params), len(params)))
     if n_data:
-        prob = _Problem(mm, full, range(n_data), settings)
-        try:
-            _, j = prob.jacobian(u0)
-        finally:
-            prob.close()
-        js = j * sigma[None, :]
+        js = np.vstack(list(_rows(mm, full, range(n_data), settings).values()))
         info = js.T @ js
     say(f"sensitivities of {len(usable)} candidates")
-    rows = {}
-    prob = _Problem(mm, full, usable, settings)
-    try:
-        _, j = prob.jacobian(u0)
-    finally:
-        prob.close()
-    start = 0
-    for (p, b), size in zip(prob.keys, prob.sizes):
-        rows.setdefault(p, []).append(j[start:start + size] * sigma[None, :])
-        start += size
-    cand = {p: np.vstack(r) for p, r in rows.items()}
+    cand = _rows(mm, full, usable, settings)
     precision = info + np.eye(len(params))
     sd_before = np.sqrt(np.diag(np.linalg.inv(precision)))
+    picked, gains, precision = _greedy(precision, cand, n)
+    sd_after = np.sqrt(np.diag(np.linalg.inv(precision)))
+    return Suggestion(postures=tuple(reach[p] for p in picked), gain=tuple(gains), skipped=tuple(skipped),
+                      sd_before=dict(zip(params.names, sd_before.tolist())),
+                      sd_after=dict(zip(params.names, sd_after.tolist())))
+
+
+def _reachable(robot, data: ModalData, candidates) -> tuple[list, list, list]:
+    """``(postures, q, skipped)``: the data's postures and the candidates the robot reaches, their
+    joint angles, and the unreachable candidates named; a data posture it cannot reach is an error."""
+    reach, q, skipped = [], [], []
+    for post in list(data.postures) + list(candidates):
+        try:
+            q.append(robot.ik(post).q)
+            reach.append(post)
+        except UnreachablePosture as err:
+            if post in data.postures:
+                raise InputError(f"the data's postures are not this robot's: {err}") from None
+            skipped.append(f"{post.label()}: unreachable")
+    return reach, q, skipped
+
+
+def _rows(mm: ModalModel, data: ModalData, postures, settings) -> dict:
+    """``{posture: J}``: the sensitivity rows of each posture's modes at the nominal, per prior
+    standard deviation, shape (n_rows, n_params)."""
+    sigma = mm.params.sigma()
+    prob = Problem(mm, data, postures, settings)
+    try:
+        _, j = prob.jacobian(np.zeros(len(mm.params)))
+    finally:
+        prob.close()
+    rows, start = {}, 0
+    for (p, _), size in zip(prob.keys, prob.sizes):
+        rows.setdefault(p, []).append(j[start:start + size] * sigma[None, :])
+        start += size
+    return {p: np.vstack(r) for p, r in rows.items()}
+
+
+def _greedy(precision: np.ndarray, cand: dict, n: int) -> tuple[list, list, np.ndarray]:
+    """Up to ``n`` postures of ``cand`` (``{posture: J}``) picked one after the other, each the
+    one that raises ``ln det`` of the precision most: ``(picked, gains in nats, precision after)``."""
     picked, gains = [], []
     _, logdet = np.linalg.slogdet(precision)
     for _ in range(min(n, len(cand))):
@@ -150,7 +168,4 @@ def suggest_postures(robot, data: ModalData, candidates, n: int = 4, *,
         gains.append(float(best_val - logdet))
         precision = precision + cand[best].T @ cand[best]
         logdet = best_val
-    sd_after = np.sqrt(np.diag(np.linalg.inv(precision)))
-    return Suggestion(postures=tuple(reach[p] for p in picked), gain=tuple(gains), skipped=tuple(skipped),
-                      sd_before=dict(zip(params.names, sd_before.tolist())),
-                      sd_after=dict(zip(params.names, sd_after.tolist())))
+    return picked, gains, precision

@@ -131,7 +131,7 @@ class Engine:
         the prior of the calibrated parameters: the calibration stage's regularised least squares
         (:func:`rmbench.calibrate.solver.solve`), in x = (source values, registration translation
         and small rotation about the start's)."""
-        from rmbench.calibrate.solver import solve
+        from rmbench.calibrate.solver import SolverOptions, solve
 
         sources = tuple(sources)
         values = [np.zeros(s.n_params) for s in sources] if start is None else \
@@ -157,7 +157,7 @@ class Engine:
 
         x0 = np.concatenate(values + [np.zeros(6)])
         sol = solve(residuals, jacobian, x0, prior_sd=np.concatenate([self.prior_sd(sources), np.full(6, np.inf)]),
-                    max_nfev=2 * iterations, x_scale="jac", xtol=1e-8, ftol=1e-9, gtol=1e-10)
+                    options=SolverOptions(max_nfev=2 * iterations, x_scale="jac", xtol=1e-8, ftol=1e-9, gtol=1e-10))
         vals, rot, trans = unpack(sol.x)
         return self.score(sources, vals, rot, trans)
 
