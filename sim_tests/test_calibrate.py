@@ -570,3 +570,22 @@ def test_sensitivity_steps_follow_the_exact_modes_to_second_order(irb, design, n
     moved = np.abs(exact.f_n - base.f_n).max()
     assert moved > 0
     assert np.abs(first.f_n - exact.f_n).max() < 0.05 * moved
+
+
+def test_held_out_postures_are_every_other_one_in_angle_then_position_order():
+    # a 2 x 2 x 3 grid: holding half out must leave every angle on both sides of the split, so
+    # the held-out score is an interpolation across the workspace, not an extrapolation in θ
+    from rmbench.calibrate import spread_held_out
+
+    theta, x, y = np.meshgrid(np.radians([-30.0, 0.0, 30.0]), [1.5, 1.8], [-0.2, 0.2], indexing="ij")
+    held = spread_held_out(x.ravel(), y.ravel(), theta.ravel(), 6)
+    assert len(held) == 6
+    assert sorted(set(theta.ravel()[held])) == sorted(set(theta.ravel()))
+    train = [i for i in range(12) if i not in held]
+    assert sorted(set(theta.ravel()[train])) == sorted(set(theta.ravel()))
+
+
+def test_holding_none_out_holds_none():
+    from rmbench.calibrate import spread_held_out
+
+    assert spread_held_out([1.0, 2.0], [0.0, 0.0], [0.0, 0.0], 0) == []

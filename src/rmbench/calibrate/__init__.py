@@ -23,7 +23,8 @@ from rmbench.calibrate.measured import MeasuredModes
 from rmbench.calibrate.model import ModalModel
 from rmbench.calibrate.modes import ModelModes, modes_seen
 from rmbench.calibrate.result import Calibration, ParameterEstimate, error_summary, mode_errors
+from rmbench.calibrate.split import spread_held_out
 
 __all__ = ["calibrate", "Calibration", "CalibrationSettings", "ParameterEstimate", "mode_errors", "error_summary",
            "linearisation", "ModalData", "load_modal_data", "read_modal_table", "TestDesign", "SensorOffset",
-           "MeasuredModes", "ModalModel", "ModelModes", "modes_seen"]
+           "MeasuredModes", "ModalModel", "ModelModes", "modes_seen", "spread_held_out"]

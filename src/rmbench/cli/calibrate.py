@@ -68,12 +68,10 @@ def _spread(data, k: int) -> list[int]:
     n = len(data)
     if k < 0 or k >= n:
         raise InputError(f"--heldout must be between 0 and {n - 1} (the data have {n} postures), got {k}")
-    if k == 0:
-        return []
-    xs = np.array([[p.theta, p.x, p.y] for p in data.postures])
-    order = np.lexsort((xs[:, 2], xs[:, 1], xs[:, 0]))
-    step = n / k
-    return sorted({int(order[int(i * step + step / 2) % n]) for i in range(k)})
+    from rmbench.calibrate.split import spread_held_out
+
+    post = data.postures
+    return spread_held_out([p.x for p in post], [p.y for p in post], [p.theta for p in post], k)
 
 
 def cmd_calibrate(args) -> int:

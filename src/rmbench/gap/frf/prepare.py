@@ -15,6 +15,7 @@ import xarray as xr
 from rmbench.calibrate.design import TestDesign
 from rmbench.calibrate.measured import fit_measured, frf_targets, measured_data, postures_of
 from rmbench.calibrate.residual import mode_residuals
+from rmbench.calibrate.split import spread_held_out
 from rmbench.errors import InputError, UnreachablePosture
 from rmbench.gap.frf.effects import Change
 from rmbench.gap.frf.model import ModelBench
@@ -203,13 +204,11 @@ def _split(ds, heldout: float) -> tuple[list[int], list[int]]:
     """Training and held-out postures: every other posture in (θ, x, y) order (a share
     ``heldout`` held out), so both cover the workspace."""
     n = ds.sizes["posture"]
-    order = np.lexsort((ds.y.values, ds.x.values, ds.theta.values))
     if n < 2:
         raise InputError("a diagnosis needs at least 2 measured postures (fit on some, score on "
                          "the others)")
     k = max(1, min(n - 1, int(round(heldout * n))))
-    step = n / k
-    held = sorted({int(order[int(i * step + step / 2) % n]) for i in range(k)})
+    held = spread_held_out(ds.x.values, ds.y.values, ds.theta.values, k)
     train = [p for p in range(n) if p not in held]
     return train, held
 
