@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from rmbench.gap.cases.blind import Hidden, _within_library, draw_case, inject, summarise
+from rmbench.gap.cases.blind import summarise
+from rmbench.gap.cases.hidden import Hidden, draw_case, inject, within_library
 from rmbench.robot import Robot
 
 
@@ -75,17 +76,17 @@ def test_a_bending_link_has_a_hinge_about_an_axis_none_of_its_joints_has(robot):
 
 
 def test_out_of_library_draws_cover_every_outside_kind():
-    from rmbench.gap.cases.blind import _OUT_KINDS
+    from rmbench.gap.cases.hidden import OUT_KINDS
 
     rng = np.random.default_rng(1)
     kinds = {draw_case(rng, "out")[0].kind for _ in range(200)}
-    assert kinds == set(_OUT_KINDS)
+    assert kinds == set(OUT_KINDS)
 
 
 def test_hidden_effects_stay_inside_the_librarys_ranges():
-    assert _within_library(Hidden("servo_stiffness", "a4", {"factor": 0.05}))
-    assert not _within_library(Hidden("servo_stiffness", "a4", {"factor": 0.005}))
-    assert _within_library(Hidden("tendon_coupling", "j2_flex+j3_flex", {"fraction": 5.0}))
+    assert within_library(Hidden("servo_stiffness", "a4", {"factor": 0.05}))
+    assert not within_library(Hidden("servo_stiffness", "a4", {"factor": 0.005}))
+    assert within_library(Hidden("tendon_coupling", "j2_flex+j3_flex", {"fraction": 5.0}))
 
 
 def test_summary_counts_each_kind_of_case():

@@ -8,7 +8,7 @@ import pytest
 import rmbench.robot.variant as variant
 from rmbench.errors import ModelError
 from rmbench.gap.cases import truth
-from rmbench.gap.cases.blind import Hidden, _scaled, inject
+from rmbench.gap.cases.hidden import Hidden, inject, scaled
 from rmbench.robot import Robot
 
 
@@ -160,7 +160,7 @@ _ONE_OF_EACH = [Hidden("joint_stiffness", "j2_flex", {"factor": 1.3}),
 
 @pytest.mark.parametrize("hidden", _ONE_OF_EACH, ids=[h.kind for h in _ONE_OF_EACH])
 def test_injecting_with_a_scale_is_injecting_the_scaled_effect_a_case_reports(robot, hidden):
-    assert inject(robot, (hidden,), 1.6)[0] == inject(robot, (_scaled(hidden, 1.6),))[0]
+    assert inject(robot, (hidden,), 1.6)[0] == inject(robot, (scaled(hidden, 1.6),))[0]
 
 
 def test_an_edit_of_a_missing_attribute_is_an_error_not_a_zero():

@@ -221,7 +221,7 @@ def _blind_tracker(args) -> int:
 
 
 def cmd_blind(args) -> int:
-    from rmbench.gap.cases.blind import run_blind
+    from rmbench.gap.cases.blind import BlindOptions, run_blind
 
     if args.cases < 1:
         raise InputError(f"--cases must be at least 1, got {args.cases}")
@@ -236,9 +236,9 @@ def cmd_blind(args) -> int:
             print(f"case {case.index} ({case.method}): hidden {hidden}; {case.verdict}, top {top}, "
                   f"shrink {100 * case.shrink:.0f} %", file=sys.stderr)
 
-    report = run_blind(args.cases, args.seed, method=args.method, time_share=args.time_share,
-                       workers=args.workers, scheduler=args.scheduler, progress=progress,
-                       out=args.out or None)
+    options = BlindOptions(method=args.method, time_share=args.time_share, workers=args.workers,
+                           scheduler=args.scheduler)
+    report = run_blind(args.cases, args.seed, options, progress=progress, out=args.out or None)
     s = report.summary
     if args.json:
         print_json(s)

@@ -3,8 +3,8 @@
 Each case draws one hidden effect (three cases in five), two at once (one in five), or one outside
 the diagnosis's library (one in five: an extra resonator — a hose package on a spring at a link —,
 a tendon coupling two joints, a mass 0.25-0.4 m off a body's origin, or a link that bends about
-an axis no joint has, at mid-span). The effect is injected into a copy of the nominal MJCF by plain
-XML edits of its own (:mod:`.truth`: never the variant code, the calibration's parameters or the
+an axis no joint has, at mid-span: :mod:`.hidden`). The effect is injected into a copy of the
+nominal MJCF by plain XML edits of its own (:mod:`.truth`: never the variant code, the calibration's parameters or the
 diagnosis's library, which build the candidates), with a magnitude drawn large enough to change
 the exact FRF by at least ``VISIBLE_DB`` somewhere. A campaign measures the changed robot commanded by the nominal
 robot's inverse kinematics; the data go out to UFF58 and back (so nothing but FRFs, postures and the
@@ -34,243 +34,12 @@ import numpy as np
 from rmbench.errors import RmbenchError
 from rmbench.io.strict_json import strict_dumps
 from rmbench.robot import Robot, seed_grid
-from rmbench.gap.cases import truth as edit
+from rmbench.gap.cases.hidden import OUT_KINDS, Hidden, draw_case, inject, scaled, within_library
 
-__all__ = ["Hidden", "CaseResult", "BlindReport", "draw_case", "inject", "run_case", "run_blind",
-           "VISIBLE_DB"]
+__all__ = ["Hidden", "CaseResult", "BlindReport", "CaseOptions", "BlindOptions", "draw_case", "inject",
+           "run_case", "run_blind", "VISIBLE_DB"]
 
 VISIBLE_DB = 1.0          # the hidden change moves the exact FRF by this much (rms over a band) somewhere
-_IN_LIBRARY_KINDS = ("joint_stiffness", "joint_damping", "load_dependent_stiffness",
-                     "servo_stiffness", "tool_contact_stiffness", "spindle_stiffness",
-                     "base_compliance", "added_mass", "sensor_misplacement", "sensor_misalignment",
-                     "non_reciprocity")
-_OUT_KINDS = ("hose_resonator", "tendon_coupling", "offset_mass", "link_bending")
-# a link bending at mid-span about an axis none of its joints has, against the stiffness of
-# the flexible joint at its root: (its flex joint, the point, the axis, in the link's frame)
-_BENDING = {"lower_arm": ("j2_flex", (0.0, 0.0, 0.35), (1.0, 0.0, 0.0)),
-            "forearm": ("j4_flex", (0.45, 0.0, 0.0), (0.0, 0.0, 1.0))}
-_FLEX = ("j1_flex", "j2_flex", "j3_flex", "j4_flex", "j5_flex", "j6_flex")
-_BODIES = ("lower_arm", "upper_arm", "forearm", "wrist", "flange", "spindle_rotor")
-_SENSORS = ("1X", "1Y", "1aX", "1aY")
-_TEST_KINDS = ("sensor_misplacement", "sensor_misalignment", "non_reciprocity")   # change the test, not the robot
-# joint-name prefix and the value keys of its (x, y) and (rx, ry) stiffness
-_PAIRS = {"tool_contact_stiffness": ("tool_contact", ("translation", "rotation")),
-          "spindle_stiffness": ("spindle", ("radial", "tilt"))}
-
-
-@dataclass(frozen=True)
-class Hidden:
-    """One hidden effect: what was injected, where, how much.
-
-    Attributes
-    ----------
-    kind : str
-        A library kind, or ``hose_resonator``, ``tendon_coupling``, ``offset_mass``,
-        ``link_bending`` (outside the library).
-    location : str
-        In the diagnosis's naming (MJCF name, ``BAND:COORD``, ``tool_contact``, ...).
-    value : dict
-        The injected magnitude(s), in the units of the kind.
-    """
-
-    kind: str
-    location: str
-    value: dict
-
-    @property
-    def in_library(self) -> bool:
-        return self.kind in _IN_LIBRARY_KINDS
-
-    @property
-    def name(self) -> str:
-        return f"{self.kind}@{self.location}"
-
-
-def draw_case(rng: np.random.Generator, kind: str | None = None) -> tuple[Hidden, ...]:
-    """The hidden effect(s) of one case: one (3 in 5), two (1 in 5), or one out of the library."""
-    if kind is None:
-        u = rng.random()
-        kind = "one" if u < 0.6 else ("two" if u < 0.8 else "out")
-    if kind == "out":
-        return (_draw_out(rng),)
-    first = _draw_in(rng)
-    if kind == "one":
-        return (first,)
-    while True:
-        second = _draw_in(rng)
-        if second.kind != first.kind or second.location != first.location:
-            return (first, second)
-
-
-def _sign(rng):
-    return 1.0 if rng.random() < 0.5 else -1.0
-
-
-def _factor(rng, lo, hi):
-    """A factor log-uniform in [lo, hi] or in [1/hi, 1/lo]."""
-    f = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
-    return f if rng.random() < 0.5 else 1 / f
-
-
-def _draw_in(rng) -> Hidden:
-    kind = _IN_LIBRARY_KINDS[int(rng.integers(len(_IN_LIBRARY_KINDS)))]
-    if kind in ("joint_stiffness", "joint_damping", "load_dependent_stiffness"):
-        loc = _FLEX[int(rng.integers(len(_FLEX)))]
-        if kind == "joint_stiffness":
-            return Hidden(kind, loc, {"factor": _factor(rng, 1.2, 1.6)})
-        if kind == "joint_damping":
-            return Hidden(kind, loc, {"factor": _factor(rng, 1.8, 3.5)})
-        return Hidden(kind, loc, {"alpha": float(rng.uniform(0.15, 0.6))})
-    if kind == "servo_stiffness":
-        return Hidden(kind, f"a{int(rng.integers(1, 7))}", {"factor": _factor(rng, 4.0, 10.0)})
-    if kind == "tool_contact_stiffness":
-        return Hidden(kind, "tool_contact", {"translation": _factor(rng, 1.5, 3.0),
-                                             "rotation": _factor(rng, 1.5, 3.0)})
-    if kind == "spindle_stiffness":
-        return Hidden(kind, "spindle", {"radial": _factor(rng, 1.2, 1.6), "tilt": _factor(rng, 1.2, 1.6)})
-    if kind == "base_compliance":
-        return Hidden(kind, "base", {"lateral": float(rng.uniform(20, 80)),
-                                     "tilt": float(rng.uniform(20, 80))})
-    if kind == "added_mass":
-        body = _BODIES[int(rng.integers(len(_BODIES)))]
-        return Hidden(kind, body, {"fraction": float(rng.uniform(0.1, 0.4)) * (1 if rng.random() < 0.7 else -0.6)})
-    if kind == "sensor_misplacement":
-        band = "low" if rng.random() < 0.5 else "high"
-        return Hidden(kind, f"{band}:{_SENSORS[int(rng.integers(4))]}",
-                      {"along_mm": _sign(rng) * float(rng.uniform(3, 8))})
-    if kind == "sensor_misalignment":
-        band = "low" if rng.random() < 0.5 else "high"
-        return Hidden(kind, f"{band}:{_SENSORS[int(rng.integers(4))]}",
-                      {"angle_deg": _sign(rng) * float(rng.uniform(4, 12))})
-    return Hidden("non_reciprocity", "spindle_spin", {"rpm": float(rng.uniform(8000, 24000))})
-
-
-def _draw_out(rng) -> Hidden:
-    kind = _OUT_KINDS[int(rng.integers(len(_OUT_KINDS)))]
-    if kind == "hose_resonator":
-        link = ("upper_arm", "forearm")[int(rng.integers(2))]
-        return Hidden(kind, link, {"mass": float(rng.uniform(5, 15)), "f_hz": float(rng.uniform(9, 30)),
-                                   "zeta": 0.05})
-    if kind == "tendon_coupling":
-        pair = [("j2_flex", "j3_flex"), ("j4_flex", "j5_flex"), ("j5_flex", "j6_flex")][int(rng.integers(3))]
-        return Hidden(kind, "+".join(pair), {"fraction": float(rng.uniform(0.3, 0.8))})
-    if kind == "offset_mass":
-        # off the body's origin: the library's added mass keeps the body's centre and inertia
-        body = ("forearm", "wrist", "flange")[int(rng.integers(3))]
-        offset = rng.uniform(-1, 1, 3)
-        offset *= float(rng.uniform(0.25, 0.4)) / np.linalg.norm(offset)
-        return Hidden(kind, body, {"mass": float(rng.uniform(8, 20)), "offset_m": offset.tolist()})
-    link = ("lower_arm", "forearm")[int(rng.integers(2))]
-    # the bending compliance over the root joint's: 1/3 to 1 (a bending stiffness 1-3 times it)
-    return Hidden(kind, link, {"compliance_ratio": float(rng.uniform(1 / 3, 1.0))})
-
-
-def inject(robot: Robot, hidden, scale: float = 1.0) -> tuple[str, dict, float]:
-    """The hidden effects in a copy of the robot, by plain MJCF edits (:mod:`.truth`).
-
-    Parameters
-    ----------
-    scale : float
-        Magnifies every effect (1: as drawn); used to make a faint draw visible.
-
-    Returns
-    -------
-    xml : str
-        The changed robot's MJCF (the robot's own text when only the test changes).
-    placement : dict
-        Per band ``{"position_error_mm": [4], "misalignment_deg": [4]}`` of the sensors.
-    spindle_rpm : float
-    """
-    root = edit.parse(robot.xml)
-    placement = {b: {"position_error_mm": [0.0] * 4, "misalignment_deg": [0.0] * 4} for b in ("low", "high")}
-    rpm = 0.0
-    edited, base = False, None
-
-    def factor(f):
-        return float(np.exp(scale * np.log(f)))
-
-    for h in hidden:
-        v = h.value
-        edited = edited or h.kind not in _TEST_KINDS
-        if h.kind in ("joint_stiffness", "joint_damping"):
-            edit.scale_joint(root, h.location, h.kind.removeprefix("joint_"), factor(v["factor"]))
-        elif h.kind == "load_dependent_stiffness":
-            edit.add_load_stiffness(root, {h.location: scale * v["alpha"]})
-        elif h.kind == "servo_stiffness":
-            edit.scale_servo_kp(root, h.location, factor(v["factor"]))
-        elif h.kind in ("tool_contact_stiffness", "spindle_stiffness"):
-            prefix, (move, turn) = _PAIRS[h.kind]
-            for axis, key in (("x", move), ("y", move), ("rx", turn), ("ry", turn)):
-                edit.scale_joint(root, f"{prefix}_{axis}", "stiffness", factor(v[key]))
-        elif h.kind == "base_compliance":
-            # last, on the arm as changed: its dampers are set against the arm's mass
-            base = (1 / (scale * v["lateral"] * 1e-9), 1 / (scale * v["tilt"] * 1e-9))
-        elif h.kind == "added_mass":
-            edit.add_body_mass(root, h.location, scale * v["fraction"] * edit.body_mass(root, h.location))
-        elif h.kind in ("sensor_misplacement", "sensor_misalignment"):
-            band, coord = h.location.split(":")
-            i = _SENSORS.index(coord)
-            if h.kind == "sensor_misplacement":
-                placement[band]["position_error_mm"][i] += scale * v["along_mm"]
-            else:
-                placement[band]["misalignment_deg"][i] += scale * v["angle_deg"]
-        elif h.kind == "non_reciprocity":
-            rpm += scale * v["rpm"]
-        elif h.kind == "hose_resonator":
-            edit.add_resonator(root, h.location, v["mass"], v["f_hz"] * (scale ** 0.25), v["zeta"])
-        elif h.kind == "tendon_coupling":
-            edit.add_coupling(root, h.location.split("+"), scale * v["fraction"])
-        elif h.kind == "offset_mass":
-            edit.attach_mass(root, h.location, scale * v["mass"], v["offset_m"])
-        elif h.kind == "link_bending":
-            root_joint, pos, axis = _BENDING[h.location]
-            edit.add_bending(root, h.location, root_joint, pos, axis, scale * v["compliance_ratio"])
-        else:  # pragma: no cover - draw_case draws known kinds only
-            raise ValueError(h.kind)
-    if base is not None:
-        edit.mount_on_springs(root, *base)
-    return (edit.write(root) if edited else robot.xml), placement, rpm
-
-
-# the ranges the diagnosis's library fits (rmbench.gap.frf.effects.library): a hidden effect of a
-# library kind stays inside them, else it would be out of the library in all but name
-_LIBRARY_RANGE = {"factor": {"joint_stiffness": (0.3, 3.0), "joint_damping": (0.1, 10.0),
-                             "servo_stiffness": (0.01, 10.0)},
-                  "alpha": (0.0, 3.0), "translation": (0.2, 5.0), "rotation": (0.2, 5.0),
-                  "radial": (0.3, 3.0), "tilt": (0.3, 3.0), "lateral": (0.0, 200.0),
-                  "fraction": (-0.5, 2.0), "along_mm": (-10.0, 10.0), "angle_deg": (-15.0, 15.0),
-                  "rpm": (0.0, 30000.0)}
-
-
-def _within_library(h: Hidden) -> bool:
-    if not h.in_library:
-        return True
-    for key, x in h.value.items():
-        rng = _LIBRARY_RANGE.get(key)
-        if isinstance(rng, dict):
-            rng = rng.get(h.kind)
-        if h.kind == "base_compliance" and key == "tilt":
-            rng = (0.0, 200.0)
-        if rng is not None and not rng[0] <= x <= rng[1]:
-            return False
-    return True
-
-
-def _scaled(h: Hidden, scale: float) -> Hidden:
-    """The hidden effect with its magnitude magnified as :func:`inject` does with ``scale``."""
-    if scale == 1.0:
-        return h
-    v = dict(h.value)
-    for key, x in v.items():
-        if key in ("factor", "translation", "rotation", "radial", "tilt") and h.kind != "base_compliance":
-            v[key] = float(np.exp(scale * np.log(x)))
-        elif key == "f_hz":
-            v[key] = x * scale ** 0.25
-        elif key == "offset_m":
-            continue
-        elif key not in ("zeta", "mass") or h.kind != "hose_resonator":
-            v[key] = scale * x
-    return Hidden(h.kind, h.location, v)
 
 
 @dataclass(frozen=True)
@@ -314,6 +83,62 @@ class BlindReport:
 
     def to_json(self) -> dict:
         return {"summary": self.summary, "cases": [c.to_dict() for c in self.cases]}
+
+
+@dataclass(frozen=True)
+class CaseOptions:
+    """How one blind case is measured and diagnosed (:func:`run_case`).
+
+    Attributes
+    ----------
+    method : str
+        The campaign's simulation: ``"linear"`` or ``"time"``.
+    n_postures : int
+        Postures of the campaign, drawn from the seed grid.
+    workers : int or None
+        Processes of the campaign and the diagnosis (None: all cores, 0: none of their own).
+    workdir : str, Path or None
+        Keep the case's files in ``workdir/case_NNN`` (None: a temporary folder, removed).
+    nominal, tool : str
+        The robot and tool the diagnosis is given.
+    kind : str or None
+        ``"one"``, ``"two"`` or ``"out"`` hidden effects (None: drawn).
+    """
+
+    method: str = "linear"
+    n_postures: int = 16
+    workers: int | None = None
+    workdir: str | Path | None = None
+    nominal: str = "irb6660"
+    tool: str = "dummy"
+    kind: str | None = None
+
+
+@dataclass(frozen=True)
+class BlindOptions:
+    """How a blind run measures its cases and where it runs them (:func:`run_blind`).
+
+    Attributes
+    ----------
+    method : str
+        ``"linear"``, ``"time"``, or ``"mixed"``: a ``time_share`` of time-domain cases.
+    time_share : float
+    workers : int or None
+        Processes of each case run here (None: all cores).
+    scheduler : str or None
+        Address of an existing dask scheduler whose cluster runs the cases.
+    workdir : str, Path or None
+        Keep each case's files there (:attr:`CaseOptions.workdir`).
+    n_postures : int
+        Postures of each case's campaign.
+    """
+
+    method: str = "linear"
+    time_share: float = 0.25
+    workers: int | None = None
+    scheduler: str | None = None
+    workdir: str | Path | None = None
+    n_postures: int = 16
 
 
 def _campaign_toml(robot_name: str, tool, postures, method: str, seed: int, *, commands_from=None,
@@ -369,27 +194,59 @@ def _visible_db(nominal: Robot, xml: str, design, placement, rpm, q_cmd) -> floa
     return worst
 
 
-def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int = 16,
-             workers: int | None = None, workdir: str | Path | None = None,
-             nominal: str = "irb6660", tool: str = "dummy", kind: str | None = None) -> CaseResult:
-    """Draw, inject, measure, export and import, diagnose and score one blind case."""
-    from rmbench.calibrate.design import TestDesign
-    from rmbench.gap.frf.diagnosis import diagnose
-    from rmbench.impact import open_campaign, parse_config, run_campaign
-    from rmbench.io import read_uff58, write_uff58
+def run_case(index: int, seed: int, options: CaseOptions = CaseOptions(), **changes) -> CaseResult:
+    """Draw, inject, measure, export and import, diagnose and score one blind case.
 
+    ``options`` (:class:`CaseOptions`), with any of its fields changed by keyword
+    (``run_case(0, 1, method="time", n_postures=4)``)."""
+    from rmbench.calibrate.design import TestDesign
+
+    opt = replace(options, **changes)
     t0 = time.perf_counter()
     rng = np.random.default_rng([seed, index])
     grid = seed_grid()
-    postures = [grid[i] for i in sorted(rng.choice(len(grid), n_postures, replace=False))]
-    robot = Robot.load(nominal, tool=tool)
-    believed = _campaign_toml(nominal, tool, postures, method, seed)
+    postures = [grid[i] for i in sorted(rng.choice(len(grid), opt.n_postures, replace=False))]
+    robot = Robot.load(opt.nominal, tool=opt.tool)
+    believed = _campaign_toml(opt.nominal, opt.tool, postures, opt.method, seed)
     design = TestDesign.from_text(believed)
     q_cmd = [robot.ik(p).q for p in postures]
     probe = q_cmd[::4]
-    # every hidden effect must change the FRF visibly on its own: a faint draw is magnified,
-    # one that stays invisible (load-dependent stiffness of an axis gravity does not load) is
-    # drawn again, and counted
+    hidden, scale, rejected = _visible_draw(rng, robot, design, probe, opt.kind, index)
+    xml, placement, rpm = inject(robot, hidden)
+    try:
+        vis = _visible_db(robot, xml, design, placement, rpm, probe)
+    except RmbenchError:                 # two effects together the robot cannot hold
+        vis = float("nan")
+    own = Path(tempfile.mkdtemp(prefix="rmbench_blind_")) if opt.workdir is None else Path(opt.workdir) / f"case_{index:03d}"
+    own.mkdir(parents=True, exist_ok=True)
+    try:
+        variant = own / "hidden.xml"
+        variant.write_text(xml)
+        true_toml = _campaign_toml(str(variant), None, postures, opt.method, seed, commands_from=opt.nominal,
+                                   placement=placement, rpm=rpm)
+        back, t1 = _measured(own, true_toml, believed, opt.workers)
+        dg = _diagnosed(robot, back, opt.workers)
+        t2 = time.perf_counter()
+    finally:
+        if opt.workdir is None:
+            shutil.rmtree(own, ignore_errors=True)
+    if isinstance(dg, RmbenchError):
+        # a diagnosis that stops is a wrong answer, not the end of the run
+        return CaseResult(index=index, method=opt.method, hidden=hidden, verdict=f"error: {dg}",
+                          ranked=(), equivalent=(), shrink=0.0, top1=False, top3=False,
+                          top1_class=False, top3_class=False,
+                          pair_in_top3=False if len(hidden) == 2 else None,
+                          seconds={"campaign": round(t1 - t0, 2)}, visible_db=float(vis),
+                          scale=scale, rejected=rejected)
+    return replace(_score(index, opt.method, hidden, dg, {"campaign": round(t1 - t0, 2), "diagnose": round(t2 - t1, 2)},
+                          vis, scale), rejected=rejected)
+
+
+def _visible_draw(rng, robot: Robot, design, probe, kind, index: int) -> tuple:
+    """The hidden effects of a case, each magnified until it changes the FRF visibly on its own:
+    a faint draw is magnified, one that stays invisible (load-dependent stiffness of an axis
+    gravity does not load), that the robot cannot hold its postures with, or that leaves the
+    library's ranges is drawn again, and counted. Returns ``(hidden, scale, rejected)``."""
     for rejected in range(20):
         hidden = draw_case(rng, kind)
         scales = []
@@ -408,60 +265,51 @@ def run_case(index: int, seed: int, method: str = "linear", *, n_postures: int =
             else:
                 scale = None
             scales.append(scale)
-        if all(sc is not None and _within_library(_scaled(h, sc)) for h, sc in zip(hidden, scales)):
+        if all(sc is not None and within_library(scaled(h, sc)) for h, sc in zip(hidden, scales)):
             break
     else:
         raise RmbenchError(f"blind case {index}: no visible, holdable draw in 20")
-    hidden = tuple(_scaled(h, sc) for h, sc in zip(hidden, scales))
-    scale = float(max(scales))
-    xml, placement, rpm = inject(robot, hidden)
-    try:
-        vis = _visible_db(robot, xml, design, placement, rpm, probe)
-    except RmbenchError:                 # two effects together the robot cannot hold
-        vis = float("nan")
-    own = Path(tempfile.mkdtemp(prefix="rmbench_blind_")) if workdir is None else Path(workdir) / f"case_{index:03d}"
-    own.mkdir(parents=True, exist_ok=True)
-    try:
-        variant = own / "hidden.xml"
-        variant.write_text(xml)
-        true_toml = _campaign_toml(str(variant), None, postures, method, seed, commands_from=nominal,
-                                   placement=placement, rpm=rpm)
-        data = own / "measured.nc"
-        if data.exists():
-            data.unlink()
-        run_campaign(parse_config(true_toml), data, toml=true_toml, workers=workers, progress=False)
-        t1 = time.perf_counter()
-        ds = open_campaign(data)
-        if "ok" in ds.coords and not ds.ok.values.all():
-            # a real test has no record of postures its robot could not hold
-            ds = ds.isel(posture=np.flatnonzero(ds.ok.values))
-        ds.attrs.clear()
-        ds.attrs["config"] = believed          # the test design as the experimenter believes it
-        uff = own / "uff"
-        if uff.exists():
-            shutil.rmtree(uff)
-        write_uff58(ds[["H"]], uff)
-        back = read_uff58(uff)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                if back.sizes["posture"] < 2:
-                    raise RmbenchError("the hidden robot held fewer than 2 of the postures")
-                dg = diagnose(robot, back, workers=workers)
-            except RmbenchError as err:
-                # a diagnosis that stops is a wrong answer, not the end of the run
-                return CaseResult(index=index, method=method, hidden=hidden, verdict=f"error: {err}",
-                                  ranked=(), equivalent=(), shrink=0.0, top1=False, top3=False,
-                                  top1_class=False, top3_class=False,
-                                  pair_in_top3=False if len(hidden) == 2 else None,
-                                  seconds={"campaign": round(t1 - t0, 2)}, visible_db=float(vis),
-                                  scale=float(max(scales)), rejected=rejected)
-        t2 = time.perf_counter()
-    finally:
-        if workdir is None:
-            shutil.rmtree(own, ignore_errors=True)
-    return replace(_score(index, method, hidden, dg, {"campaign": round(t1 - t0, 2), "diagnose": round(t2 - t1, 2)},
-                          vis, scale), rejected=rejected)
+    return tuple(scaled(h, sc) for h, sc in zip(hidden, scales)), float(max(scales)), rejected
+
+
+def _measured(own: Path, true_toml: str, believed: str, workers):
+    """The campaign of the hidden robot (``true_toml``) run into ``own``, the postures it could
+    not hold dropped, the test design replaced by the ``believed`` one, out to UFF58 and back; and
+    the time the campaign ended (:func:`time.perf_counter`)."""
+    from rmbench.impact import open_campaign, parse_config, run_campaign
+    from rmbench.io import read_uff58, write_uff58
+
+    data = own / "measured.nc"
+    if data.exists():
+        data.unlink()
+    run_campaign(parse_config(true_toml), data, toml=true_toml, workers=workers, progress=False)
+    t1 = time.perf_counter()
+    ds = open_campaign(data)
+    if "ok" in ds.coords and not ds.ok.values.all():
+        # a real test has no record of postures its robot could not hold
+        ds = ds.isel(posture=np.flatnonzero(ds.ok.values))
+    ds.attrs.clear()
+    ds.attrs["config"] = believed          # the test design as the experimenter believes it
+    uff = own / "uff"
+    if uff.exists():
+        shutil.rmtree(uff)
+    write_uff58(ds[["H"]], uff)
+    return read_uff58(uff), t1
+
+
+def _diagnosed(robot: Robot, back, workers):
+    """The FRF diagnosis of the measured data ``back``, or the :class:`RmbenchError` that
+    stopped it."""
+    from rmbench.gap.frf.diagnosis import diagnose
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            if back.sizes["posture"] < 2:
+                raise RmbenchError("the hidden robot held fewer than 2 of the postures")
+            return diagnose(robot, back, workers=workers)
+        except RmbenchError as err:
+            return err
 
 
 def _score(index, method, hidden, dg, seconds, vis, scale) -> CaseResult:
@@ -520,48 +368,43 @@ def summarise(cases) -> dict:
             "pair_recall": frac([bool(c.pair_in_top3) for c in two]),
             "explained_in_library": frac([c.verdict == "explained" for c in inlib]),
             "rejected": int(sum(c.rejected for c in cases)),
-            "out_kinds": {k: sum(c.hidden[0].kind == k for c in out) for k in _OUT_KINDS},
+            "out_kinds": {k: sum(c.hidden[0].kind == k for c in out) for k in OUT_KINDS},
             "calibration": cal}
 
 
-def run_blind(cases: int, seed: int, *, method: str = "linear", time_share: float = 0.25,
-              workers: int | None = None, scheduler: str | None = None, workdir=None, progress=None,
-              start: int = 0, out=None, n_postures: int = 16) -> BlindReport:
-    """Run ``cases`` blind cases (``method`` "linear", "time", or "mixed": a ``time_share`` of
-    time-domain cases). With ``out`` (a JSON-lines path) each finished case is appended to it, and
-    the cases it already holds are not run again: a killed run resumes. ``progress(case)`` is
-    called after each case run here.
+def run_blind(cases: int, seed: int, options: BlindOptions = BlindOptions(), *, progress=None,
+              start: int = 0, out=None, **changes) -> BlindReport:
+    """Run ``cases`` blind cases as ``options`` (:class:`BlindOptions`) say, with any of its fields
+    changed by keyword (``run_blind(2, 5, method="linear", n_postures=4)``). With ``out`` (a
+    JSON-lines path) each finished case is appended to it, and the cases it already holds are not
+    run again: a killed run resumes. ``progress(case)`` is called after each case run here.
 
     Without ``scheduler`` the cases run one after the other, each on ``workers`` processes
     (default: all cores); with the address of an existing dask scheduler they are tasks of its
     cluster, each in one single-threaded worker, and are written as they finish: the lines of a
     run here but for the seconds, bit for bit where this process is single-threaded too (as the
-    benches run it, ``OMP_NUM_THREADS=1``; with more BLAS threads the last digits may differ).
-    ``n_postures``: each case's campaign."""
+    benches run it, ``OMP_NUM_THREADS=1``; with more BLAS threads the last digits may differ)."""
     from functools import partial
 
     from rmbench.parallel import map_cases
 
-    results = {}
+    opt = replace(options, **changes)
     out = Path(out) if out is not None else None
-    if out is not None and out.is_file():
-        for line in out.read_text().splitlines():
-            if line.strip():
-                case = case_from_dict(json.loads(line))
-                results[case.index] = case
-    n_time = int(round(time_share * cases)) if method == "mixed" else (cases if method == "time" else 0)
+    results = _written(out)
+    n_time = int(round(opt.time_share * cases)) if opt.method == "mixed" else (cases if opt.method == "time" else 0)
     todo = [(i, "time" if (i - start) < n_time else "linear") for i in range(start, start + cases)
             if i not in results]
     # on a cluster a case is one worker's: single-threaded inside (no worker processes of its own)
-    one = partial(_run_one, seed=seed, workers=workers if scheduler is None else 0, workdir=workdir,
-                  n_postures=n_postures)
-    for (i, _), case in map_cases(one, todo, workers=1, scheduler=scheduler):
-        results[i] = case
+    case = CaseOptions(n_postures=opt.n_postures, workers=opt.workers if opt.scheduler is None else 0,
+                       workdir=opt.workdir)
+    for (i, _), result in map_cases(partial(_run_one, seed=seed, options=case), todo, workers=1,
+                                    scheduler=opt.scheduler):
+        results[i] = result
         if out is not None:
             with open(out, "a") as fh:
-                fh.write(dumps(case) + "\n")
+                fh.write(dumps(result) + "\n")
         if progress is not None:
-            progress(case)
+            progress(result)
     ordered = tuple(results[i] for i in sorted(results) if start <= i < start + cases)
     return BlindReport(cases=ordered, summary=summarise(ordered))
 
@@ -584,7 +427,18 @@ def dumps(case: CaseResult) -> str:
     return strict_dumps(case.to_dict())
 
 
-def _run_one(case: tuple, *, seed: int, workers, workdir, n_postures: int) -> CaseResult:
+def _written(out: Path | None) -> dict:
+    """``{index: CaseResult}`` of the cases the JSON lines ``out`` already hold (none without)."""
+    results = {}
+    if out is not None and out.is_file():
+        for line in out.read_text().splitlines():
+            if line.strip():
+                case = case_from_dict(json.loads(line))
+                results[case.index] = case
+    return results
+
+
+def _run_one(case: tuple, *, seed: int, options: CaseOptions) -> CaseResult:
     """:func:`run_case` of ``(index, method)``: one task of :func:`run_blind`."""
     index, method = case
-    return run_case(index, seed, method, n_postures=n_postures, workers=workers, workdir=workdir)
+    return run_case(index, seed, options, method=method)

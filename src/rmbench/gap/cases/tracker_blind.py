@@ -24,16 +24,17 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
 from rmbench.gap.tracker.sources import PoseModel
-from rmbench.gap.tracker.diagnosis import TrackerData, TrackerSettings, diagnose_tracker
+from rmbench.gap.tracker.diagnosis import (TrackerData, TrackerSettings, default_covariance, default_sigma,
+                                           diagnose_tracker)
 from rmbench.io.strict_json import strict_dumps
 
-__all__ = ["HiddenSource", "TrackerCase", "TrueRobot", "draw_sources", "run_tracker_case", "run_tracker_blind",
-           "summarise_tracker", "VISIBLE"]
+__all__ = ["HiddenSource", "TrackerCase", "TrackerCaseOptions", "TrueRobot", "draw_sources", "run_tracker_case",
+           "run_tracker_blind", "summarise_tracker", "VISIBLE"]
 
 VISIBLE = 0.15e-3          # a hidden source moves the registered TCP by this much rms (m)
 _PERIOD = 15.0             # s between readings
@@ -84,6 +85,34 @@ class TrackerCase:
         d = asdict(self)
         d["hidden"] = [asdict(h) for h in self.hidden]
         return d
+
+
+@dataclass(frozen=True)
+class TrackerCaseOptions:
+    """How one blind tracker case is read and scored (:func:`run_tracker_case`).
+
+    Attributes
+    ----------
+    n_config : int
+        Quasi-random configurations of the joint box.
+    repeats : int
+        Readings of each, in a random visiting order.
+    kind : str or None
+        ``"single"`` source, ``"out"`` of the library, or None (drawn: one, several, or out).
+    settings : TrackerSettings
+        The diagnosis's.
+    n_workspace : int
+        Configurations of the workspace the true maximum error is taken over.
+    levels : bool
+        Measure the model-invalidation accuracy levels (the slowest score).
+    """
+
+    n_config: int = 250
+    repeats: int = 2
+    kind: str | None = None
+    settings: TrackerSettings = TrackerSettings()
+    n_workspace: int = 20_000
+    levels: bool = True
 
 
 def draw_sources(rng: np.random.Generator, names, compliant, kind: str | None = None) -> tuple:
@@ -217,104 +246,149 @@ def _registered_msd(model, truth_p, q, sources=(), values=()) -> float:
     return float(np.mean(np.sum((truth_p - (p @ rot.T + t)) ** 2, axis=1)))
 
 
-def run_tracker_case(index: int, seed: int, *, robot=None, n_config: int = 250, repeats: int = 2,
-                     kind: str | None = None, settings: TrackerSettings = TrackerSettings(),
-                     n_workspace: int = 20_000, levels: bool = True) -> TrackerCase:
-    """Draw, simulate, diagnose and score blind case ``index`` of ``seed``."""
+def run_tracker_case(index: int, seed: int, options: TrackerCaseOptions = TrackerCaseOptions(), *,
+                     robot=None, **changes) -> TrackerCase:
+    """Draw, simulate, diagnose and score blind case ``index`` of ``seed``: as ``options``
+    (:class:`TrackerCaseOptions`) say, with any of its fields changed by keyword
+    (``run_tracker_case(0, 1, n_config=120, levels=False)``), on ``robot`` (default: the MH180)."""
     from rmbench.robot import Robot
-    from rmbench.tracker import MH180_JOINT_BOX, accuracy_level, sobol_points
+    from rmbench.tracker import MH180_JOINT_BOX, sobol_points
     from rmbench.tracker.simulator import nominal_stiffness
 
+    opt = replace(options, **changes)
     t0 = time.perf_counter()
     robot = robot if robot is not None else Robot.load("mh180")
     rng = np.random.default_rng([seed, index, 14])
     names = tuple(robot.arm_joints)
     compliant = [j for j, k in enumerate(nominal_stiffness(robot)) if np.isfinite(k) and j > 0]
-    hidden = draw_sources(rng, names, compliant, kind)
+    hidden = draw_sources(rng, names, compliant, opt.kind)
+    plan = _plan(rng, opt.n_config, opt.repeats)
+    hidden = _visible(robot, hidden, rng, plan)
+    truth = TrueRobot(robot, hidden, 1.0, rng)
+    p_true = truth.positions(plan.q, plan.t, plan.previous, noise=False)
+    y = truth.positions(plan.q, plan.t, plan.previous, noise=True, rng=rng)
+    cov = default_covariance(robot, plan.q, y)
+    data = TrackerData(plan.q, y, plan.order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), plan.t, names,
+                       covariance=cov)
+    t1 = time.perf_counter()
+    dg = diagnose_tracker(robot, data, settings=opt.settings)
+    t2 = time.perf_counter()
+    shares = _true_shares(truth, robot, hidden, plan.q, plan.t, plan.previous, p_true)
+    qw = sobol_points(opt.n_workspace, *MH180_JOINT_BOX, np.random.default_rng([seed, index, 99]))
+    errors = _true_errors(truth, dg, plan, p_true, qw)
+    level_b = level_a = float("nan")
+    if opt.levels:
+        level_b, level_a = _levels(truth, robot, dg, plan, (seed, index))
+    return TrackerCase(
+        index=index, hidden=hidden, in_library=all(h.kind not in _OUT_KINDS for h in hidden),
+        verdict=dg.verdict, confidences={s.name: s.confidence for s in dg.sources[:6]}, shares=shares,
+        **_picks(dg, hidden), shrink_measured=dg.shrink, heldout_before=dg.heldout_before,
+        heldout_after=dg.heldout_after, level_before=float(level_b), level_after=float(level_a), **errors,
+        seconds={"simulate": t1 - t0, "diagnose": t2 - t1, "score": time.perf_counter() - t2})
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """A case's campaign: the configurations (n_config, n_joint), rad, the order they are read
+    in (indices), the commands read (n, n_joint) and each one's predecessor, the times (n,), s."""
+
+    q_conf: np.ndarray
+    order: np.ndarray
+    q: np.ndarray
+    previous: np.ndarray
+    t: np.ndarray
+
+
+def _plan(rng, n_config: int, repeats: int) -> _Plan:
+    """``n_config`` quasi-random configurations of the joint box, read ``repeats`` times in a
+    random order, ``_PERIOD`` apart."""
+    from rmbench.tracker import MH180_JOINT_BOX, sobol_points
+
     lo, hi = MH180_JOINT_BOX
     q_conf = sobol_points(n_config, lo, hi, rng)
     order = np.concatenate([rng.permutation(n_config) for _ in range(repeats)])
     q = q_conf[order]
-    previous = np.vstack([q[:1], q[:-1]])
-    t = np.arange(len(q)) * _PERIOD
-    # the magnitude: scaled up until the hidden sources move the registered TCP by VISIBLE rms
+    return _Plan(q_conf, order, q, np.vstack([q[:1], q[:-1]]), np.arange(len(q)) * _PERIOD)
+
+
+def _visible(robot, hidden, rng, plan: _Plan) -> tuple:
+    """The hidden sources scaled up until they move the registered TCP by ``VISIBLE`` rms."""
     scale = 1.0
     for _ in range(8):
         truth = TrueRobot(robot, hidden, scale, rng)
-        p_true = truth.positions(q, t, previous, noise=False)
-        msd = _registered_msd(truth.model, p_true, q)
+        p_true = truth.positions(plan.q, plan.t, plan.previous, noise=False)
+        msd = _registered_msd(truth.model, p_true, plan.q)
         if np.sqrt(msd) >= VISIBLE:
             break
         scale *= max(1.25, 1.05 * VISIBLE / max(np.sqrt(msd), 1e-9))
-    hidden = tuple(HiddenSource(h.kind, h.location, tuple(float(v) * scale for v in h.values))
-                   for h in hidden)
-    truth = TrueRobot(robot, hidden, 1.0, rng)
-    p_true = truth.positions(q, t, previous, noise=False)
-    y = truth.positions(q, t, previous, noise=True, rng=rng)
-    from rmbench.gap.tracker.diagnosis import default_covariance, default_sigma
-    cov = default_covariance(robot, q, y)
-    data = TrackerData(q, y, order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), t, names,
-                       covariance=cov)
-    t1 = time.perf_counter()
-    dg = diagnose_tracker(robot, data, settings=settings)
-    t2 = time.perf_counter()
-    in_library = all(h.kind not in _OUT_KINDS for h in hidden)
-    shares = _true_shares(truth, robot, hidden, q, t, previous, p_true)
-    chosen = tuple(s.name for s in dg.chosen) if dg.verdict == "explained" else \
-        tuple(s.name for s in dg.chosen)
+    return tuple(HiddenSource(h.kind, h.location, tuple(float(v) * scale for v in h.values))
+                 for h in hidden)
+
+
+def _picks(dg, hidden) -> dict:
+    """The diagnosis's chosen sources against the hidden ones: :class:`TrackerCase`'s ``chosen``,
+    ``found``, ``found_alike``, ``false_sources`` and ``false_alike``."""
+    chosen = tuple(s.name for s in dg.chosen)
     alike = {n: {m for g in dg.equivalent if n in g for m in g} | {n} for n in
              [h.name for h in hidden] + list(chosen)}
-    found = {h.name: h.name in chosen for h in hidden}
-    found_alike = {h.name: bool(alike[h.name] & set(chosen)) for h in hidden}
     hidden_names = {h.name for h in hidden}
-    false_sources = tuple(c for c in chosen if c not in hidden_names)
-    false_alike = tuple(c for c in chosen if not (alike[c] & hidden_names))
-    # true error at the held-out configurations and over the workspace, before and after
-    held = np.isin(order, dg.held)
+    return {"chosen": chosen, "found": {h.name: h.name in chosen for h in hidden},
+            "found_alike": {h.name: bool(alike[h.name] & set(chosen)) for h in hidden},
+            "false_sources": tuple(c for c in chosen if c not in hidden_names),
+            "false_alike": tuple(c for c in chosen if not (alike[c] & hidden_names))}
+
+
+def _true_errors(truth, dg, plan: _Plan, p_true, qw) -> dict:
+    """The true error of the nominal and the fitted model at the held-out configurations and at
+    the workspace configurations ``qw``: :class:`TrackerCase`'s ``shrink_true``,
+    ``true_max_before``/``after`` and ``workspace_max_before``/``after``."""
+    q, t = plan.q, plan.t
+    held = np.isin(plan.order, dg.held)
     hours = (t - t.min()) / 3600
     fitted = dg.fitted
     nominal_fit = dg.nominal_fitted
     err_b = p_true[held] - nominal_fit.position(q[held], hours[held])
     err_a = p_true[held] - fitted.position(q[held], hours[held])
     shrink_true = 1 - np.sqrt(np.mean(np.sum(err_a ** 2, 1)) / np.mean(np.sum(err_b ** 2, 1)))
-    qw = sobol_points(n_workspace, lo, hi, np.random.default_rng([seed, index, 99]))
     tw_ = np.full(len(qw), t.mean())
     pw = truth.positions(qw, tw_, qw, noise=False)
     ws_b = float(np.max(np.linalg.norm(pw - nominal_fit.position(qw, (tw_ - t.min()) / 3600), axis=1)))
     ws_a = float(np.max(np.linalg.norm(pw - fitted.position(qw, (tw_ - t.min()) / 3600), axis=1)))
-    level_b = level_a = float("nan")
-    if levels:
-        q_held = q_conf[np.unique(order[held])]
-        s_held = default_sigma(robot, q_held, truth.positions(q_held, np.zeros(len(q_held)), q_held,
-                                                             noise=False))
-        meas_rng = np.random.default_rng([seed, index, 7])
+    return {"shrink_true": float(shrink_true),
+            "true_max_before": float(np.max(np.linalg.norm(err_b, axis=1))),
+            "true_max_after": float(np.max(np.linalg.norm(err_a, axis=1))),
+            "workspace_max_before": ws_b, "workspace_max_after": ws_a}
 
-        def meter(model):
-            last = {"q": q[-1:]}
 
-            def measure(qj):
-                # approached from the configuration measured before it (backlash)
-                qj = np.asarray(qj, float)[None]
-                p = truth.positions(qj, np.full(1, t.mean()), last["q"], noise=True, rng=meas_rng)
-                last["q"] = qj
-                return (p - model.position(qj, np.full(1, (t.mean() - t.min()) / 3600)))[0]
-            return measure
+def _levels(truth, robot, dg, plan: _Plan, key: tuple) -> tuple:
+    """The model-invalidation accuracy level (METHODS.md §7) of the nominal and the fitted model
+    at the held-out configurations, measured anew on the true robot (random streams from ``key``,
+    the case's ``(seed, index)``)."""
+    from rmbench.tracker import accuracy_level
 
-        level_b = accuracy_level(meter(nominal_fit), q_held, s_held, 0.9, 10,
-                                 np.random.default_rng([seed, index, 8])).eta
-        level_a = accuracy_level(meter(fitted), q_held, s_held, 0.9, 10,
-                                 np.random.default_rng([seed, index, 8])).eta
-    return TrackerCase(
-        index=index, hidden=hidden, in_library=in_library, verdict=dg.verdict, chosen=chosen,
-        confidences={s.name: s.confidence for s in dg.sources[:6]}, shares=shares, found=found,
-        found_alike=found_alike, false_sources=false_sources, false_alike=false_alike,
-        shrink_measured=dg.shrink, shrink_true=float(shrink_true),
-        heldout_before=dg.heldout_before, heldout_after=dg.heldout_after,
-        level_before=float(level_b), level_after=float(level_a),
-        true_max_before=float(np.max(np.linalg.norm(err_b, axis=1))),
-        true_max_after=float(np.max(np.linalg.norm(err_a, axis=1))),
-        workspace_max_before=ws_b, workspace_max_after=ws_a,
-        seconds={"simulate": t1 - t0, "diagnose": t2 - t1, "score": time.perf_counter() - t2})
+    q, t = plan.q, plan.t
+    held = np.isin(plan.order, dg.held)
+    q_held = plan.q_conf[np.unique(plan.order[held])]
+    s_held = default_sigma(robot, q_held, truth.positions(q_held, np.zeros(len(q_held)), q_held,
+                                                         noise=False))
+    meas_rng = np.random.default_rng([*key, 7])
+
+    def meter(model):
+        last = {"q": q[-1:]}
+
+        def measure(qj):
+            # approached from the configuration measured before it (backlash)
+            qj = np.asarray(qj, float)[None]
+            p = truth.positions(qj, np.full(1, t.mean()), last["q"], noise=True, rng=meas_rng)
+            last["q"] = qj
+            return (p - model.position(qj, np.full(1, (t.mean() - t.min()) / 3600)))[0]
+        return measure
+
+    level_b = accuracy_level(meter(dg.nominal_fitted), q_held, s_held, 0.9, 10,
+                             np.random.default_rng([*key, 8])).eta
+    level_a = accuracy_level(meter(dg.fitted), q_held, s_held, 0.9, 10,
+                             np.random.default_rng([*key, 8])).eta
+    return level_b, level_a
 
 
 def _true_shares(truth, robot, hidden, q, t, previous, p_true) -> dict:

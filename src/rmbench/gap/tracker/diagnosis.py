@@ -21,24 +21,26 @@ Every model registers the robot base in the tracker frame by a best fit (6 param
 the training configurations with the sources), so a base frame error, and any source whose
 signature the registration takes up (a zero offset of the first joint, whose axis is vertical), is
 reported as absorbed, not diagnosed.
+
+The result (:class:`TrackerDiagnosis`, its sources and fitted poses) is :mod:`.result`'s, its folder
+:mod:`.files`'s, the error map :mod:`.where`'s; all are importable from here too.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.gap.jsonable import jsonable, write_whole
-from rmbench.gap.selection import VERDICTS, SearchSettings, Verdict, bootstrap_shrink, selection_weights, significant
+from rmbench.gap.selection import SearchSettings, bootstrap_shrink, selection_weights, significant
 from rmbench.gap.tracker.data import (TrackerData, check_readings, default_covariance, default_sigma,
                                       split_readings, tracker_data)
 from rmbench.gap.tracker.engine import Engine, Fit, pruned, signatures
+from rmbench.gap.tracker.result import FittedPose, SourceResult, TrackerDiagnosis
 from rmbench.gap.tracker.sources import PoseModel, Source, source_library
-from rmbench.io.strict_json import strict_dumps
+from rmbench.gap.tracker.where import PoseErrorMap, pose_error_map
 
 _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
 ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")   # what a robot calibration fits
@@ -84,249 +86,6 @@ class TrackerSettings(SearchSettings):
     mass_sd: float = 0.05
 
 
-@dataclass(frozen=True)
-class SourceResult:
-    """One ranked source with its evidence.
-
-    Attributes
-    ----------
-    name, kind, location : str
-    params : dict
-        Fitted parameters, SI.
-    description : str
-        The same in user units.
-    share : float
-        Share of the held-out mean squared error it removes within the chosen model (0 if not
-        chosen); the chosen shares sum to the model's reduction.
-    confidence : float
-        Share of bootstrap resamples of the held-out configurations whose winning model holds it
-        and leaves noise (low inside an "unexplained" verdict, whose best model does not).
-    heldout_after : dict
-        Held-out ``rms`` and ``max`` pose error (m) of the model with this source (the chosen
-        model for a chosen source, the source alone otherwise).
-    chosen : bool
-    """
-
-    name: str
-    kind: str
-    location: str
-    params: dict
-    description: str
-    share: float
-    confidence: float
-    heldout_after: dict
-    chosen: bool
-
-
-@dataclass(frozen=True)
-class PoseErrorMap:
-    """Where the nominal model's pose error lies (all configurations, registered).
-
-    Attributes
-    ----------
-    rms : ndarray, shape (3,), m
-        Per axis (tracker frame).
-    rms_total, max_total : float, m
-        Of the error vector's length.
-    noise_rms : float, m
-        Of the readings' noise (length of the σ vector).
-    above_noise : float
-        Share of the mean squared error above the noise, 0-1.
-    explains : dict
-        ``{"q_j2": R², "tau_j2": R², "sin1_j2": R², ...}``: the share of the error's variance
-        that a linear fit on each regressor explains (joint angle, gravity torque, harmonics).
-    bins : dict
-        ``{joint: (edges rad (n_bins + 1,), rms m (n_bins,))}`` over each joint's angle, and
-        ``{"tcp_x" | "tcp_y" | "tcp_z": (edges m, rms m)}`` over the workspace (the nominal TCP
-        in the base frame). A bin without a reading has rms NaN (``null`` in :meth:`to_dict`,
-        whose ``empty`` lists those bins).
-    """
-
-    rms: np.ndarray
-    rms_total: float
-    max_total: float
-    noise_rms: float
-    above_noise: float
-    explains: dict
-    bins: dict
-
-    def top(self, n: int = 5) -> list:
-        """The ``n`` regressors that explain most, as (name, R²)."""
-        return sorted(self.explains.items(), key=lambda kv: -kv[1])[:n]
-
-    def describe(self) -> str:
-        tops = ", ".join(f"{k} {100 * v:.0f} %" for k, v in self.top(3))
-        return (f"rms {1e3 * self.rms_total:.3f} mm (x {1e3 * self.rms[0]:.3f}, y {1e3 * self.rms[1]:.3f}, "
-                f"z {1e3 * self.rms[2]:.3f}), max {1e3 * self.max_total:.3f} mm, "
-                f"{100 * self.above_noise:.0f} % above the noise; explained best by {tops}")
-
-    def to_dict(self) -> dict:
-        return {"rms": self.rms.tolist(), "rms_total": self.rms_total, "max_total": self.max_total,
-                "noise_rms": self.noise_rms, "above_noise": self.above_noise,
-                "explains": self.explains,
-                "bins": {k: {"edges": e.tolist(), "rms": r.tolist(), "empty": np.flatnonzero(~np.isfinite(r)).tolist()}
-                         for k, (e, r) in self.bins.items()}}
-
-
-class FittedPose:
-    """A fitted model's TCP positions in the tracker frame (the registration included).
-
-    Parameters
-    ----------
-    model : PoseModel
-    sources, values : sequences
-        The model's sources and one parameter array each.
-    rotation, translation : ndarray
-        Registration: tracker-frame position = R p + t.
-    """
-
-    def __init__(self, model: PoseModel, sources, values, rotation, translation):
-        self.model = model
-        self.sources, self.values = tuple(sources), tuple(values)
-        self.rotation, self.translation = np.asarray(rotation), np.asarray(translation)
-
-    def position(self, q, drive=None) -> np.ndarray:
-        """Positions at commands q (n, n_joint), rad, shape (n, 3), m; ``drive`` (n,): hours since
-        the first reading, or kelvin above its temperature (thermal drift)."""
-        p = self.model.positions(np.atleast_2d(np.asarray(q, float)), self.sources, self.values,
-                                 drive=drive)
-        return p @ self.rotation.T + self.translation
-
-
-@dataclass(frozen=True)
-class TrackerDiagnosis:
-    """Result of :func:`diagnose_tracker`.
-
-    Attributes
-    ----------
-    verdict : Verdict
-        ``"explained"``, ``"unexplained"`` or ``"no significant gap"``.
-    sources : tuple of SourceResult
-        Chosen sources first (by share), then the others by held-out score.
-    where : PoseErrorMap
-    heldout_before, heldout_after : dict
-        Held-out ``rms`` and ``max`` pose error, m, with ``rms_interval`` and ``max_interval``
-        (95 % bootstrap over held-out configurations), and ``chi2_per_n``.
-    shrink : float
-        ``1 − rms_after / rms_before`` on the held-out configurations.
-    shrink_interval : tuple of float
-    equivalent : tuple of tuple of str
-        Sources the data cannot tell apart (parallel signatures after the registration).
-    absorbed : tuple of str
-        Sources the base registration takes up entirely.
-    values : dict
-        ``{source name: parameter list}`` of the chosen model.
-    models : tuple of dict
-        Every scored model: name, k, training and held-out χ², score, weight.
-    n_readings : int
-    train, held : tuple of int
-        Configuration labels.
-    seconds : float
-    notes : tuple of str
-    calibration : dict or None
-        With ``settings.calibrate``: each ordinary parameter's value, interval and
-        identifiability, and the held-out error before and after the calibration alone.
-    fitted, nominal_fitted : FittedPose
-        The chosen (else the nominal) model and the registered nominal one.
-    """
-
-    verdict: Verdict
-    sources: tuple
-    where: PoseErrorMap
-    heldout_before: dict
-    heldout_after: dict
-    shrink: float
-    shrink_interval: tuple
-    equivalent: tuple
-    absorbed: tuple
-    values: dict
-    models: tuple
-    n_readings: int
-    train: tuple
-    held: tuple
-    seconds: float
-    notes: tuple = field(default=())
-    calibration: dict | None = None
-    fitted: FittedPose | None = field(default=None, repr=False, compare=False)
-    nominal_fitted: FittedPose | None = field(default=None, repr=False, compare=False)
-
-    def __post_init__(self):
-        if self.verdict not in VERDICTS:
-            raise ValueError(f"unknown verdict {self.verdict!r}; one of {', '.join(map(repr, VERDICTS))}")
-
-    @property
-    def chosen(self) -> tuple:
-        return tuple(s for s in self.sources if s.chosen)
-
-    def to_dict(self) -> dict:
-        """The CLI's ``--json`` and ``diagnosis.json``, in the FRF diagnosis's shape: verdict,
-        effects (the sources) best first, where, variant (the chosen model's values), the held-out
-        error before and after, the models scored, notes and calibration."""
-        effects = [{"name": s.name, "location": s.location, "params": s.params,
-                    "description": s.description,
-                    "heldout_before": self.heldout_before, "heldout_after": s.heldout_after,
-                    "shrink": (1 - s.heldout_after["rms"] / self.heldout_before["rms"]
-                               if self.heldout_before["rms"] > 0 else 0.0),
-                    "share": s.share, "confidence": s.confidence, "chosen": s.chosen}
-                   for s in self.sources]
-        return jsonable({"verdict": self.verdict, "effects": effects, "where": self.where.to_dict(),
-                       "variant": self.values or None, "heldout_before": self.heldout_before,
-                       "heldout_after": self.heldout_after, "shrink": self.shrink,
-                       "shrink_interval": list(self.shrink_interval),
-                       "equivalent": [list(g) for g in self.equivalent], "absorbed": list(self.absorbed),
-                       "models": list(self.models), "n_readings": self.n_readings,
-                       "seconds": self.seconds, "notes": list(self.notes), "calibration": self.calibration})
-
-    def to_json(self) -> dict:
-        """:meth:`to_dict` (the name the CLI and older callers use)."""
-        return self.to_dict()
-
-    def summary(self) -> str:
-        """A few lines for a person: the verdict with the held-out error before and after, the
-        chosen sources with their share of the error and confidence (or the closest candidates),
-        and where the nominal model's error lies."""
-        b, a = self.heldout_before, self.heldout_after
-        lo, hi = self.shrink_interval
-        lines = [f"verdict: {self.verdict} ({self.n_readings} readings; held-out rms {1e3 * b['rms']:.3f} -> "
-                 f"{1e3 * a['rms']:.3f} mm, shrink {self.shrink:.2f} [{lo:.2f}, {hi:.2f}]; noise "
-                 f"{1e3 * self.where.noise_rms:.3f} mm rms)"]
-        for s in self.chosen or self.sources[:3]:
-            what = f"{100 * s.share:.0f} % of the error" if s.chosen else \
-                f"held-out rms {1e3 * s.heldout_after['rms']:.3f} mm alone"
-            lines.append(f"{'chosen' if s.chosen else 'candidate'} {s.name}: {s.description}; {what}, "
-                         f"confidence {s.confidence:.2f}")
-        lines.append(f"where: {self.where.describe()}")
-        return "\n".join(lines)
-
-    def plot(self, ax=None):
-        """Draw into the matplotlib Axes ``ax`` (a new figure's by default) and return it: the
-        held-out rms pose error with each ranked source against the nominal's and the chosen
-        model's, with their 95 % bootstrap intervals, and the readings' noise
-        (:func:`rmbench.gap.plot.plot_sources`)."""
-        from rmbench.gap.plot import plot_sources
-
-        return plot_sources(self, ax)
-
-    def save(self, directory) -> dict:
-        """Write ``diagnosis.json``, ``sources.csv`` and ``pose_errors.png`` into ``directory``;
-        their paths."""
-        out = Path(directory)
-        out.mkdir(parents=True, exist_ok=True)
-        paths = {"json": out / "diagnosis.json", "csv": out / "sources.csv",
-                 "figure": out / "pose_errors.png"}
-        write_whole(paths["json"], strict_dumps(self.to_dict(), indent=1))
-        rows = ["name,kind,location,chosen,share,confidence,heldout_rms_m,heldout_max_m,description"]
-        for s in self.sources:
-            rows.append(f"{s.name},{s.kind},{s.location},{int(s.chosen)},{s.share:.4f},"
-                        f"{s.confidence:.4f},{s.heldout_after['rms']:.6g},{s.heldout_after['max']:.6g},"
-                        f"\"{s.description}\"")
-        write_whole(paths["csv"], "\n".join(rows) + "\n")
-        from rmbench.gap.plot import plot_pose_errors
-
-        plot_pose_errors(self, paths["figure"])
-        return {k: str(v) for k, v in paths.items()}
-
-
 def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = TrackerSettings(),
                      progress=None) -> TrackerDiagnosis:
     """Diagnose tracker readings against a nominal robot (module docstring).
@@ -344,12 +103,72 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         Readings of another number of joints, too few configurations for the registration and a
         source, non-finite values.
     """
+    t0 = time.perf_counter()
+    say = progress or (lambda msg: None)
+    p = _prepared(nominal, data, settings)
+    say("nominal model registered; gap map")
+    eng, nominal_fit, library = p.eng, p.nominal_fit, p.library
+    base, calibration, start = (), None, nominal_fit
+    if settings.calibrate:
+        base = tuple(s for s in library if s.kind in ORDINARY)
+        library = [s for s in library if s.kind not in ORDINARY]
+        start, calibration = _calibrated(eng, base, nominal_fit, settings, say)
+    best, scored, verdict, more = _search(eng, library, start, base, p.e_all, settings, say)
+    # the prior's term spread over the held-out units, so a resample keeps it on average
+    n_units = [3 * np.sum(data.location[eng.held] == u) for u in eng.held_units]
+    weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
+                                 for f in scored], n_units, [f.k for f in scored], n_boot=settings.bootstrap)
+    conf = _adequate_confidences(scored, n_units, settings)
+    chosen = best if best.sources else None
+    before = _heldout(eng, nominal_fit, settings.bootstrap)
+    after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
+    shrink, interval = _shrink(eng, nominal_fit, best, settings.bootstrap)
+    results = _ranked(eng, start, best if len(best.sources) > len(base) else None, scored, conf, base)
+    registered = (nominal_fit.rotation, nominal_fit.translation)
+    return TrackerDiagnosis(
+        verdict=verdict, sources=tuple(results), where=p.where, heldout_before=before,
+        heldout_after=after, shrink=shrink, shrink_interval=interval, equivalent=p.equivalent,
+        absorbed=tuple(p.absorbed),
+        values={s.name: np.atleast_1d(v).tolist() for s, v in zip(best.sources, best.values)}
+        if chosen is not None else {},
+        models=tuple({"name": f.name, "k": f.k, "chi2_train": f.chi2_train, "n_train": f.n_train,
+                      "chi2_held": f.chi2_held, "n_held": f.n_held, "score": f.score,
+                      "weight": float(w)} for f, w in zip(scored, weights)),
+        calibration=calibration,
+        n_readings=len(data.q), train=tuple(int(u) for u in p.train_units),
+        held=tuple(int(u) for u in p.held_units), seconds=time.perf_counter() - t0,
+        notes=p.notes + tuple(more),
+        fitted=FittedPose(p.model, best.sources, best.values, best.rotation, best.translation)
+        if chosen is not None else FittedPose(p.model, (), (), *registered),
+        nominal_fitted=FittedPose(p.model, (), (), *registered))
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """The readings ready for the search: the nominal pose model, the engine on the split, the
+    registered nominal fit, the library less what the registration absorbs, where the nominal's
+    error lies and its normalised residuals at every reading (for the noise test)."""
+
+    model: PoseModel
+    eng: Engine
+    nominal_fit: Fit
+    library: list
+    absorbed: list
+    equivalent: tuple
+    where: PoseErrorMap
+    e_all: np.ndarray
+    train_units: np.ndarray
+    held_units: np.ndarray
+    notes: tuple
+
+
+def _prepared(nominal, data: TrackerData, settings: TrackerSettings) -> _Prepared:
+    """Check the readings against the nominal robot, split them, register the nominal model and
+    map its error (:func:`diagnose_tracker`'s first step)."""
     from rmbench.robot import Robot
     from rmbench.tracker.chain import SerialChain
     from rmbench.tracker.simulator import nominal_stiffness
 
-    t0 = time.perf_counter()
-    say = progress or (lambda msg: None)
     robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal)
     chain = SerialChain.from_kinematics(robot.kinematics, robot.arm_joints)
     check_readings(data, chain)
@@ -379,40 +198,9 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
                          f"after registration: readings of another robot, another joint order, or "
                          f"not in rad and m?")
     where = pose_error_map(chain, compliance, data, e_nom)
-    say("nominal model registered; gap map")
     e_all = eng.residual((), [], nominal_fit.rotation, nominal_fit.translation, every)
-    base, calibration, start = (), None, nominal_fit
-    if settings.calibrate:
-        base = tuple(s for s in library if s.kind in ORDINARY)
-        library = [s for s in library if s.kind not in ORDINARY]
-        start, calibration = _calibrated(eng, base, nominal_fit, settings, say)
-    best, scored, verdict, more = _search(eng, library, start, base, e_all, settings, say)
-    notes += more
-    # the prior's term spread over the held-out units, so a resample keeps it on average
-    n_units = [3 * np.sum(data.location[held] == u) for u in eng.held_units]
-    weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
-                                 for f in scored], n_units, [f.k for f in scored], n_boot=settings.bootstrap)
-    conf = _adequate_confidences(scored, n_units, settings)
-    chosen = best if best.sources else None
-    before = _heldout(eng, nominal_fit, settings.bootstrap)
-    after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
-    shrink, interval = _shrink(eng, nominal_fit, best, settings.bootstrap)
-    results = _ranked(eng, start, best if len(best.sources) > len(base) else None, scored, conf, base)
-    return TrackerDiagnosis(
-        verdict=verdict, sources=tuple(results), where=where, heldout_before=before,
-        heldout_after=after, shrink=shrink, shrink_interval=interval, equivalent=equivalent,
-        absorbed=tuple(absorbed),
-        values={s.name: np.atleast_1d(v).tolist() for s, v in zip(best.sources, best.values)}
-        if chosen is not None else {},
-        models=tuple({"name": f.name, "k": f.k, "chi2_train": f.chi2_train, "n_train": f.n_train,
-                      "chi2_held": f.chi2_held, "n_held": f.n_held, "score": f.score,
-                      "weight": float(w)} for f, w in zip(scored, weights)),
-        calibration=calibration,
-        n_readings=len(data.q), train=tuple(int(u) for u in train_units),
-        held=tuple(int(u) for u in held_units), seconds=time.perf_counter() - t0, notes=tuple(notes),
-        fitted=FittedPose(model, best.sources, best.values, best.rotation, best.translation)
-        if chosen is not None else FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation),
-        nominal_fitted=FittedPose(model, (), (), nominal_fit.rotation, nominal_fit.translation))
+    return _Prepared(model, eng, nominal_fit, library, absorbed, equivalent, where, e_all, train_units,
+                     held_units, tuple(notes))
 
 
 def _calibrated(eng: Engine, base: tuple, nominal: Fit, settings: TrackerSettings, say) -> tuple:
@@ -480,54 +268,6 @@ def _search(eng: Engine, library, start: Fit, base: tuple, e_all: np.ndarray, se
                 notes.append("the calibrated ordinary parameters bring the held-out error to the noise: "
                              "no structural source is needed")
     return best, scored, verdict, notes
-
-
-# -- where -------------------------------------------------------------------------------------
-
-def pose_error_map(chain, compliance, data: TrackerData, error: np.ndarray, *,
-                   n_bins: int = 6, harmonics: int = 2) -> PoseErrorMap:
-    """Where the pose error lies (see :class:`PoseErrorMap`); ``error`` (n, 3), m."""
-    e = np.asarray(error, float)
-    norm = np.linalg.norm(e, axis=1)
-    noise2 = np.mean(np.sum(data.sigma ** 2, axis=1))
-    msq = float(np.mean(norm ** 2))
-    tau = chain.gravity_torque(data.q)
-    regressors = {}
-    for j, name in enumerate(chain.names):
-        q = data.q[:, j]
-        regressors[f"q_{name}"] = q
-        if compliance[j] > 0:
-            regressors[f"tau_{name}"] = tau[:, j]
-        for h in range(1, harmonics + 1):
-            regressors[f"sin{h}_{name}"] = np.sin(h * q)
-            regressors[f"cos{h}_{name}"] = np.cos(h * q)
-    centred = e - e.mean(axis=0)
-    ss = float(np.sum(centred ** 2))
-    explains = {}
-    for key, r in regressors.items():
-        x = r - r.mean()
-        xx = float(x @ x)
-        if xx <= 0 or ss <= 0:
-            explains[key] = 0.0
-            continue
-        beta = x @ centred / xx                        # (3,)
-        explains[key] = float(np.sum(np.outer(x, beta) ** 2) / ss)
-    def binned(x):
-        edges = np.linspace(x.min(), x.max(), n_bins + 1)
-        which = np.clip(np.digitize(x, edges[1:-1]), 0, n_bins - 1)
-        rms = np.array([np.sqrt(np.mean(norm[which == b] ** 2)) if np.any(which == b) else np.nan
-                        for b in range(n_bins)])
-        return edges, rms
-
-    bins = {name: binned(data.q[:, j]) for j, name in enumerate(chain.names)}
-    # the workspace: the nominal TCP's place in the base frame, per axis
-    tcp = chain.position(data.q)
-    bins.update({f"tcp_{a}": binned(tcp[:, k]) for k, a in enumerate("xyz")})
-    return PoseErrorMap(rms=np.sqrt(np.mean(e ** 2, axis=0)), rms_total=float(np.sqrt(msq)),
-                        max_total=float(norm.max()) if len(norm) else 0.0,
-                        noise_rms=float(np.sqrt(noise2)),
-                        above_noise=float(max(0.0, 1 - noise2 / msq)) if msq > 0 else 0.0,
-                        explains=explains, bins=bins)
 
 
 # -- helpers -----------------------------------------------------------------------------------
