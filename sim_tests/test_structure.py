@@ -14,7 +14,7 @@ import pytest
 
 import rmbench
 
-PACKAGES = ("gap",)         # the stages held to the limits; "calibrate" joins when it meets them
+PACKAGES = ("gap", "calibrate")         # the stages issue 78 holds to the limits
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 80
 MAX_PARAMETERS = 8
