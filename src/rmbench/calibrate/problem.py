@@ -65,6 +65,14 @@ class Problem:
         jobs = [(u, p, b, t) for (p, b), t in zip(self.keys, self.targets)]
         return np.concatenate(self._map(jobs, _residual_job))
 
+    def residuals_many(self, us) -> list[np.ndarray]:
+        """The residuals at each of ``us`` (a list of shape (n_params,)), in one map over the
+        workers: each shape (n,)."""
+        jobs = [(u, p, b, t) for u in us for (p, b), t in zip(self.keys, self.targets)]
+        parts = self._map(jobs, _residual_job)
+        k = len(self.keys)
+        return [np.concatenate(parts[i * k:(i + 1) * k]) for i in range(len(us))]
+
     def jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
         """Residuals at ``u`` and their sensitivity, shape (n,), (n, n_params), per unit of ``u``."""
         jobs = [(u, p, b, t) for (p, b), t in zip(self.keys, self.targets)]
