@@ -156,8 +156,9 @@ def main(argv=None) -> None:
         top = dg["effects"][0]["name"] if dg.get("effects") else None
         cases[name] = {"seconds": seconds, "campaign_s": camp_s, "verdict": dg["verdict"], "top": top,
                        "hidden": None if hidden is None else hidden.name, "uff": uff, "test": test}
+        steps = ", ".join(f"{k} {v:.0f}" for k, v in (dg.get("seconds") or {}).items() if k != "total")
         print(f"{name}: hidden {cases[name]['hidden']}; campaign {camp_s:.1f} s; gap diagnose --calibrate "
-              f"{seconds:.1f} s: {dg['verdict']}, top {top}", flush=True)
+              f"{seconds:.1f} s: {dg['verdict']}, top {top} (s per step: {steps})", flush=True)
 
     camp16 = float(np.mean([c["campaign_s"] for c in cases.values()]))
     # 40 campaigns; 20 spread-only, 10 in-library, 10 out-of-library diagnoses
