@@ -193,13 +193,14 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
     assert not beyond_spread(freed(1.5, 0.05), irb, ("joints",))
 
 
-def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True):
+def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, closes: float = 0.5):
     """``_Recalibration._candidate`` with calibrations that stand in for the two starts, each
-    ending at the given training objective; the starts each was given recorded."""
+    ending at the given training objective; the run from the null's end removes ``closes`` of the
+    null's excess held-out χ² (the null: 100 on 50 residuals). The starts each was given recorded."""
     from types import SimpleNamespace
 
     import rmbench.calibrate
-    from rmbench.gap.frf.confirm import _Recalibration
+    from rmbench.gap.frf.confirm import ConfirmOptions, Confirmed, _Recalibration, _Run
 
     starts = []
 
@@ -208,31 +209,46 @@ def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True):
         end = from_nominal if start is None else from_null
         return SimpleNamespace(chi2_after=end - 10.0, chi2_prior=10.0, start=start)
 
+    def scored(self, effect, terms, cal, run):
+        chi2 = 100.0 - 50.0 * closes if cal.start is not None else 60.0
+        return Confirmed(effect=None, values=None, calibration=cal, robot=None, chi2_held=chi2, n_held=50,
+                         peak_held=0.0, chi2_held_posture=np.ones(1), objective=None, significant=True,
+                         seconds=0.0, start=run.started)
+
     monkeypatch.setattr(rmbench.calibrate, "calibrate", calibrate)
-    run = _Recalibration(SimpleNamespace(nominal=None, held_data=None), None, None, None, None)
+    monkeypatch.setattr(_Recalibration, "_scored", scored)
+    run = _Recalibration(SimpleNamespace(nominal=None, held_data=None), None, ConfirmOptions(), None, None)
     base = SimpleNamespace(calibration=SimpleNamespace(params=[SimpleNamespace(name="j1_flex.stiffness")],
-                                                       u=np.array([0.2])))
-    cal, started = run._candidate(None, None, base if null else None)
-    return cal, started, starts
+                                                       u=np.array([0.2])), chi2_held=100.0, n_held=50)
+    c = run._candidate(None, None, None, None, base if null else None, _Run("nominal", False, None, 0.0))
+    return c, starts
 
 
 def test_a_candidate_keeps_the_null_recalibrations_end_where_that_start_ends_lower(monkeypatch):
     # the modes-alone stage from the nominal trades a freed holder against the centres of mass
     # and the foundation; from the null's end the ordinary parameters are already near the data
-    cal, started, starts = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0)
-    assert starts == [None, {"j1_flex.stiffness": 0.2}]
-    assert started == "null" and cal.start == {"j1_flex.stiffness": 0.2}
+    c, starts = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0)
+    assert starts == [{"j1_flex.stiffness": 0.2}, None]
+    assert c.start == "null" and c.calibration.start == {"j1_flex.stiffness": 0.2} and c.second_start
 
 
 def test_a_candidate_keeps_the_nominal_start_where_that_ends_lower(monkeypatch):
     # from the null's end, where the ordinary parameters mimic the effect, a fit can stall
-    cal, started, _ = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0)
-    assert started == "nominal" and cal.start is None
+    c, _ = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0)
+    assert c.start == "nominal" and c.calibration.start is None
+
+
+def test_a_candidate_that_does_not_move_the_held_out_gap_from_the_null_is_not_started_again(monkeypatch):
+    # a second basin is sought only for a candidate on the way (a fifth of the null's excess
+    # held-out χ² removed): the start from the nominal costs three of the null's end
+    c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0, closes=0.1)
+    assert starts == [{"j1_flex.stiffness": 0.2}]
+    assert c.start == "null" and not c.second_start
 
 
 def test_a_run_without_a_null_starts_from_the_nominal_alone(monkeypatch):
-    _, started, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=0.0, null=False)
-    assert starts == [None] and started == "nominal"
+    c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=0.0, null=False)
+    assert starts == [None] and c.start == "nominal"
 
 
 class _FakeRun:
