@@ -60,8 +60,10 @@ _MASS_BODIES = ("upper_arm", "forearm", "wrist", "flange")
 
 
 def draw_structural(rng: np.random.Generator, in_library: bool):
-    """One structural effect (:class:`rmbench.gap.cases.blind.Hidden`)."""
+    """One structural effect (:class:`rmbench.gap.cases.blind.Hidden`); out of library, the blind
+    cases' draws (:func:`rmbench.gap.cases.hidden.draw_out_of_library`) of three of their kinds."""
     from rmbench.gap.cases.blind import Hidden
+    from rmbench.gap.cases.hidden import draw_out_of_library
 
     def factor(lo, hi):
         f = logu(rng, lo, hi)
@@ -82,18 +84,7 @@ def draw_structural(rng: np.random.Generator, in_library: bool):
             coord = ("1X", "1Y", "1aX", "1aY")[int(rng.integers(4))]
             return Hidden(kind, f"{band}:{coord}", {"angle_deg": float(rng.choice([-1, 1]) * rng.uniform(6, 12))})
         return Hidden(kind, "spindle_spin", {"rpm": float(rng.uniform(12000, 24000))})
-    kind = OUT_OF_LIBRARY[int(rng.integers(len(OUT_OF_LIBRARY)))]
-    if kind == "hose_resonator":
-        link = ("upper_arm", "forearm")[int(rng.integers(2))]
-        return Hidden(kind, link, {"mass": float(rng.uniform(5, 15)), "f_hz": float(rng.uniform(9, 30)),
-                                   "zeta": 0.05})
-    if kind == "tendon_coupling":
-        pair = [("j2_flex", "j3_flex"), ("j4_flex", "j5_flex"), ("j5_flex", "j6_flex")][int(rng.integers(3))]
-        return Hidden(kind, "+".join(pair), {"fraction": float(rng.uniform(0.3, 0.8))})
-    body = ("forearm", "wrist", "flange")[int(rng.integers(3))]
-    offset = rng.uniform(-1, 1, 3)
-    offset *= float(rng.uniform(0.25, 0.4)) / np.linalg.norm(offset)
-    return Hidden("offset_mass", body, {"mass": float(rng.uniform(8, 20)), "offset_m": offset.tolist()})
+    return draw_out_of_library(rng, OUT_OF_LIBRARY[int(rng.integers(len(OUT_OF_LIBRARY)))])
 
 
 def scaled_structural(hidden, factor: float):

@@ -422,3 +422,15 @@ def test_cli_report_is_drawn_from_the_diagnosis_and_saves_nothing_without_out(tm
     assert main(["gap", "diagnose", "--data", str(data), "--report", str(report)]) == 0
     assert f"wrote {report}" in capsys.readouterr().out
     assert "Gap diagnosis: explained" in report.read_text()
+
+
+def test_parallel_signatures_form_one_group_and_orthogonal_ones_none():
+    # a sign flip is the same signature (the data fit either with the opposite size); a signature
+    # 2.5° off (cos 0.999) is still one the data cannot tell apart, one 90° off is distinct
+    from rmbench.gap.selection import parallel_groups
+
+    a = np.array([1.0, 0.0, 0.0])
+    near = np.array([np.cos(np.radians(2.5)), np.sin(np.radians(2.5)), 0.0])
+    groups = parallel_groups([a, -a, near, np.array([0.0, 0.0, 1.0])], ["a", "minus_a", "near", "other"])
+    assert groups == (("a", "minus_a", "near"),)
+    assert parallel_groups([a], ["a"]) == ()

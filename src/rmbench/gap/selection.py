@@ -26,7 +26,7 @@ from scipy.stats import norm
 from rmbench.errors import InputError
 
 __all__ = ["Verdict", "VERDICTS", "SearchSettings", "significant", "bic", "selection_weights", "confidences",
-           "bootstrap_shrink"]
+           "bootstrap_shrink", "parallel_groups"]
 
 Verdict = Literal["explained", "unexplained", "no significant gap"]
 """What a diagnosis concludes: a model of the library explains the gap, none does, or the data
@@ -160,3 +160,22 @@ def bootstrap_shrink(before, after, n_boot: int, seed: int = 0) -> tuple[float, 
     rng = np.random.default_rng(seed)
     boots = [shrink(rng.integers(0, len(c0), len(c0))) for _ in range(n_boot)]
     return float(shrink(np.arange(len(c0)))), (float(np.percentile(boots, 2.5)), float(np.percentile(boots, 97.5)))
+
+
+def parallel_groups(vecs, names, cos_min: float = 0.995) -> tuple:
+    """Groups of names whose unit signatures ``vecs`` (one row each) are parallel, |cos| ≥ ``cos_min``:
+    look-alikes the data cannot tell apart (under 1 % of either's energy, 1 − cos², left between them).
+    Each name in one group at most, groups in the order of their first member."""
+    if len(vecs) < 2:
+        return ()
+    V = np.array(vecs)
+    cos = np.abs(V @ V.T)
+    groups, used = [], set()
+    for i in range(len(names)):
+        if i in used:
+            continue
+        g = [j for j in range(len(names)) if cos[i, j] >= cos_min]
+        if len(g) > 1:
+            used.update(g)
+            groups.append(tuple(names[j] for j in g))
+    return tuple(groups)

@@ -13,7 +13,7 @@ import numpy as np
 from rmbench.robot import Robot
 from rmbench.gap.cases import truth as edit
 
-__all__ = ["Hidden", "draw_case", "inject", "scaled", "within_library", "OUT_KINDS"]
+__all__ = ["Hidden", "draw_case", "draw_out_of_library", "inject", "scaled", "within_library", "OUT_KINDS"]
 
 _IN_LIBRARY_KINDS = ("joint_stiffness", "joint_damping", "load_dependent_stiffness",
                      "servo_stiffness", "tool_contact_stiffness", "spindle_stiffness",
@@ -122,7 +122,15 @@ def _draw_in(rng) -> Hidden:
 
 
 def _draw_out(rng) -> Hidden:
-    kind = OUT_KINDS[int(rng.integers(len(OUT_KINDS)))]
+    return draw_out_of_library(rng, OUT_KINDS[int(rng.integers(len(OUT_KINDS)))])
+
+
+def draw_out_of_library(rng: np.random.Generator, kind: str) -> Hidden:
+    """One effect outside the diagnosis's library of ``kind`` (of :data:`OUT_KINDS`), its place and
+    size drawn from ``rng``: a hose package resonating on the upper arm or forearm (5-15 kg, 9-30 Hz,
+    ζ 0.05), a tendon coupling two neighbouring joints (30-80 % of the softer one's stiffness), a
+    mass of 8-20 kg 0.25-0.4 m off a body's origin, or a link bending at mid-span (its compliance
+    1/3 to 1 of its root joint's)."""
     if kind == "hose_resonator":
         link = ("upper_arm", "forearm")[int(rng.integers(2))]
         return Hidden(kind, link, {"mass": float(rng.uniform(5, 15)), "f_hz": float(rng.uniform(9, 30)),
@@ -136,6 +144,8 @@ def _draw_out(rng) -> Hidden:
         offset = rng.uniform(-1, 1, 3)
         offset *= float(rng.uniform(0.25, 0.4)) / np.linalg.norm(offset)
         return Hidden(kind, body, {"mass": float(rng.uniform(8, 20)), "offset_m": offset.tolist()})
+    if kind != "link_bending":
+        raise ValueError(f"unknown out-of-library kind {kind!r}; one of {', '.join(OUT_KINDS)}")
     link = ("lower_arm", "forearm")[int(rng.integers(2))]
     # the bending compliance over the root joint's: 1/3 to 1 (a bending stiffness 1-3 times it)
     return Hidden(kind, link, {"compliance_ratio": float(rng.uniform(1 / 3, 1.0))})

@@ -13,7 +13,7 @@ from rmbench.gap.frf.effects import Change
 from rmbench.gap.frf.result import EffectResult
 from rmbench.gap.frf.search import Objective
 from rmbench.gap.frf.where import GapMap
-from rmbench.gap.selection import bootstrap_shrink, confidences, selection_weights
+from rmbench.gap.selection import bootstrap_shrink, confidences, parallel_groups, selection_weights
 from rmbench.modeshape import mac
 
 __all__ = ["metrics", "model_weights", "ranked", "equivalent", "localise"]
@@ -110,19 +110,7 @@ def equivalent(screens, *, cos_min: float = 0.995) -> tuple:
         if norm > 0:
             vecs.append(v / norm)
             names.append(s.effect.name)
-    if len(vecs) < 2:
-        return ()
-    V = np.array(vecs)
-    cos = np.abs(V @ V.T)
-    groups, used = [], set()
-    for i in range(len(names)):
-        if i in used:
-            continue
-        g = [j for j in range(len(names)) if cos[i, j] >= cos_min]
-        if len(g) > 1:
-            used.update(g)
-            groups.append(tuple(names[j] for j in g))
-    return tuple(groups)
+    return parallel_groups(vecs, names, cos_min)
 
 
 def localise(where: GapMap, screens, e0) -> str:

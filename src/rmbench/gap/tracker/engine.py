@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from rmbench.gap.selection import bic
+from rmbench.gap.selection import bic, parallel_groups
 from rmbench.gap.tracker.data import TrackerData
 from rmbench.gap.tracker.sources import PoseModel, Source
 from rmbench.tracker.chain import skew
@@ -274,18 +274,7 @@ def signatures(eng: Engine, fit: Fit, library, *, cos_min: float = 0.995, absorb
         v = proj[:, int(np.argmax(left))]
         vecs.append(v / np.linalg.norm(v))
         names.append(s.name)
-    groups, used = [], set()
-    if vecs:
-        V = np.array(vecs)
-        cos = np.abs(V @ V.T)
-        for i in range(len(names)):
-            if i in used:
-                continue
-            g = [j for j in range(len(names)) if cos[i, j] >= cos_min]
-            if len(g) > 1:
-                used.update(g)
-                groups.append(tuple(names[j] for j in g))
-    return absorbed, tuple(groups)
+    return absorbed, parallel_groups(vecs, names, cos_min)
 
 
 def pruned(eng: Engine, best: Fit, scored: list, base: tuple = ()) -> Fit:
