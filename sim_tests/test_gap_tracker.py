@@ -52,6 +52,47 @@ def test_thermal_drift_is_a_candidate_only_with_time_stamps_or_temperatures(chai
             if s.kind == "thermal_drift"] == ["temperature"]
 
 
+def test_a_sources_parameters_are_parameter_records_scaled_as_the_engine_steps_them(chain, mh180):
+    """Each source's parameters are the project's one parameter record, of a pose kind (no MJCF
+    edit: refused without the pose registry), nominal 0 and linear with ``unit`` the typical
+    magnitude the engine scaled by before they were records (the steps of 1e-3 of it). The
+    engine's finite-difference column of a parameter is the model's central difference between
+    ``p.value(±1e-3)``: u = value / unit is what the solver sees."""
+    from rmbench.gap.tracker.engine import Engine
+    from rmbench.robot.parameters import Parameter
+
+    # the typical magnitudes of the sources before their parameters were records (SI)
+    old_scale = {"joint_offset": (1e-3,), "link_geometry": (1e-3, 1e-3), "gravity_compliance": (0.1,),
+                 "link_mass": (0.05,), "payload": (10.0,), "gear_periodic_error": (1e-4, 1e-4),
+                 "frame_error": (1e-3, 1e-3, 1e-3), "thermal_drift": (1e-5,)}
+    comp = 1.0 / nominal_stiffness(mh180)
+    lib = source_library(chain, comp, drive="time", masses=True)
+    for s in lib:
+        assert all(isinstance(p, Parameter) and p.kind == s.kind for p in s.parameters)
+        assert [p.name for p in s.parameters] == [f"{s.name}.{n}" for n in s.params]
+        assert tuple(p.unit for p in s.parameters) == old_scale[s.kind]
+        assert all(p.nominal == 0.0 and not p.log and p.index == i for i, p in enumerate(s.parameters))
+        assert s.params_dict(np.arange(s.n_params)) == dict(zip(s.params, map(float, range(s.n_params))))
+    with pytest.raises(ValueError, match="unknown parameter kind 'payload'"):
+        Parameter("payload@tool.mass", "structural", "payload", ("tool",), 0, 0.0, False, 10.0,
+                  -np.inf, np.inf, "kg")
+
+    model = PoseModel(chain, comp)
+    q = sobol_points(12, *MH180_JOINT_BOX, np.random.default_rng(3))
+    data = TrackerData(q, model.positions(q), np.arange(12), np.full((12, 3), 1e-4), None, tuple(mh180.arm_joints))
+    eng = Engine(model, data, np.arange(12), np.arange(0))
+    rot, idx = np.eye(3), np.arange(12)
+    for s in (lib[0], next(x for x in lib if x.kind == "payload"),
+              next(x for x in lib if x.kind == "gear_periodic_error")):
+        cols = eng.columns((), [], rot, idx, of=(s,))
+        for k, p in enumerate(s.parameters):
+            v = [np.zeros(s.n_params) for _ in range(2)]
+            v[0][k], v[1][k] = p.value(1e-3), p.value(-1e-3)
+            diff = (model.positions(q, (s,), (v[0],)) - model.positions(q, (s,), (v[1],))) / (2e-3 * p.unit)
+            np.testing.assert_allclose(cols[:, k], (diff / 1e-4).ravel(), rtol=1e-12, atol=1e-9)
+            assert np.max(np.abs(cols[:, k])) * p.unit > 1.0     # one u moves the TCP beyond the noise
+
+
 def test_pose_model_without_sources_is_the_simulators_robot_without_errors(chain, mh180):
     # same chain, same nominal compliance, same two fixed-point steps: equal to round-off
     q = sobol_points(20, *MH180_JOINT_BOX, np.random.default_rng(1))

@@ -97,6 +97,12 @@ class Parameter:
     carried : float
         Mass a compliance (``base``, ``tilt``) carries, kg: its joints' damping is a ratio of
         critical against it at 1 m (:func:`~rmbench.robot.kinds.compliance_damping`); 0 otherwise.
+    registry : tuple of str, optional
+        The kinds :attr:`kind` is checked against. None (default): the MJCF edits,
+        :data:`~rmbench.robot.kinds.KINDS`. A parameter of a model other than the MJCF names its
+        own (the tracker diagnosis's pose model: :data:`rmbench.gap.tracker.sources.SOURCE_KINDS`);
+        it has no MJCF edit, so :class:`ParameterSet` cannot write it into a model, nor free,
+        display or resolve it by its kind.
     """
 
     name: str
@@ -112,10 +118,14 @@ class Parameter:
     label: str
     scales: tuple = ()
     carried: float = 0.0
+    # the owner's registry, not a global one that another stage would add to: a robot stage that
+    # knows nothing of the models above it still checks every kind
+    registry: tuple | None = None
 
     def __post_init__(self):
-        if self.kind not in KINDS:
-            raise ValueError(f"unknown parameter kind {self.kind!r} of {self.name}; one of {', '.join(KINDS)}")
+        kinds = KINDS if self.registry is None else self.registry
+        if self.kind not in kinds:
+            raise ValueError(f"unknown parameter kind {self.kind!r} of {self.name}; one of {', '.join(kinds)}")
 
     @property
     def resolution(self) -> float:

@@ -202,8 +202,7 @@ class TrueRobot:
                 phase[j, hh - 1] = np.arctan2(v[1], v[0])
             elif h.kind in ("link_geometry", "frame_error"):
                 from rmbench.gap.tracker.sources import Source
-                tw_sources.append(Source(h.kind, h.location, ("a",) * len(v), (1.0,) * len(v),
-                                         joint=j))
+                tw_sources.append(Source.of(h.kind, h.location, joint=j))
                 tw_values.append(v)
             elif h.kind == "thermal_drift":
                 self.thermal += v[0]

@@ -39,11 +39,10 @@ from rmbench.gap.tracker.data import (TrackerData, check_readings, default_covar
                                       split_readings, tracker_data)
 from rmbench.gap.tracker.engine import Engine, Fit, pruned, signatures
 from rmbench.gap.tracker.result import FittedPose, SourceResult, TrackerDiagnosis
-from rmbench.gap.tracker.sources import PoseModel, Source, source_library
+from rmbench.gap.tracker.sources import ORDINARY, PoseModel, Source, source_library
 from rmbench.gap.tracker.where import PoseErrorMap, pose_error_map
 
 _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that large
-ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")   # what a robot calibration fits
 
 __all__ = ["TrackerData", "TrackerSettings", "SourceResult", "PoseErrorMap", "TrackerDiagnosis",
            "FittedPose", "diagnose_tracker", "pose_error_map", "tracker_data", "default_sigma",
@@ -344,10 +343,10 @@ def _calibration(eng: Engine, fit: Fit, nominal: Fit, n_boot: int) -> dict:
     sd = post.sd[:k]
     rows, off = [], 0
     for s, v in zip(fit.sources, fit.values):
-        for i, pname in enumerate(s.params):
+        for i, p in enumerate(s.parameters):
             ratio = float(post.ratio[off + i])
             x = float(np.atleast_1d(v)[i])
-            rows.append({"name": f"{s.name}.{pname}", "value": x, "prior_sd": float(sd_prior[off + i]),
+            rows.append({"name": p.name, "value": x, "prior_sd": float(sd_prior[off + i]),
                          "interval": [x - 1.96 * float(sd[off + i]), x + 1.96 * float(sd[off + i])],
                          "posterior_over_prior": ratio, "identifiability": identifiability(ratio)})
         off += s.n_params

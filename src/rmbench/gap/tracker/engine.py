@@ -105,7 +105,7 @@ class Engine:
         for s in of:
             k_src = list(sources).index(s) if s in sources else None
             for k in range(s.n_params):
-                h = 1e-3 * s.scale[k]
+                h = 1e-3 * s.parameters[k].unit      # 1e-3 of the parameter's u
                 vp, vm = stepped(sources, values, s, k, h, k_src)
                 srcs = sources if k_src is not None else tuple(sources) + (s,)
                 dp = (self.positions(srcs, vp, idx) - self.positions(srcs, vm, idx)) @ rot.T / (2 * h)

@@ -1,11 +1,13 @@
 """Kinematic error sources of a serial arm, and the pose model they edit (tracker data).
 
-A :class:`Source` is one candidate cause of pose error, with a few parameters in SI units, zero
-for the nominal arm. :class:`PoseModel` predicts TCP positions in the robot base frame for any
-set of source values: the nominal rigid chain (:class:`~rmbench.tracker.chain.SerialChain`) with
-its nominal gravity compliance (the MJCF ``<joint>_flex`` stiffness), edited by the sources. The
-conventions are the tracker simulator's (:mod:`rmbench.tracker.simulator`), so a source drawn
-there is the same source here.
+A :class:`Source` is one candidate cause of pose error: a frozen record of a few parameters,
+each the project's one parameter record (:class:`~rmbench.robot.parameters.Parameter`) of a pose
+kind (:data:`SOURCE_KINDS`, no MJCF edit), in SI units, zero for the nominal arm.
+:class:`PoseModel` predicts TCP positions in the robot base frame for any set of source values:
+the nominal rigid chain (:class:`~rmbench.tracker.chain.SerialChain`) with its nominal gravity
+compliance (the MJCF ``<joint>_flex`` stiffness), edited by the sources. The conventions are the
+tracker simulator's (:mod:`rmbench.tracker.simulator`), so a source drawn there is the same source
+here.
 
 Kinds (:func:`source_library`):
 
@@ -35,28 +37,52 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rmbench.robot.parameters import Parameter
 from rmbench.tracker.chain import SerialChain
 
-__all__ = ["Source", "PoseModel", "source_library", "SOURCE_KINDS"]
+__all__ = ["Source", "PoseModel", "source_library", "SOURCE_KINDS", "ORDINARY"]
 
+# the pose model's kinds: the registry its parameters' kinds are checked against
+# (:attr:`rmbench.robot.parameters.Parameter.registry`); none has an MJCF edit
 SOURCE_KINDS = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass", "payload",
                 "gear_periodic_error", "frame_error", "thermal_drift")
+ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")   # what a robot calibration fits
+
+# per kind, each parameter's (name, typical magnitude in SI, SI unit). The magnitude is the
+# parameter's unit of u (value = unit · u, nominal 0): the solver and the finite differences
+# (steps of 1e-3 u) then see a 1 mrad offset, a 10 % compliance and a 10 kg payload alike
+_PARAMETERS = {
+    "joint_offset": (("offset", 1e-3, "rad"),),
+    "link_geometry": (("length", 1e-3, "m"), ("twist", 1e-3, "rad")),
+    "gravity_compliance": (("fraction", 0.1, "1"),),
+    "link_mass": (("fraction", 0.05, "1"),),
+    "payload": (("mass", 10.0, "kg"),),
+    "gear_periodic_error": (("a_sin", 1e-4, "rad"), ("b_cos", 1e-4, "rad")),
+    "frame_error": (("dx", 1e-3, "m"), ("dy", 1e-3, "m"), ("dz", 1e-3, "m")),
+    "thermal_drift@time": (("per_hour", 1e-5, "1/h"),),
+    "thermal_drift@temperature": (("per_kelvin", 1e-5, "1/K"),),
+}
 
 
 @dataclass(frozen=True)
 class Source:
-    """One candidate error source.
+    """One candidate error source: a frozen record of its parameters.
+
+    Build one with :meth:`of`.
 
     Attributes
     ----------
     kind : str
         One of :data:`SOURCE_KINDS`.
     location : str
-        ``jN`` (joint), ``jN:hH`` (joint and harmonic), ``tool`` or ``time``.
-    params : tuple of str
-        Parameter names.
-    scale : tuple of float
-        A typical magnitude of each parameter (SI): finite-difference steps are 1e-3 of it.
+        ``jN`` (joint), ``jN:hH`` (joint and harmonic), ``tool``, ``time`` or ``temperature``.
+    parameters : tuple of Parameter
+        One :class:`~rmbench.robot.parameters.Parameter` per value, in the order of the source's
+        value array: named ``KIND@LOCATION.FIELD`` (``joint_offset@j2.offset``), of group
+        ``ordinary`` (:data:`ORDINARY`) or ``structural``, targets ``(where,)`` (the joint's
+        name, ``tool``, ``time`` or ``temperature``), index its place in the array, nominal 0,
+        linear with :attr:`~rmbench.robot.parameters.Parameter.unit` the typical magnitude (SI),
+        unbounded (the engine's priors are the diagnosis's settings), label the SI unit.
     joint : int
         Index of the joint (-1: none).
     harmonic : int
@@ -65,10 +91,34 @@ class Source:
 
     kind: str
     location: str
-    params: tuple
-    scale: tuple
+    parameters: tuple
     joint: int = -1
     harmonic: int = 0
+
+    @classmethod
+    def of(cls, kind: str, location: str, *, joint: int = -1, harmonic: int = 0) -> "Source":
+        """The source of ``kind`` at ``location`` with its parameters (:data:`_PARAMETERS`).
+
+        Raises
+        ------
+        ValueError
+            An unknown kind.
+        """
+        if kind not in SOURCE_KINDS:
+            raise ValueError(f"unknown source kind {kind!r}; one of {', '.join(SOURCE_KINDS)}")
+        name = f"{kind}@{location}"
+        spec = _PARAMETERS[name if kind == "thermal_drift" else kind]
+        group = "ordinary" if kind in ORDINARY else "structural"
+        where = location.split(":")[0]
+        params = tuple(Parameter(f"{name}.{field}", group, kind, (where,), i, 0.0, False, unit,
+                                 -np.inf, np.inf, label, registry=SOURCE_KINDS)
+                       for i, (field, unit, label) in enumerate(spec))
+        return cls(kind, location, params, joint, harmonic)
+
+    @property
+    def params(self) -> tuple:
+        """The parameters' short names (``offset``, ``a_sin``): the keys of :meth:`params_dict`."""
+        return tuple(p.name[len(self.name) + 1:] for p in self.parameters)
 
     @property
     def name(self) -> str:
@@ -76,9 +126,10 @@ class Source:
 
     @property
     def n_params(self) -> int:
-        return len(self.params)
+        return len(self.parameters)
 
     def params_dict(self, values) -> dict:
+        """``{short name: SI value}`` of one value array (shape (n_params,))."""
         return {p: float(v) for p, v in zip(self.params, np.atleast_1d(values))}
 
     def describe(self, values) -> str:
@@ -124,26 +175,25 @@ def source_library(chain: SerialChain, compliance, *, harmonics: int = 2,
     c = np.asarray(compliance, float)
     out = []
     for j, name in enumerate(chain.names):
-        out.append(Source("joint_offset", name, ("offset",), (1e-3,), joint=j))
+        out.append(Source.of("joint_offset", name, joint=j))
     for j, name in enumerate(chain.names):
-        out.append(Source("link_geometry", name, ("length", "twist"), (1e-3, 1e-3), joint=j))
+        out.append(Source.of("link_geometry", name, joint=j))
     for j, name in enumerate(chain.names):
         if c[j] > 0:
-            out.append(Source("gravity_compliance", name, ("fraction",), (0.1,), joint=j))
+            out.append(Source.of("gravity_compliance", name, joint=j))
     if masses and np.any(c > 0):
         for j, name in enumerate(chain.names):
             if j > 0 and chain.masses[j] > 0:
-                out.append(Source("link_mass", name, ("fraction",), (0.05,), joint=j))
-    out.append(Source("payload", "tool", ("mass",), (10.0,)))
+                out.append(Source.of("link_mass", name, joint=j))
+    out.append(Source.of("payload", "tool"))
     for j, name in enumerate(chain.names):
         for h in range(1, harmonics + 1):
-            out.append(Source("gear_periodic_error", f"{name}:h{h}", ("a_sin", "b_cos"),
-                              (1e-4, 1e-4), joint=j, harmonic=h))
-    out.append(Source("frame_error", "tool", ("dx", "dy", "dz"), (1e-3, 1e-3, 1e-3)))
+            out.append(Source.of("gear_periodic_error", f"{name}:h{h}", joint=j, harmonic=h))
+    out.append(Source.of("frame_error", "tool"))
     if drive == "time":
-        out.append(Source("thermal_drift", "time", ("per_hour",), (1e-5,)))
+        out.append(Source.of("thermal_drift", "time"))
     elif drive == "temperature":
-        out.append(Source("thermal_drift", "temperature", ("per_kelvin",), (1e-5,)))
+        out.append(Source.of("thermal_drift", "temperature"))
     return out
 
 
