@@ -71,7 +71,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from _calibrate_truth import IN_LIBRARY, draw_structural, draw_truth, inject_structural, scaled_structural  # noqa: E402
-from _stats import code_digest, fresh_seed, resumed_cases, ship_bench_modules  # noqa: E402
+from _stats import code_digest, fresh_seed, resumed_cases, ship_bench_modules, wilson  # noqa: E402
 
 from rmbench.calibrate import (CalibrationSettings, ModalModel, TestDesign, calibrate, error_summary,  # noqa: E402
                                load_modal_data)
@@ -464,6 +464,31 @@ def summarise_gap(cases) -> dict:
             "diagnose_s_median": float(np.median([c["seconds"]["diagnose"] for c in cases])) if cases else None}
 
 
+def with_rejected_as_misses(cases) -> dict:
+    """The gap half's rates with every draw rejected as hidden counted as a case of its class
+    and a miss (issue 78): the bench's own visibility rule chose its cases, so the draws it threw
+    away are outcomes too. Each rate as ``[k, n, rate, wilson_lo95, wilson_hi95]``."""
+    inl = [c for c in cases if c["hidden"] and c["hidden"]["in_library"]]
+    out = [c for c in cases if c["hidden"] and not c["hidden"]["in_library"]]
+    spread = [c for c in cases if not c["hidden"]]
+    rej_in = sum(len(c.get("rejected_draws", [])) for c in inl)
+    rej_out = sum(len(c.get("rejected_draws", [])) for c in out)
+
+    def top1(c):
+        return c["verdict"] == "explained" and c["top"] is not None and c["top"]["name"] == c["hidden"]["name"]
+
+    def rated(k, n):
+        lo, hi = wilson(k, n) if n else (None, None)
+        return [k, n, round(k / n, 4) if n else None, None if lo is None else round(lo, 4),
+                None if hi is None else round(hi, 4)]
+
+    return {"rejected_in_library": rej_in, "rejected_out_of_library": rej_out,
+            "gap_top1_after_calibration": rated(sum(map(top1, inl)), len(inl) + rej_in),
+            "unexplained_strict": rated(sum(c["verdict"] == "unexplained" for c in out), len(out) + rej_out),
+            "unexplained_ok": rated(sum(c["verdict"] != "explained" for c in out), len(out) + rej_out),
+            "spread_false_structural": rated(sum(c["verdict"] == "explained" for c in spread), len(spread))}
+
+
 def summarise(cases) -> dict:
     def errs(key, field):
         return np.array([abs(r[field]) for c in cases for r in c["heldout"][key] if r["paired"]])
@@ -585,6 +610,9 @@ def main(argv=None) -> None:
             "real_f_mean_before": real.get("f_mean_before"),
             "real_f_mean_after": real.get("f_mean_after")}
     print(json.dumps(line))
+    if not args.plain:
+        # the second line: the draws the bench's visibility rule rejected, counted as misses
+        print(json.dumps({"cases": s["cases"], "seed": seed, "rejected_as_misses": with_rejected_as_misses(cases)}))
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -47,7 +47,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _stats import RMBENCH, blind_cases, keyed_run, rate, resumed_cases, ship_bench_modules  # noqa: E402
+from _stats import RMBENCH, blind_cases, keyed_run, rate, resumed_cases, ship_bench_modules, wilson  # noqa: E402
 from _tracker_truth import SpreadRobot, campaign, draw_structural, scaled, spread_xml  # noqa: E402
 
 from rmbench.gap.cases.tracker_blind import summarise_tracker  # noqa: E402
@@ -325,6 +325,26 @@ def summarise_spread(cases) -> dict:
     return res
 
 
+def spread_with_rejected_as_misses(cases) -> dict:
+    """The calibrated spread figures with every draw rejected as hidden counted as a case of its
+    class and a miss (issue 78): the bench's visibility rule chose its cases, so the draws it threw
+    away are outcomes too. Each rate as ``[k, n, rate, wilson_lo95, wilson_hi95]``."""
+    inl = [c for c in cases if c["source"] is not None and c["in_library"]]
+    out = [c for c in cases if not c["in_library"]]
+    rej_in = sum(len(c.get("rejected", [])) for c in inl)
+    rej_out = sum(len(c.get("rejected", [])) for c in out)
+
+    def rated(k, n):
+        lo, hi = wilson(k, n) if n else (None, None)
+        return [k, n, round(k / n, 4) if n else None, None if lo is None else round(lo, 4),
+                None if hi is None else round(hi, 4)]
+
+    return {"rejected_in_library": rej_in, "rejected_out_of_library": rej_out,
+            "recall": rated(sum(c["name"] in c["calibrated"]["chosen"] for c in inl), len(inl) + rej_in),
+            "unexplained_strict": rated(sum(c["calibrated"]["verdict"] == "unexplained" for c in out),
+                                        len(out) + rej_out)}
+
+
 def run_spread(args) -> dict:
     """The spread cases into their own keyed JSON-lines file, resumed; their summary."""
     stem = "gap_tracker_spread_" if args.spread_box == "calibration" else f"gap_tracker_spread_{args.spread_box}_"
@@ -348,6 +368,7 @@ def run_spread(args) -> dict:
               f"{plain['verdict']}, chosen {', '.join(plain['chosen']) or '-'}", flush=True)
     cases = [done[i] for i in sorted(done) if i < args.spread]
     s = summarise_spread(cases)
+    s["rejected_as_misses"] = spread_with_rejected_as_misses(cases)
     print(json.dumps(s, indent=1))
     return s
 
@@ -383,6 +404,9 @@ def main() -> int:
     spread = run_spread(args) if args.spread else {}
     if args.spread_only:
         print(json.dumps({**_spread_line(spread), "seed": args.seed}))
+        # the second line: the draws the bench's visibility rule rejected, counted as misses
+        print(json.dumps({"spread_cases": spread["spread_cases"], "seed": args.seed,
+                          "rejected_as_misses": spread["rejected_as_misses"]}))
         return 0
     cases = run_cases(args)
     s = report(cases)
@@ -397,6 +421,9 @@ def main() -> int:
     if spread:
         line.update(_spread_line(spread))
     print(json.dumps(line))
+    if spread:
+        print(json.dumps({"spread_cases": spread["spread_cases"], "seed": args.seed,
+                          "rejected_as_misses": spread["rejected_as_misses"]}))
     return 0
 
 

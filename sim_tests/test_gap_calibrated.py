@@ -91,19 +91,20 @@ def test_the_first_calibration_stays_where_the_recalibration_is_no_better():
 
 class _Runs:
     """Stands in for the recalibrations of ``confirm``: the null continued from the first
-    calibration leaves a gap, the candidate reaches the noise, and a null from the nominal reaches
-    it (``fresh_noise``) or not; each call recorded."""
+    calibration leaves a gap, the candidate reaches the noise, and a null from the candidate's end
+    reaches it (``fresh_noise``) or not; each call recorded as (effect, from the candidate's end)."""
 
     def __init__(self, fresh_noise):
         self.fresh_noise, self.calls = fresh_noise, []
 
-    def run(self, effect, prev=None, *, from_nominal=False, null=None):
+    def run(self, effect, prev=None, *, from_nominal=False, null=None, warm=None):
         from types import SimpleNamespace
 
-        self.calls.append((None if effect is None else effect, from_nominal))
-        significant = effect is None and not (from_nominal and self.fresh_noise)
+        self.calls.append((None if effect is None else effect, warm is not None))
+        significant = effect is None and not (warm is not None and self.fresh_noise)
         return SimpleNamespace(effect=effect, significant=significant, from_nominal=from_nominal,
-                               chi2_held=900.0 if significant else 200.0,
+                               warm=warm is not None, same_chance=warm is not None,
+                               chi2_held=900.0 if significant else 200.0, train_objective=1.0,
                                shrink_against=lambda null: 0.5)
 
 
@@ -126,36 +127,36 @@ def _confirm(monkeypatch, fresh_noise):
     return runs, null, done
 
 
-def test_a_candidate_is_not_credited_with_a_gap_a_null_from_the_nominal_closes(monkeypatch):
+def test_a_candidate_is_not_credited_with_a_gap_a_null_from_its_end_closes(monkeypatch):
     # the candidate ran from the nominal with the full budget, the null only on from a first
-    # calibration caught short: the null gets the same start, and where it reaches the noise the
-    # gap was the first calibration's
+    # calibration caught short: the null runs on from where the candidate ended (its ordinary
+    # parameters), and where it reaches the noise the gap was the first calibration's
     runs, null, done = _confirm(monkeypatch, fresh_noise=True)
     assert runs.calls == [(None, False), ("base_compliance@base", False), (None, True)]
-    assert null.from_nominal and not null.significant
+    assert null.same_chance and not null.significant
     assert [c.effect for c in done] == ["base_compliance@base"]
 
 
-def test_a_candidate_stands_where_a_null_from_the_nominal_still_leaves_a_gap(monkeypatch):
+def test_a_candidate_stands_where_a_null_from_its_end_still_leaves_a_gap(monkeypatch):
     runs, null, _ = _confirm(monkeypatch, fresh_noise=False)
     assert runs.calls[-1] == (None, True)
-    assert not null.from_nominal and null.significant
+    assert not null.same_chance and null.significant
 
 
 def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
     # a candidate that closed most of the gap but not to the noise is continued, the null with
-    # it; where the continued candidate explains the gap, the null from the nominal runs too
+    # it; where the continued candidate explains the gap, the null from its end runs too
     from types import SimpleNamespace
 
     import rmbench.gap.frf.confirm as confirm_module
 
     calls = []
 
-    def run(effect, prev=None, *, from_nominal=False, null=None):
-        calls.append((effect, prev is not None, from_nominal))
-        at_noise = (effect is not None and prev is not None) or from_nominal
-        return SimpleNamespace(effect=effect, significant=not at_noise, from_nominal=from_nominal,
-                               chi2_held=200.0 if at_noise else (300.0 if effect else 900.0),
+    def run(effect, prev=None, *, from_nominal=False, null=None, warm=None):
+        calls.append((effect, prev is not None, warm is not None))
+        at_noise = (effect is not None and prev is not None) or warm is not None
+        return SimpleNamespace(effect=effect, significant=not at_noise, same_chance=warm is not None,
+                               chi2_held=200.0 if at_noise else (300.0 if effect else 900.0), train_objective=1.0,
                                shrink_against=lambda null: 0.42 if effect else 0.0)
 
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)
@@ -163,7 +164,7 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
                                      options=confirm_module.ConfirmOptions(min_shrink=0.4))
     assert calls == [(None, False, False), ("base_compliance@base", False, False), (None, True, False),
                      ("base_compliance@base", True, False), (None, False, True)]
-    assert null.from_nominal
+    assert null.same_chance
 
 
 def test_every_candidate_runs_after_one_explains_the_gap(monkeypatch):
@@ -175,10 +176,11 @@ def test_every_candidate_runs_after_one_explains_the_gap(monkeypatch):
 
     calls = []
 
-    def run(effect, prev=None, *, from_nominal=False, null=None):
+    def run(effect, prev=None, *, from_nominal=False, null=None, warm=None):
         calls.append(effect)
         return SimpleNamespace(effect=effect, significant=effect is None, from_nominal=from_nominal,
-                               chi2_held=900.0 if effect is None else 300.0, shrink_against=lambda n: 0.5)
+                               chi2_held=900.0 if effect is None else 300.0, train_objective=1.0,
+                               shrink_against=lambda n: 0.5)
 
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)
     _, done = confirm_module.confirm(_setup(), ["added_mass@wrist", "added_mass@flange"],

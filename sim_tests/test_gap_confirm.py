@@ -193,10 +193,12 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
     assert not beyond_spread(freed(1.5, 0.05), irb, ("joints",))
 
 
-def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, closes: float = 0.5):
+def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, closes: float = 0.5,
+                near_at_noise: bool = False):
     """``_Recalibration._candidate`` with calibrations that stand in for the two starts, each
     ending at the given training objective; the run from the null's end removes ``closes`` of the
-    null's excess held-out χ² (the null: 100 on 50 residuals). The starts each was given recorded."""
+    null's excess held-out χ² (the null: 100 on 50 residuals) and reaches the noise where
+    ``near_at_noise``. The starts each was given recorded."""
     from types import SimpleNamespace
 
     import rmbench.calibrate
@@ -212,8 +214,8 @@ def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, c
     def scored(self, effect, terms, cal, run):
         chi2 = 100.0 - 50.0 * closes if cal.start is not None else 60.0
         return Confirmed(effect=None, values=None, calibration=cal, robot=None, chi2_held=chi2, n_held=50,
-                         peak_held=0.0, chi2_held_posture=np.ones(1), objective=None, significant=True,
-                         seconds=0.0, start=run.started)
+                         peak_held=0.0, chi2_held_posture=np.ones(1), objective=None,
+                         significant=not (near_at_noise and cal.start is not None), seconds=0.0, start=run.started)
 
     monkeypatch.setattr(rmbench.calibrate, "calibrate", calibrate)
     monkeypatch.setattr(_Recalibration, "_scored", scored)
@@ -246,6 +248,13 @@ def test_a_candidate_that_does_not_move_the_held_out_gap_from_the_null_is_not_st
     assert c.start == "null" and not c.second_start
 
 
+def test_a_candidate_that_reaches_the_noise_from_the_null_is_not_started_again(monkeypatch):
+    # a run that reached the held-out noise did not stall: no second basin is sought for it
+    c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0, closes=0.99, near_at_noise=True)
+    assert starts == [{"j1_flex.stiffness": 0.2}]
+    assert c.start == "null" and not c.second_start and not c.significant
+
+
 def test_a_run_without_a_null_starts_from_the_nominal_alone(monkeypatch):
     c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=0.0, null=False)
     assert starts == [None] and c.start == "nominal"
@@ -254,17 +263,18 @@ def test_a_run_without_a_null_starts_from_the_nominal_alone(monkeypatch):
 class _FakeRun:
     """Stands in for ``_Recalibration``: each run's end from ``ends[(name, how)]`` as
     ``(training objective, held-out χ², significant)``, ``how`` one of ``"nominal"``,
-    ``"continued"``, ``"rank N"``, ``"fresh N"``; the runs asked for recorded in ``calls``."""
+    ``"continued"``, ``"rank N"``, ``"from START"`` (a null from a candidate's end, START that
+    run's own ``how``); the runs asked for recorded in ``calls``."""
 
     def __init__(self, ends):
         self.ends, self.calls = ends, []
 
-    def __call__(self, effect, prev=None, *, from_nominal=False, null=None, rank=0):
+    def __call__(self, effect, prev=None, *, from_nominal=False, null=None, rank=0, warm=None):
         from rmbench.gap.frf.confirm import Confirmed
 
         name = "null" if effect is None else effect
-        if effect is None and from_nominal:
-            how = f"fresh {rank}"
+        if warm is not None:
+            how = f"from {warm.start}"
         elif rank:
             how = f"rank {rank}"
         else:
@@ -274,7 +284,7 @@ class _FakeRun:
         cal = SimpleNamespace(chi2_after=obj, chi2_prior=0.0)
         return Confirmed(effect=effect, values=None, calibration=cal, robot=None, chi2_held=chi2, n_held=700,
                          peak_held=0.0, chi2_held_posture=np.ones(1), objective=None, significant=sig,
-                         seconds=0.0, start=how)
+                         seconds=0.0, start=how, warm=warm is not None)
 
 
 def _confirm_with(monkeypatch, ends):
@@ -308,13 +318,22 @@ def test_a_further_start_is_kept_only_where_its_training_objective_is_lower(monk
     assert done[0].start == "continued"
 
 
-def test_the_null_gets_the_same_further_start_as_the_accepted_candidate(monkeypatch):
-    # the gap may be the basin's, not the data's: the null from that start reaching the noise
-    # is the null returned
+def test_the_null_runs_from_the_accepted_candidates_end_at_its_further_start(monkeypatch):
+    # the gap may be the basin's, not the data's: the null from the basin the accepted candidate
+    # found (its end at the further start) reaching the noise is the null returned
     calls, null, _ = _confirm_with(monkeypatch, {**_SHORT, ("slide", "rank 1"): (137.0, 82.0, False),
-                                                 ("null", "fresh 1"): (140.0, 90.0, False)})
-    assert calls[-2:] == [("null", "fresh 0"), ("null", "fresh 1")]
-    assert null.start == "fresh 1"
+                                                 ("null", "from rank 1"): (140.0, 90.0, False)})
+    assert calls[-1] == ("null", "from rank 1")
+    assert null.start == "from rank 1" and null.same_chance
+
+
+def test_the_null_from_the_candidates_end_still_short_leaves_the_continued_null(monkeypatch):
+    # the ordinary parameters alone cannot follow the candidate from its basin: the candidate
+    # stands against the null continued from the first calibration
+    calls, null, _ = _confirm_with(monkeypatch, {**_SHORT, ("slide", "rank 1"): (137.0, 82.0, False),
+                                                 ("null", "from rank 1"): (900.0, 1650.0, True)})
+    assert calls[-1] == ("null", "from rank 1")
+    assert null.start == "continued" and not null.same_chance
 
 
 def _holder_diagnosis(ln_rotation):

@@ -93,6 +93,8 @@ class Confirmed:
     second_start : bool
         A candidate that also ran from the nominal (its run from the null's end was promising,
         :attr:`ConfirmOptions.second_start`).
+    warm : bool
+        A null recalibration run from an accepted candidate's end (:func:`_same_chance`).
     """
 
     effect: Effect | None
@@ -112,10 +114,17 @@ class Confirmed:
     from_nominal: bool = False
     start: str = "nominal"
     second_start: bool = False
+    warm: bool = False
 
     @property
     def name(self) -> str:
         return "null" if self.effect is None else self.effect.name
+
+    @property
+    def same_chance(self) -> bool:
+        """A null given an accepted candidate's chance: run from the nominal or from the
+        candidate's end, not only on from the first calibration."""
+        return self.effect is None and (self.from_nominal or self.warm)
 
     @property
     def train_objective(self) -> float:
@@ -138,7 +147,8 @@ class Confirmed:
                "peak_held": self.peak_held, "significant": self.significant,
                "iterations": self.calibration.iterations, "rounds": self.rounds, "seconds": self.seconds,
                "chi2_train": float(self.calibration.chi2_after), "chi2_prior": float(self.calibration.chi2_prior),
-               "from_nominal": self.from_nominal, "start": self.start, "second_start": self.second_start}
+               "from_nominal": self.from_nominal, "start": self.start, "second_start": self.second_start,
+               "warm": self.warm}
         if self.effect is not None:
             out["params"] = self.effect.params_dict(self.values)
             out["description"] = self.effect.describe(self.values)
@@ -288,12 +298,14 @@ class _Recalibration:
     say: object
 
     def __call__(self, effect: Effect | None, prev: Confirmed | None = None, *,
-                 from_nominal: bool = False, null: Confirmed | None = None, rank: int = 0) -> Confirmed:
+                 from_nominal: bool = False, null: Confirmed | None = None, rank: int = 0,
+                 warm: Confirmed | None = None) -> Confirmed:
         """Recalibrate with ``effect`` in place (None: the null) and score it on the held-out
         postures; ``prev``: the run this one continues; ``from_nominal``: a null run as a
         candidate is, from the nominal with the full budget; ``null``: for a candidate, the null
         recalibration whose end is its second start; ``rank`` > 0: from the nominal alone, at
-        that gross start (:attr:`CalibrationSettings.start_rank`)."""
+        that gross start (:attr:`CalibrationSettings.start_rank`); ``warm``: a null from a
+        candidate's end (its ordinary parameters, its own ones dropped) with the full budget."""
         from rmbench.calibrate import calibrate
 
         t0 = time.perf_counter()
@@ -316,6 +328,11 @@ class _Recalibration:
         elif prev is not None:          # a continuation
             cal = calibrate(nominal, used, held=setup.held_data, settings=s, start=_values(prev.calibration))
             started = prev.start
+        elif warm is not None:          # the null from a candidate's end
+            ordinary = {n: u for n, u in _values(warm.calibration).items() if n in self.cal_u}
+            cal = calibrate(nominal, used, held=setup.held_data, settings=replace(s, max_iter=settings.max_iter),
+                            start=ordinary)
+            started = f"{warm.name}'s end"
         elif terms is None and not from_nominal:     # the null: from the first calibration
             cal = calibrate(nominal, used, held=setup.held_data, settings=s, start=dict(self.cal_u))
             started = "first calibration"
@@ -324,6 +341,8 @@ class _Recalibration:
                                 _Run("nominal", from_nominal, None, t0))
         if c is None:
             c = self._scored(effect, terms, cal, _Run(started, from_nominal, prev, t0))
+        if warm is not None:
+            c = replace(c, warm=True)
         alone = c.start == "null" and not c.second_start
         self.say(f"recalibrated with {c.name}: held-out χ²/residual {c.chi2_held / max(c.n_held, 1):.3g}"
                  + (" (noise)" if not c.significant else "") + (" (from the null's end alone)" if alone else ""))
@@ -369,10 +388,11 @@ class _Recalibration:
           moved them back (a sliding foundation found 40 % short). Neither start is better on
           every kind, so the lower training objective decides; but a start from the nominal costs
           three times one from the null's end (the gross grid, the modes, then the FRFs), and it
-          is run only where the null's end shows the candidate on the way: its run removed at
-          least ``options.second_start`` of the null's excess held-out χ² (:meth:`Confirmed.closes`).
-          A candidate that does not move the held-out gap from there is not one a second basin
-          is sought for.
+          is run only where the null's end shows the candidate on the way but not yet there: its
+          run removed at least ``options.second_start`` of the null's excess held-out χ²
+          (:meth:`Confirmed.closes`) and stayed above the noise. A candidate that does not move
+          the held-out gap from there is not one a second basin is sought for, nor is one that
+          reached the noise from there (it did not stall).
         """
         from rmbench.calibrate import calibrate
 
@@ -381,7 +401,10 @@ class _Recalibration:
             other = calibrate(setup.nominal, used, held=setup.held_data, settings=settings,
                               start=_values(null.calibration))
             near = self._scored(effect, terms, other, replace(run, started="null"))
-            if null.chi2_held > null.n_held and near.closes(null) < self.options.second_start:
+            # not promising, or already at the noise: a run that reached the noise did not stall,
+            # and no second basin is sought for it
+            if null.chi2_held > null.n_held and (near.closes(null) < self.options.second_start
+                                                 or not near.significant):
                 return near
         cal = calibrate(setup.nominal, used, held=setup.held_data, settings=settings)
         far = self._scored(effect, terms, cal, run)
@@ -429,9 +452,10 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
         ``accept(candidate, null)``: whether a confirmed candidate explains the gap. Every
         candidate runs, in its order, also after one is accepted (the choice among those that
         explain the gap is the caller's); none run when the null recalibration reaches the noise, unless
-        ``options.need_gap`` is False. Once one is accepted (with ``need_gap``), a null is run from the
-        nominal with the candidates' budget; where it reaches the noise it is the null returned
-        (the gap was the first calibration's, not the data's).
+        ``options.need_gap`` is False. Once one is accepted (with ``need_gap``), a null is run from
+        the accepted candidate's end with the candidates' budget (:func:`_same_chance`); where it
+        reaches the noise it is the null returned (the gap was the first calibration's, not the
+        data's).
     sizes : dict, optional
         ``{effect name: values}``: the joint search's fitted size of each sensor candidate.
     progress : callable, optional
@@ -461,7 +485,7 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
     # among the models run) need all of them; stopped at the first accepted, the first look-alike
     # would win at confidence 1 (e.g. a wrist's mass listed before the flange's that was added)
     if accept is not None and any(accept(c, null) for c in done):
-        return _same_chance(run, null, need_gap), done
+        return _same_chance(run, null, done, accept, need_gap), done
     promising = [c for c in done if c.significant and c.shrink_against(null) >= options.min_shrink]
     if not promising:
         return null, done
@@ -472,7 +496,7 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
     if accept is None:
         return null, done
     if any(accept(c, null) for c in done):
-        return _same_chance(run, null, need_gap), done
+        return _same_chance(run, null, done, accept, need_gap), done
     return _further_starts(run, null, best, done, accept, options)
 
 
@@ -493,22 +517,27 @@ def _further_starts(run, null: Confirmed, best: Confirmed, done: list, accept, o
             best = other
             done = [best if c.effect is best.effect else c for c in done]
         if accept(best, null):
-            return _same_chance(run, null, options.need_gap, rank=rank), done
+            return _same_chance(run, null, done, accept, options.need_gap), done
     return null, done
 
 
-def _same_chance(run, null: Confirmed, need_gap: bool, rank: int = 0) -> Confirmed:
+def _same_chance(run, null: Confirmed, done: list, accept, need_gap: bool) -> Confirmed:
     """The null a candidate that explains the gap is credited against.
 
-    The candidate ran with the full budget, from the nominal too, the null only on from the first
-    calibration: a first calibration caught in a local minimum of the modes leaves a gap that a
-    fresh start closes with or without the candidate. So a null is run the same way, and from the
-    candidate's gross start ``rank`` where that was a further one; where one reaches the noise,
-    it is the null returned (the gap was the first calibration's, not the data's). Not where the
-    candidates ran without a gap (``need_gap`` False)."""
+    The accepted candidate may have run from the nominal, or on for a second round, or from a
+    further gross start; the null only on from the first calibration. A first calibration caught
+    in a local minimum leaves a gap that a better start closes with or without the candidate. So
+    a null runs from where the accepted candidate ended (the lowest training objective among the
+    accepted): its ordinary parameters, the candidate's own dropped, with the candidate's full
+    budget. That start is in the basin the candidate found, so it is at least the chance the
+    candidate had; where it reaches the noise, it is the null returned (the gap was the first
+    calibration's, or an ordinary parameter can take the candidate's part), and no candidate is
+    credited. Not where the candidates ran without a gap (``need_gap`` False).
+
+    From the candidate's end it is a continuation (a few evaluations of the FRF stage), where a
+    start from the nominal repeats the gross starts and the modes-alone stage."""
     if not need_gap:
         return null
-    fresh = run(None, from_nominal=True)
-    if fresh.significant and rank:
-        fresh = run(None, from_nominal=True, rank=rank)
+    winner = min((c for c in done if accept(c, null)), key=lambda c: c.train_objective)
+    fresh = run(None, warm=winner)
     return null if fresh.significant else fresh

@@ -166,10 +166,11 @@ def _verdict(dg: Diagnosis, winners, outcome: Recalibrated, problem, settings, t
                      "better: no structural effect is needed")
         return replace(dg, notes=tuple(notes), confirmation=record, seconds=step_seconds(t))
     fits = [c for c in done if not c.significant and c.shrink_against(base) >= settings.min_shrink]
-    if null.from_nominal and not null.significant:
-        notes.append(f"{', '.join(c.effect.name for c in done if not c.significant)} reached the noise "
-                     "recalibrated from the nominal, but so do the ordinary parameters alone, recalibrated "
-                     "the same way: the gap was the first calibration's (it had stopped short of the data)")
+    if null.same_chance and not null.significant:
+        notes.append(f"{', '.join(c.effect.name for c in done if not c.significant)} reached the noise, "
+                     f"but so do the ordinary parameters alone, recalibrated from {null.start}: the gap "
+                     "was the first calibration's (it had stopped short of the data), or an ordinary "
+                     "parameter takes the candidate's part")
     else:
         for c in fits:
             if c not in winners:
