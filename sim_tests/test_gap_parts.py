@@ -1,7 +1,9 @@
 """Specification of the gap diagnosis's parts: test design, effect library, model bench (its fast
 path against re-simulation), pairing and residuals, what is read of the data."""
 
+import copy
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -13,6 +15,7 @@ from rmbench.calibrate.design import SensorOffset
 from rmbench.calibrate.residual import UNPAIRED, hammer_leak, mode_residuals, overlap, pair
 from rmbench.impact import load_config, parse_config
 from rmbench.robot import Posture, Robot
+from rmbench.robot.parameters import parameter_set
 
 
 @pytest.fixture(scope="module")
@@ -73,11 +76,15 @@ def test_library_names_the_models_own_joints_actuators_bodies_and_the_designs_se
 def test_an_effect_is_data_turned_into_a_change(robot, design):
     effects = {e.name: e for e in library(robot, design)}
     ch = effects["joint_stiffness@j2_flex"].change([np.log(0.8)])
-    assert ch.edits == ("j2_flex.stiffness*=0.8",)
+    (p, u), = ch.values
+    assert (p.name, p.kind, p.targets, u) == ("j2_flex.stiffness", "stiffness", ("j2_flex",), np.log(0.8))
+    assert p.value(u) == pytest.approx(0.8 * robot.model.joint("j2_flex").stiffness[0], rel=1e-12)
     assert effects["sensor_misplacement@high:1aX"].change([2.0]).offsets == (
         SensorOffset("high", "1aX", along=0.002),)
     both = ch + effects["non_reciprocity@spindle_spin"].change([6000.0])
-    assert both.edits == ch.edits and both.spindle_rpm == 6000.0 and both.robot_part == both
+    assert both.values == ch.values and both.spindle_rpm == 6000.0 and both.robot_part == both
+    # one parameter twice: its log factors multiply
+    assert (ch + ch).values == ((p, 2 * np.log(0.8)),)
     assert effects["joint_stiffness@j2_flex"].describe([np.log(0.8)]) == "j2_flex stiffness × 0.8"
     assert effects["base_compliance@base"].change([0.0, 0.0]).is_null()
 
@@ -91,13 +98,15 @@ def test_nominal_modes_at_a_posture_are_the_robots_exact_modes(bench, robot):
         assert np.min(np.abs(got.f_n / f - 1)) < 1e-6
 
 
-@pytest.mark.parametrize("delta", [Change(edits=("j2_flex.stiffness*=0.9",)), Change(edits=("a3.kp*=0.3",)),
-                                   Change(edits=("j3_flex.damping*=2",)),
-                                   Change(load_stiffness=(("j2_flex", 0.2),))],
+@pytest.mark.parametrize("effect, value", [("joint_stiffness@j2_flex", np.log(0.9)),
+                                           ("servo_stiffness@a3", np.log(0.3)),
+                                           ("joint_damping@j3_flex", np.log(2.0)),
+                                           ("load_dependent_stiffness@j2_flex", 0.2)],
                          ids=["stiffness", "servo", "damping", "load-stiffness"])
-def test_fast_path_agrees_with_re_simulation_to_first_order(bench, delta):
+def test_fast_path_agrees_with_re_simulation_to_first_order(bench, robot, design, effect, value):
     """The fast path applies the change to the nominal linearisation and neglects the shift of
     the equilibrium it causes: frequencies agree to 0.1 %, damping ratios to 1 %."""
+    delta = {e.name: e for e in library(robot, design)}[effect].change([value])
     assert bench.fast(delta)
     for band in ("low", "high"):
         full, fast = bench.modes(delta, 0, band), bench.modes_fast(Change(), delta, 0, band)
@@ -106,8 +115,34 @@ def test_fast_path_agrees_with_re_simulation_to_first_order(bench, delta):
         np.testing.assert_allclose(fast.zeta, full.zeta, rtol=1e-2)
 
 
+@pytest.mark.parametrize("effect, values", [("joint_stiffness@j2_flex", [np.log(0.8)]),
+                                            ("servo_stiffness@a3", [np.log(0.5)]),
+                                            ("tool_contact_stiffness@tool_contact", [np.log(0.5), np.log(2.0)])],
+                         ids=["stiffness", "servo", "tool"])
+def test_an_effect_edits_the_model_as_its_parameters_written_by_a_parameter_set(bench, robot, design, effect,
+                                                                               values):
+    """An effect's values are the ``u`` of the calibration's own parameters (the same records but
+    for their group and search bounds): the model its change gives is the one a
+    :class:`ParameterSet` of those parameters writes at those ``u``."""
+    eff = {e.name: e for e in library(robot, design)}[effect]
+    _, params = parameter_set(robot, ("joints", "servo", "tool"))
+    own = {p.name: p for p in params}
+    u = np.zeros(len(params))
+    for p, x in zip(eff.parameters, values):
+        twin = own[p.name]
+        assert replace(p, group=twin.group, lower=twin.lower, upper=twin.upper) == twin
+        u[params.names.index(p.name)] = x
+    model = copy.copy(robot.model)
+    params.apply_model(model, u)
+    changed = bench.robot_for(eff.change(values)).model
+    edited = "actuator_gainprm" if eff.kind == "servo_stiffness" else "jnt_stiffness"
+    assert not np.array_equal(getattr(changed, edited), getattr(robot.model, edited))
+    for field in ("jnt_stiffness", "dof_damping", "actuator_gainprm", "actuator_biasprm"):
+        np.testing.assert_allclose(getattr(changed, field), getattr(model, field), rtol=1e-12, err_msg=field)
+
+
 def test_masses_and_bases_are_not_on_the_fast_path(bench):
-    assert not bench.fast(Change(edits=("flange.mass+=3",)))
+    assert not bench.fast(Change(masses=(("flange", 3.0),)))
     assert not bench.fast(Change(base=(1e8, 1e9)))
     assert not bench.fast(Change(spindle_rpm=5000.0))
 

@@ -80,6 +80,10 @@ class Kind:
     gross : callable ``p -> list of float``
         A freed parameter's trial sizes in ``u`` (the nominal and a structural fault's gross
         sizes) for a fit's start.
+    read_model : callable ``(model, p) -> float``, optional
+        The SI value ``p`` has in a compiled model (of a joint group, its first target's over
+        its scale): where a perturbation starts from a model whose value is not the parameter's
+        own (a joint a posture's load has stiffened). None: not read.
     """
 
     name: str
@@ -91,6 +95,7 @@ class Kind:
     resolution: float | None = None
     wide: Callable = lambda p: _WIDE_LOG
     gross: Callable = lambda p: [0.0, float(np.log(1 / 3)), float(np.log(3.0))]
+    read_model: Callable | None = None
 
 
 def compliance_damping(k: float, carried: float) -> float:
@@ -126,6 +131,19 @@ def _joint_spec(field: str) -> Callable:
     return write
 
 
+def _first_target(value: float, p) -> float:
+    """A joint group's parameter value from its first target's (they keep their nominal ratios)."""
+    return value / p.scales[0] if p.scales else value
+
+
+def _stiffness_read(model, p) -> float:
+    return _first_target(float(model.jnt_stiffness[model.joint(p.targets[0]).id]), p)
+
+
+def _damping_read(model, p) -> float:
+    return _first_target(float(model.dof_damping[model.jnt_dofadr[model.joint(p.targets[0]).id]]), p)
+
+
 def _diagonal(matrix: str) -> Callable:
     """Perturbation of joints' stiffness (``"K"``) or damping (``"C"``): their diagonal entries."""
     def perturb(model, dofs, p, u_old, u_new, C, K) -> None:
@@ -150,6 +168,10 @@ def _kp_spec(spec, p, x) -> None:
     gain, bias = np.array(act.gainprm, float), np.array(act.biasprm, float)
     gain[0], bias[1] = v, -v
     act.gainprm, act.biasprm = gain, bias
+
+
+def _kp_read(model, p) -> float:
+    return float(model.actuator_gainprm[model.actuator(p.targets[0]).id, 0])
 
 
 def _kp_perturb(model, dofs, p, u_old, u_new, C, K) -> None:
@@ -222,6 +244,11 @@ def _compliance_spec(spec, p, x) -> None:
         j.damping = [compliance_damping(k, p.carried), 0, 0]
 
 
+def _compliance_read(model, p) -> float:
+    k = float(model.jnt_stiffness[model.joint(p.targets[0]).id])
+    return 0.0 if k >= RIGID / 2 else 1 / k
+
+
 def _compliance_perturb(model, dofs, p, u_old, u_new, C, K) -> None:
     k0, k1 = (_stiffness_of(p.value(x)) for x in (u_old, u_new))
     for t in p.targets:
@@ -277,12 +304,12 @@ def _add_bearing_tilt(spec, joint: str) -> bool:
 
 _COMPLIANCE = dict(write_model=_compliance_model, write_spec=_compliance_spec, perturb=_compliance_perturb,
                    display=_per_unit, resolution=2 * COMPLIANCE_UNIT, wide=_compliance_wide,
-                   gross=_compliance_gross)
+                   gross=_compliance_gross, read_model=_compliance_read)
 
 KINDS: dict[str, Kind] = {k.name: k for k in (
-    Kind("stiffness", _stiffness_model, _joint_spec("stiffness"), perturb=_diagonal("K")),
-    Kind("damping", _damping_model, _joint_spec("damping"), perturb=_diagonal("C")),
-    Kind("kp", _kp_model, _kp_spec, perturb=_kp_perturb),
+    Kind("stiffness", _stiffness_model, _joint_spec("stiffness"), perturb=_diagonal("K"), read_model=_stiffness_read),
+    Kind("damping", _damping_model, _joint_spec("damping"), perturb=_diagonal("C"), read_model=_damping_read),
+    Kind("kp", _kp_model, _kp_spec, perturb=_kp_perturb, read_model=_kp_read),
     Kind("mass", _mass_model, _mass_spec, wide=lambda p: _WIDE_MASS,
          gross=lambda p: [0.0, float(np.log(0.7)), float(np.log(1.5))]),
     Kind("com", _com_model, _com_spec, display=lambda value: 1e3 * value, resolution=0.005),

@@ -1,11 +1,18 @@
 """The library of candidate model changes: each a small frozen description, one engine for all.
 
 An :class:`Effect` names a kind of unmodelled physics and where it acts (the MJCF name of the joint,
-actuator or body it edits, or the sensor it moves), with its parameters and their bounds. Given
-parameter values it returns a :class:`Change`: variant edits of the model's specification (the
-machinery of :mod:`rmbench.robot.variant`, through ``mujoco.MjSpec``), point masses, a compliant
-base, load-dependent joint stiffness, sensor placement errors of the test design, or a spindle
-speed. The engine that fits, scores and ranks effects never knows what a parameter means.
+actuator or body it edits, or the sensor it moves), with its search axes (:class:`Param`: the
+values' names, bounds and steps in the units a user reads). Where its values move ordinary model
+parameters (a joint's stiffness, a servo's gain, the tool holder's contact, a calibrated
+foundation's lateral compliance) the effect holds those as
+:class:`~rmbench.robot.parameters.Parameter` records (:attr:`Effect.parameters`), and a
+:class:`Change` carries them with their values: the kinds registry (:data:`rmbench.robot.kinds.KINDS`)
+writes them into the model and gives their matrix perturbation, as it does for a calibration.
+What the registry has no kind for stays a typed field of the change: a mass added at a body's
+centre of mass (its inertia kept, unlike the ``mass`` kind's), a new compliant foundation (its
+vertical and torsional springs set from the lateral and tilt ones), load-dependent joint stiffness,
+sensor placement errors of the test design, a spindle speed. The engine that fits, scores and
+ranks effects never knows what a parameter means.
 
 Kinds (METHODS.md §11 lists the sensitivity tools the engine uses):
 
@@ -34,6 +41,8 @@ import numpy as np
 
 from rmbench.calibrate.design import SensorOffset
 from rmbench.impact.sensors import COORDS
+from rmbench.robot.kinds import COMPLIANCE_UNIT, DAMPING_RATIO
+from rmbench.robot.parameters import Parameter
 
 __all__ = ["Param", "Change", "Effect", "library", "KINDS"]
 
@@ -41,17 +50,19 @@ KINDS = ("joint_stiffness", "joint_damping", "load_dependent_stiffness", "servo_
          "tool_contact_stiffness", "spindle_stiffness", "base_compliance", "added_mass",
          "sensor_misplacement", "sensor_misalignment", "non_reciprocity")
 
-_BASE_LATERAL = 1e-9      # one lateral-compliance unit: 1 µm/kN (m/N)
-_BASE_TILT = 1e-9         # one tilt-compliance unit: 1 µrad/(kN·m) (rad/(N·m))
+_BASE_LATERAL = COMPLIANCE_UNIT   # one lateral-compliance unit: 1 µm/kN (m/N)
+_BASE_TILT = COMPLIANCE_UNIT      # one tilt-compliance unit: 1 µrad/(kN·m) (rad/(N·m))
 
 
 @dataclass(frozen=True)
 class Param:
-    """One parameter of an effect, in the units the user reads.
+    """One search axis of an effect, in the units the user reads (what the model parameter it
+    moves is, and how, is the effect's :attr:`Effect.parameters`).
 
     Attributes
     ----------
     name : str
+        As results name the value (``ln_factor``, ``lateral``, ``mass``).
     lower, upper : float
         Bounds of the fit.
     step : float
@@ -76,12 +87,14 @@ class Change:
 
     Attributes
     ----------
-    edits : tuple of str
-        Variant edits (``TARGET.FIELD OP VALUE``, :mod:`rmbench.robot.variant`).
+    values : tuple of (Parameter, float)
+        Model parameters and their values ``u`` (:meth:`Parameter.value`: a log factor, or a
+        compliance's offset in its units), written by their kinds (:data:`rmbench.robot.kinds.KINDS`);
+        each parameter once.
     masses : tuple of (str, float)
-        Point masses (kg) added at a site or body.
+        Mass added to a body at its centre of mass (its inertia kept), kg; negative: a lighter body.
     base : (float, float) or None
-        Compliant foundation (lateral N/m, tilt N·m/rad).
+        A new compliant foundation (lateral N/m, tilt N·m/rad).
     load_stiffness : tuple of (str, float)
         Load-dependent stiffness coefficients α per joint (1/mrad).
     offsets : tuple of SensorOffset
@@ -89,7 +102,7 @@ class Change:
     spindle_rpm : float
     """
 
-    edits: tuple = ()
+    values: tuple = ()
     masses: tuple = ()
     base: tuple | None = None
     load_stiffness: tuple = ()
@@ -101,7 +114,12 @@ class Change:
             base = (1 / (1 / self.base[0] + 1 / other.base[0]), 1 / (1 / self.base[1] + 1 / other.base[1]))
         else:
             base = self.base if self.base is not None else other.base
-        return Change(edits=self.edits + other.edits, masses=self.masses + other.masses, base=base,
+        # one parameter in both adds in u: a log parameter's factors multiply (a step on top of a
+        # fitted value, as the search's Jacobian takes it), a linear one's offsets add
+        values = dict(self.values)
+        for p, u in other.values:
+            values[p] = values.get(p, 0.0) + u
+        return Change(values=tuple(values.items()), masses=self.masses + other.masses, base=base,
                       load_stiffness=self.load_stiffness + other.load_stiffness,
                       offsets=self.offsets + other.offsets,
                       spindle_rpm=self.spindle_rpm + other.spindle_rpm)
@@ -109,7 +127,7 @@ class Change:
     @property
     def robot_part(self) -> "Change":
         """The part that edits the robot (everything but the sensor offsets)."""
-        return Change(edits=self.edits, masses=self.masses, base=self.base,
+        return Change(values=self.values, masses=self.masses, base=self.base,
                       load_stiffness=self.load_stiffness, spindle_rpm=self.spindle_rpm)
 
     def is_null(self) -> bool:
@@ -128,17 +146,18 @@ class Effect:
         MJCF name of the joint, actuator or body edited, ``BAND:COORD`` for a sensor, or
         ``tool_contact``, ``spindle``, ``base``.
     params : tuple of Param
-    targets : tuple of str
-        The MJCF elements the change touches (joints of the tool contact, say).
-    nominal : tuple of float
-        Nominal values the parameters scale (a body's mass, kg), where the kind needs them.
+        The search axes, in the user's units.
+    parameters : tuple of Parameter
+        The model parameters its values move, one per value (joint stiffness, damping and servo
+        gain: ``u`` is the value, a log factor; the tool contact and spindle: one per axis; a
+        calibrated foundation: its lateral compliance); empty for a kind the registry has no kind
+        for (see the module's docstring).
     """
 
     kind: str
     location: str
     params: tuple
-    targets: tuple = field(default=())
-    nominal: tuple = field(default=())
+    parameters: tuple = field(default=())
 
     def __post_init__(self):
         if self.kind not in KINDS:
@@ -165,26 +184,17 @@ class Effect:
         """The change these parameter values make (``values`` in the parameters' units)."""
         v = np.asarray(values, float)
         k, loc = self.kind, self.location
-        if k in ("joint_stiffness", "joint_damping"):
-            field_ = "stiffness" if k == "joint_stiffness" else "damping"
-            return Change(edits=(f"{loc}.{field_}*={np.exp(v[0]):.12g}",))
-        if k == "servo_stiffness":
-            return Change(edits=(f"{loc}.kp*={np.exp(v[0]):.12g}",))
+        if k in ("joint_stiffness", "joint_damping", "servo_stiffness", "tool_contact_stiffness",
+                 "spindle_stiffness"):
+            # the values are the parameters' own log factors
+            return Change(values=tuple((p, float(x)) for p, x in zip(self.parameters, v)))
         if k == "load_dependent_stiffness":
             return Change(load_stiffness=((loc, float(v[0])),))
-        if k in ("tool_contact_stiffness", "spindle_stiffness"):
-            trans, rot = self.targets[:2], self.targets[2:]
-            edits = tuple(f"{t}.stiffness*={np.exp(v[0]):.12g}" for t in trans)
-            edits += tuple(f"{t}.stiffness*={np.exp(v[1]):.12g}" for t in rot)
-            return Change(edits=edits)
-        if k == "base_compliance" and self.targets:
-            c_lat = max(v[0], 0.0) * _BASE_LATERAL
-            if c_lat <= 0:
+        if k == "base_compliance" and self.parameters:
+            if v[0] <= 0:
                 return Change()
-            f = 1 / max(c_lat, 1e-14) / self.nominal[0]
-            # the damper keeps its ratio of critical
-            return Change(edits=tuple(e for t in self.targets
-                                      for e in (f"{t}.stiffness*={f:.12g}", f"{t}.damping*={np.sqrt(f):.12g}")))
+            p = self.parameters[0]
+            return Change(values=((p, p.to_u(v[0] * _BASE_LATERAL)),))
         if k == "base_compliance":
             c_lat, c_tilt = max(v[0], 0.0) * _BASE_LATERAL, max(v[1], 0.0) * _BASE_TILT
             if c_lat <= 0 and c_tilt <= 0:
@@ -192,7 +202,7 @@ class Effect:
             # a vanishing compliance is a very stiff mount, far above every band
             return Change(base=(1 / max(c_lat, 1e-14), 1 / max(c_tilt, 1e-14)))
         if k == "added_mass":
-            return Change(edits=(f"{loc}.mass+={v[0]:.12g}",)) if v[0] != 0 else Change()
+            return Change(masses=((loc, float(v[0])),)) if v[0] != 0 else Change()
         if k in ("sensor_misplacement", "sensor_misalignment"):
             band, coord = loc.split(":")
             if k == "sensor_misplacement":
@@ -216,7 +226,7 @@ class Effect:
             return f"tool contact stiffness × {np.exp(v[0]):.3g} (translation), × {np.exp(v[1]):.3g} (rotation)"
         if k == "spindle_stiffness":
             return f"spindle bearing stiffness × {np.exp(v[0]):.3g} (radial), × {np.exp(v[1]):.3g} (tilt)"
-        if k == "base_compliance" and self.targets:
+        if k == "base_compliance" and self.parameters:
             return f"foundation {v[0]:.3g} µm/kN lateral"
         if k == "base_compliance":
             return f"compliant base: {v[0]:.3g} µm/kN lateral, {v[1]:.3g} µrad/(kN·m) tilt"
@@ -248,27 +258,38 @@ def library(robot, design) -> list[Effect]:
     out: list[Effect] = []
     flex = [j for j in joints if j.endswith("_flex")]
     for j in flex:
-        out.append(Effect("joint_stiffness", j, (Param("ln_factor", ln(0.3), ln(3.0), 0.05, "ln"),)))
+        axes = (Param("ln_factor", ln(0.3), ln(3.0), 0.05, "ln"),)
+        out.append(Effect("joint_stiffness", j, axes,
+                          _factors("stiffness", axes, [(f"{j}.stiffness", (j,), [joints[j].stiffness[0]])],
+                                   "N·m/rad")))
     for j in flex:
-        out.append(Effect("joint_damping", j, (Param("ln_factor", ln(0.1), ln(10.0), 0.1, "ln"),)))
+        axes = (Param("ln_factor", ln(0.1), ln(10.0), 0.1, "ln"),)
+        out.append(Effect("joint_damping", j, axes,
+                          _factors("damping", axes, [(f"{j}.damping", (j,), [joints[j].damping[0]])], "N·m·s/rad")))
     for j in flex:
         out.append(Effect("load_dependent_stiffness", j,
                           (Param("alpha", 0.0, 3.0, 0.05, "1/mrad"),)))
     arm = set(robot.arm_joints)
     for act in spec.actuators:
         if act.target in arm and act.trntype == mujoco.mjtTrn.mjTRN_JOINT:
-            out.append(Effect("servo_stiffness", act.name,
-                              (Param("ln_factor", ln(0.01), ln(10.0), 0.1, "ln"),)))
+            axes = (Param("ln_factor", ln(0.01), ln(10.0), 0.1, "ln"),)
+            out.append(Effect("servo_stiffness", act.name, axes,
+                              _factors("kp", axes, [(f"{act.name}.kp", (act.name,), [act.gainprm[0]])], "N·m/rad")))
     contact = [f"tool_contact_{a}" for a in ("x", "y", "rx", "ry")]
     if all(c in joints for c in contact):
-        out.append(Effect("tool_contact_stiffness", "tool_contact",
-                          (Param("ln_translation", ln(0.2), ln(5.0), 0.05, "ln"),
-                           Param("ln_rotation", ln(0.2), ln(5.0), 0.05, "ln")), targets=tuple(contact)))
+        axes = (Param("ln_translation", ln(0.2), ln(5.0), 0.05, "ln"),
+                Param("ln_rotation", ln(0.2), ln(5.0), 0.05, "ln"))
+        rows = [(f"tool_contact.{n}", ts, [joints[t].stiffness[0] for t in ts])
+                for n, ts in (("translation", contact[:2]), ("rotation", contact[2:]))]
+        out.append(Effect("tool_contact_stiffness", "tool_contact", axes,
+                          _factors("stiffness", axes, rows, ("N/m", "N·m/rad"))))
     bearings = [f"spindle_{a}" for a in ("x", "y", "rx", "ry")]
     if all(b in joints for b in bearings):
-        out.append(Effect("spindle_stiffness", "spindle",
-                          (Param("ln_radial", ln(0.3), ln(3.0), 0.05, "ln"),
-                           Param("ln_tilt", ln(0.3), ln(3.0), 0.05, "ln")), targets=tuple(bearings)))
+        axes = (Param("ln_radial", ln(0.3), ln(3.0), 0.05, "ln"), Param("ln_tilt", ln(0.3), ln(3.0), 0.05, "ln"))
+        rows = [(f"spindle.{n}", ts, [joints[t].stiffness[0] for t in ts])
+                for n, ts in (("radial", bearings[:2]), ("tilt", bearings[2:]))]
+        out.append(Effect("spindle_stiffness", "spindle", axes,
+                          _factors("stiffness", axes, rows, ("N/m", "N·m/rad"))))
     if not any(b.name == "base_mount" for b in spec.bodies):
         out.append(Effect("base_compliance", "base",
                           (Param("lateral", 0.0, 200.0, 2.0, "µm/kN"),
@@ -276,16 +297,15 @@ def library(robot, design) -> list[Effect]:
     elif all(j in joints for j in ("base_x", "base_y")):
         # a robot already on a foundation (a calibrated one: its tilt is a calibrated parameter):
         # the foundation's lateral compliance, by softening its slides
-        k0 = float(spec.joint("base_x").stiffness[0])
-        out.append(Effect("base_compliance", "base", (Param("lateral", 0.0, 200.0, 2.0, "µm/kN"),),
-                          targets=("base_x", "base_y"), nominal=(k0,)))
+        axes = (Param("lateral", 0.0, 200.0, 2.0, "µm/kN"),)
+        out.append(Effect("base_compliance", "base", axes, (_foundation_lateral(joints["base_x"], axes[0]),)))
     for body in spec.bodies:
         # a foundation's plate is no body a mass is added to (its mass is the foundation's own)
         if body.name and body.explicitinertial and body.mass >= 5.0 \
                 and not body.name.startswith(("motor", "base_mount")):
             m0 = float(body.mass)
             out.append(Effect("added_mass", body.name,
-                              (Param("mass", -0.5 * m0, 2.0 * m0, 0.02 * m0, "kg"),), nominal=(m0,)))
+                              (Param("mass", -0.5 * m0, 2.0 * m0, 0.02 * m0, "kg"),)))
     for band in design.band_names:
         for c in COORDS:
             out.append(Effect("sensor_misplacement", f"{band}:{c}",
@@ -298,3 +318,31 @@ def library(robot, design) -> list[Effect]:
         out.append(Effect("non_reciprocity", "spindle_spin",
                           (Param("rpm", 0.0, 30000.0, 1000.0, "rev/min"),)))
     return out
+
+
+def _factors(kind: str, axes, rows, labels) -> tuple:
+    """Log-scaled model parameters of ``kind``, one per search axis (the axis's value is the
+    parameter's ``u``, its bounds the parameter's): ``rows`` gives each one's name, MJCF targets and
+    their nominal values (SI; edited together, they keep their ratios), ``labels`` their units
+    (one for all, or one each)."""
+    labels = (labels,) * len(axes) if isinstance(labels, str) else labels
+    out = []
+    for axis, (name, where, nominals), label in zip(axes, rows, labels):
+        where = tuple(where)
+        k0 = float(nominals[0])
+        scales = tuple(float(n) / k0 for n in nominals) if len(where) > 1 else ()
+        out.append(Parameter(name, "structural", kind, where, 0, k0, True, 1.0, float(axis.lower),
+                             float(axis.upper), label, scales=scales))
+    return tuple(out)
+
+
+def _foundation_lateral(slide, axis: Param) -> Parameter:
+    """The lateral compliance of a foundation the robot stands on (``base_x``, ``base_y``, whose
+    spec joint ``slide`` is the first), in µm/kN. Its ``carried`` mass is the one the slides'
+    present damping is :data:`~rmbench.robot.kinds.DAMPING_RATIO` of critical against, so a softer
+    foundation's dampers keep their ratio of critical."""
+    k0, d0 = float(slide.stiffness[0]), float(slide.damping[0])
+    c0 = 1 / k0
+    return Parameter("base.lateral_compliance", "structural", "base", ("base_x", "base_y"), 0, c0, False,
+                     COMPLIANCE_UNIT, axis.lower - c0 / COMPLIANCE_UNIT, axis.upper - c0 / COMPLIANCE_UNIT,
+                     axis.unit, carried=(d0 / (2 * DAMPING_RATIO)) ** 2 / k0)

@@ -10,24 +10,24 @@ give the modal parameters a test of that model would find, so only the measureme
 
 from __future__ import annotations
 
-import re
 from collections import OrderedDict
 
 import numpy as np
 
 from rmbench.calibrate.modes import ModelModes, modes_seen
-from rmbench.errors import RmbenchError
+from rmbench.errors import InputError, RmbenchError
 from rmbench.gap.frf.effects import Change
 from rmbench.impact.measure import hammer_rows
 from rmbench.impact.sensors import COORDS
 from rmbench.robot import Posture, Robot
+from rmbench.robot.kinds import KINDS
 from rmbench.robot.linear import complex_modes
-from rmbench.robot.load_stiffness import REFERENCE_DEFLECTION
-from rmbench.robot.variant import make_variant, parse_edit, with_tool_masses
+from rmbench.robot.load_stiffness import REFERENCE_DEFLECTION, check_load_stiffness, set_load_stiffness
+from rmbench.robot.parameters import ParameterSet
+from rmbench.robot.spec import spec_to_xml
+from rmbench.robot.variant import add_compliant_base, with_tool_masses
 
 __all__ = ["ModelModes", "ModelBench"]   # ModelModes: rmbench.calibrate.modes
-
-_FAST = re.compile(r"^[\w-]+\.(stiffness|damping|kp|kv)\*=")
 
 
 class ModelBench:
@@ -80,13 +80,8 @@ class ModelBench:
         if key.is_null():
             robot = self.robot
         else:
-            kwargs = {}
-            if key.load_stiffness:
-                kwargs["load_stiffness"] = dict(key.load_stiffness)
-            if key.edits or key.masses or key.base is not None or key.load_stiffness:
-                xml = make_variant(self.robot, key.edits,
-                                   masses=[(w, m, (0.0, 0.0, 0.0)) for w, m in key.masses],
-                                   compliant_base=key.base, **kwargs)
+            if key.values or key.masses or key.base is not None or key.load_stiffness:
+                xml = _variant_xml(self.robot, key)
             else:   # only the spindle speed changes
                 xml = self.robot.xml
             robot = Robot(xml, name=self.robot.name, tool=self.robot.tool,
@@ -138,10 +133,11 @@ class ModelBench:
     # -- first order, for screening -------------------------------------------------------------
     @staticmethod
     def fast(delta: Change) -> bool:
-        """Whether ``delta`` is a matrix perturbation the fast path takes: joint stiffness and
-        damping, servo gains, load-dependent stiffness, sensor placement."""
+        """Whether ``delta`` is a matrix perturbation the fast path takes: parameters whose kind
+        has one (joint stiffness and damping, servo gains, a foundation's compliance),
+        load-dependent stiffness, sensor placement."""
         return (delta.base is None and not delta.masses and delta.spindle_rpm == 0
-                and all(_FAST.match(e) for e in delta.edits))
+                and all(KINDS[p.kind].perturb is not None for p, _ in delta.values))
 
     def modes_fast(self, base: Change, delta: Change, p: int, band: str) -> ModelModes:
         """Modes of ``base + delta`` with ``delta`` applied to ``base``'s linearisation (the
@@ -160,7 +156,7 @@ class ModelBench:
         b = design.band(band)
         out_rows = design.sensors(band).reading_rows(op)
         in_rows = hammer_rows(op, COORDS, b.s_1a)
-        if delta is None or (not delta.edits and not delta.load_stiffness):
+        if delta is None or (not delta.values and not delta.load_stiffness):
             return op.linear.modes(), out_rows, in_rows, b
         M, C, K = _perturbed(op, delta)
         return complex_modes(M, C, K), out_rows, in_rows, b
@@ -190,28 +186,56 @@ def _put(cache: OrderedDict, key, value, size: int) -> None:
         cache.popitem(last=False)
 
 
+def _variant_xml(robot: Robot, change: Change) -> str:
+    """MJCF text of ``robot`` with ``change``'s robot part: its parameters written by their kinds
+    (:meth:`ParameterSet.apply_spec`), then the masses, a new foundation and load-dependent
+    stiffness (the order of :func:`~rmbench.robot.variant.make_variant`, so a foundation carries
+    the changed masses).
+
+    Raises
+    ------
+    InputError
+        For a mass that leaves a body's mass non-positive, or a variant that does not compile.
+    """
+    spec = robot.spec
+    if change.values:
+        params, u = zip(*change.values)
+        ParameterSet(params).apply_spec(spec, u)
+    for body, mass in change.masses:
+        b = spec.body(body)
+        # at the centre of mass: the inertia about it is kept
+        b.mass = b.mass + mass
+        if not b.mass > 0:
+            raise InputError(f"the mass of {body!r} must stay positive, got {b.mass:.4g} kg")
+    if change.base is not None:
+        add_compliant_base(spec, *change.base)
+    load = dict(change.load_stiffness)
+    if load:
+        coeffs = {**robot.load_stiffness, **load}
+        set_load_stiffness(spec, {name: alpha for name, alpha in coeffs.items() if alpha != 0})
+    try:
+        model = spec.compile()
+    except ValueError as err:
+        raise InputError(f"the variant does not compile: {str(err).splitlines()[0]}") from None
+    if load:
+        check_load_stiffness(model, load)
+    return spec_to_xml(spec)
+
+
 def _perturbed(op, delta: Change):
-    """M, C, K of an operating point with ``delta``'s gain and stiffness edits applied."""
+    """M, C, K of an operating point with ``delta``'s parameters and load-dependent stiffness
+    applied as matrix perturbations (the kinds' :attr:`~rmbench.robot.kinds.Kind.perturb`).
+
+    A parameter moves from the value the operating point's model has (read by its kind: a
+    joint a posture's load has stiffened is stiffer than its parameter says) by its ``u`` in
+    ``delta``: a log factor multiplies that value, as the re-simulated model's change does."""
     m = op.robot.model
     M, C, K = op.linear.M, op.linear.C.copy(), op.linear.K.copy()
     names = list(op.linear.dof_names)
-    for text in delta.edits:
-        e = parse_edit(text)
-        factor = e.value[0] - 1
-        if e.field in ("stiffness", "damping"):
-            jid = m.joint(e.target).id
-            d = names.index(e.target)
-            if e.field == "stiffness":
-                K[d, d] += m.jnt_stiffness[jid] * factor
-            else:
-                C[d, d] += m.dof_damping[m.jnt_dofadr[jid]] * factor
-        else:
-            act = m.actuator(e.target)
-            d = names.index(m.joint(int(act.trnid[0])).name)
-            if e.field == "kp":
-                K[d, d] += act.gainprm[0] * factor
-            else:
-                C[d, d] += -act.biasprm[2] * factor
+    for p, u in delta.values:
+        kind = KINDS[p.kind]
+        u0 = p.to_u(kind.read_model(m, p))
+        kind.perturb(m, names, p, u0, u0 + u, C, K)
     for joint, alpha in delta.load_stiffness:
         jid = m.joint(joint).id
         adr = m.jnt_qposadr[jid]
