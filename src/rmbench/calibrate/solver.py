@@ -151,15 +151,15 @@ def solve(residuals, jacobian, x0, *, prior_sd, bounds: Bounds = Bounds(),
     """
     x0 = np.asarray(x0, float)
     w = _weights(prior_sd)
+    k = len(x0) if np.any(w) else 0          # the prior's rows; none where no parameter has one
 
     def fun(x):
-        return np.concatenate([residuals(x), w * x])
+        return np.concatenate([residuals(x), w * x]) if k else residuals(x)
 
     def jac(x):
-        return np.vstack([jacobian(x), np.diag(w)])
+        return np.vstack([jacobian(x), np.diag(w)]) if k else jacobian(x)
 
-    k = len(x0)
-    lo, hi = bounds.arrays(k)
+    lo, hi = bounds.arrays(len(x0))
     # one BLAS thread: the solver's matrices are a few hundred by a few dozen, where a second
     # thread only waits (a 528 x 24 SVD: 0.5 ms on one thread, 200 ms on two beside other work)
     with threadpool_limits(limits=1, user_api="blas"):

@@ -28,11 +28,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares, lsq_linear
+from scipy.optimize import lsq_linear
 
 from rmbench.errors import RmbenchError
 from rmbench.gap.frf.effects import Change, Effect
 from rmbench.calibrate.residual import FRF_SEGMENTS, frf_residuals, mode_residuals, penalties
+from rmbench.calibrate.solver import Bounds, SolverOptions, solve
 from rmbench.gap.selection import significant
 from rmbench.threads import worker_init
 
@@ -318,12 +319,13 @@ def refine(train: Objective, held: Objective, effects, start, *, max_nfev: int =
                     cols.append((train.vector_fast(base, eff.change(h)) - e) / h[k])
         return np.column_stack(cols)
 
-    # x_scale: one finite-difference step of each parameter is a comparable move
-    sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi + 1e-12 * (hi == lo)), x_scale=scale,
-                        method="trf", max_nfev=max_nfev, xtol=1e-4, ftol=1e-4)
+    # the calibration's solver, without a prior (an effect's size is what the data say); x_scale:
+    # one finite-difference step of each parameter is a comparable move
+    sol = solve(fun, jac, x0, prior_sd=np.full(len(x0), np.inf), bounds=Bounds(lo, hi + 1e-12 * (hi == lo)),
+                options=SolverOptions(max_nfev=max_nfev, x_scale=scale, xtol=1e-4, ftol=1e-4))
     values = split(sol.x)
     change = combined_change(effects, values)
-    chi2_train = float(sol.fun @ sol.fun)
+    chi2_train = sol.chi2
     e_held = held.vector(change)
     return Fitted(effects, values, chi2_train, float(e_held @ e_held), train.n, held.n,
                   evaluations=train.evaluations - n0, peak_held=peak_residual(e_held),
