@@ -94,17 +94,20 @@ class _Runs:
     calibration leaves a gap, the candidate reaches the noise, and a null from the candidate's end
     reaches it (``fresh_noise``) or not; each call recorded as (effect, from the candidate's end)."""
 
-    def __init__(self, fresh_noise):
-        self.fresh_noise, self.calls = fresh_noise, []
+    def __init__(self, fresh_noise, fresh_objective=300.0):
+        self.fresh_noise, self.fresh_objective, self.calls = fresh_noise, fresh_objective, []
 
     def run(self, effect, prev=None, *, from_nominal=False, null=None, warm=None):
         from types import SimpleNamespace
 
         self.calls.append((None if effect is None else effect, warm is not None))
         significant = effect is None and not (warm is not None and self.fresh_noise)
+        # training objectives (data χ² and prior): the candidate 300, a null from its end
+        # ``fresh_objective``
         return SimpleNamespace(effect=effect, significant=significant, from_nominal=from_nominal,
-                               warm=warm is not None, same_chance=warm is not None,
-                               chi2_held=900.0 if significant else 200.0, train_objective=1.0,
+                               warm=warm is not None, same_chance=warm is not None, freed=("x",),
+                               chi2_held=900.0 if significant else 200.0,
+                               train_objective=self.fresh_objective if warm is not None else 300.0,
                                shrink_against=lambda null: 0.5)
 
 
@@ -118,10 +121,10 @@ def _setup():
     return ConfirmSetup(None, None, [], first, None, None, [], [], (), [])
 
 
-def _confirm(monkeypatch, fresh_noise):
+def _confirm(monkeypatch, fresh_noise, fresh_objective=300.0):
     import rmbench.gap.frf.confirm as confirm_module
 
-    runs = _Runs(fresh_noise)
+    runs = _Runs(fresh_noise, fresh_objective)
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: runs.run)
     null, done = confirm_module.confirm(_setup(), ["base_compliance@base"], accept=lambda c, n: True)
     return runs, null, done
@@ -135,6 +138,15 @@ def test_a_candidate_is_not_credited_with_a_gap_a_null_from_its_end_closes(monke
     assert runs.calls == [(None, False), ("base_compliance@base", False), (None, True)]
     assert null.same_chance and not null.significant
     assert [c.effect for c in done] == ["base_compliance@base"]
+
+
+def test_a_candidate_stands_where_the_null_from_its_end_reaches_the_noise_only_far_worse_in_training(monkeypatch):
+    # the held-out postures cannot tell them apart; the training data with the prior can: 690
+    # against 300 is far beyond the chi2(1) quantile at the noise test's level (10.8 at 1e-3),
+    # the ordinary parameters pulled out of their spread to take the candidate's part
+    runs, null, _ = _confirm(monkeypatch, fresh_noise=True, fresh_objective=690.0)
+    assert runs.calls[-1] == (None, True)
+    assert not null.same_chance and null.significant
 
 
 def test_a_candidate_stands_where_a_null_from_its_end_still_leaves_a_gap(monkeypatch):
@@ -155,7 +167,7 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
     def run(effect, prev=None, *, from_nominal=False, null=None, warm=None):
         calls.append((effect, prev is not None, warm is not None))
         at_noise = (effect is not None and prev is not None) or warm is not None
-        return SimpleNamespace(effect=effect, significant=not at_noise, same_chance=warm is not None,
+        return SimpleNamespace(effect=effect, significant=not at_noise, same_chance=warm is not None, freed=("x",),
                                chi2_held=200.0 if at_noise else (300.0 if effect else 900.0), train_objective=1.0,
                                shrink_against=lambda null: 0.42 if effect else 0.0)
 
@@ -179,7 +191,7 @@ def test_every_candidate_runs_after_one_explains_the_gap(monkeypatch):
     def run(effect, prev=None, *, from_nominal=False, null=None, warm=None):
         calls.append(effect)
         return SimpleNamespace(effect=effect, significant=effect is None, from_nominal=from_nominal,
-                               chi2_held=900.0 if effect is None else 300.0, train_objective=1.0,
+                               chi2_held=900.0 if effect is None else 300.0, train_objective=1.0, freed=("x",),
                                shrink_against=lambda n: 0.5)
 
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)

@@ -194,7 +194,7 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
 
 
 def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, closes: float = 0.5,
-                near_at_noise: bool = False):
+                near_at_noise: bool = False, null_chi2: float = 100.0):
     """``_Recalibration._candidate`` with calibrations that stand in for the two starts, each
     ending at the given training objective; the run from the null's end removes ``closes`` of the
     null's excess held-out χ² (the null: 100 on 50 residuals) and reaches the noise where
@@ -221,7 +221,7 @@ def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, c
     monkeypatch.setattr(_Recalibration, "_scored", scored)
     run = _Recalibration(SimpleNamespace(nominal=None, held_data=None), None, ConfirmOptions(), None, None)
     base = SimpleNamespace(calibration=SimpleNamespace(params=[SimpleNamespace(name="j1_flex.stiffness")],
-                                                       u=np.array([0.2])), chi2_held=100.0, n_held=50)
+                                                       u=np.array([0.2])), chi2_held=null_chi2, n_held=50)
     c = run._candidate(None, None, None, None, base if null else None, _Run("nominal", False, None, 0.0))
     return c, starts
 
@@ -253,6 +253,14 @@ def test_a_candidate_that_reaches_the_noise_from_the_null_is_not_started_again(m
     c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0, closes=0.99, near_at_noise=True)
     assert starts == [{"j1_flex.stiffness": 0.2}]
     assert c.start == "null" and not c.second_start and not c.significant
+
+
+def test_a_candidate_against_a_null_within_its_expected_chi2_is_not_started_again(monkeypatch):
+    # a null significant by a peak alone (held-out χ² 40 on 50 residuals) mimics no large effect
+    # that a fit from its end would have to unwind
+    c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0, null_chi2=40.0)
+    assert starts == [{"j1_flex.stiffness": 0.2}]
+    assert c.start == "null" and not c.second_start
 
 
 def test_a_run_without_a_null_starts_from_the_nominal_alone(monkeypatch):

@@ -39,6 +39,7 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.stats import chi2 as chi2_dist
 
 from rmbench.gap.frf.effects import Change, Effect
 from rmbench.gap.frf.model import ModelBench
@@ -392,7 +393,9 @@ class _Recalibration:
           run removed at least ``options.second_start`` of the null's excess held-out χ²
           (:meth:`Confirmed.closes`) and stayed above the noise. A candidate that does not move
           the held-out gap from there is not one a second basin is sought for, nor is one that
-          reached the noise from there (it did not stall).
+          reached the noise from there (it did not stall), nor one against a null whose held-out
+          χ² is within its expectation (significant by a peak alone: the first calibration
+          reproduces the data overall, and mimics no large effect a fit would have to unwind).
         """
         from rmbench.calibrate import calibrate
 
@@ -401,10 +404,11 @@ class _Recalibration:
             other = calibrate(setup.nominal, used, held=setup.held_data, settings=settings,
                               start=_values(null.calibration))
             near = self._scored(effect, terms, other, replace(run, started="null"))
-            # not promising, or already at the noise: a run that reached the noise did not stall,
-            # and no second basin is sought for it
-            if null.chi2_held > null.n_held and (near.closes(null) < self.options.second_start
-                                                 or not near.significant):
+            # a second basin is sought only for a run that moved the null's excess χ² and stalled
+            # short of the noise: one at the noise did not stall, and a null without excess χ²
+            # (significant by its peak alone) mimics no large effect the fit would have to unwind
+            if not near.significant or null.chi2_held <= null.n_held \
+                    or near.closes(null) < self.options.second_start:
                 return near
         cal = calibrate(setup.nominal, used, held=setup.held_data, settings=settings)
         far = self._scored(effect, terms, cal, run)
@@ -485,7 +489,7 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
     # among the models run) need all of them; stopped at the first accepted, the first look-alike
     # would win at confidence 1 (e.g. a wrist's mass listed before the flange's that was added)
     if accept is not None and any(accept(c, null) for c in done):
-        return _same_chance(run, null, done, accept, need_gap), done
+        return _same_chance(run, null, done, accept, options), done
     promising = [c for c in done if c.significant and c.shrink_against(null) >= options.min_shrink]
     if not promising:
         return null, done
@@ -496,7 +500,7 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
     if accept is None:
         return null, done
     if any(accept(c, null) for c in done):
-        return _same_chance(run, null, done, accept, need_gap), done
+        return _same_chance(run, null, done, accept, options), done
     return _further_starts(run, null, best, done, accept, options)
 
 
@@ -517,11 +521,11 @@ def _further_starts(run, null: Confirmed, best: Confirmed, done: list, accept, o
             best = other
             done = [best if c.effect is best.effect else c for c in done]
         if accept(best, null):
-            return _same_chance(run, null, done, accept, options.need_gap), done
+            return _same_chance(run, null, done, accept, options), done
     return null, done
 
 
-def _same_chance(run, null: Confirmed, done: list, accept, need_gap: bool) -> Confirmed:
+def _same_chance(run, null: Confirmed, done: list, accept, options: ConfirmOptions) -> Confirmed:
     """The null a candidate that explains the gap is credited against.
 
     The accepted candidate may have run from the nominal, or on for a second round, or from a
@@ -529,15 +533,25 @@ def _same_chance(run, null: Confirmed, done: list, accept, need_gap: bool) -> Co
     in a local minimum leaves a gap that a better start closes with or without the candidate. So
     a null runs from where the accepted candidate ended (the lowest training objective among the
     accepted): its ordinary parameters, the candidate's own dropped, with the candidate's full
-    budget. That start is in the basin the candidate found, so it is at least the chance the
-    candidate had; where it reaches the noise, it is the null returned (the gap was the first
-    calibration's, or an ordinary parameter can take the candidate's part), and no candidate is
-    credited. Not where the candidates ran without a gap (``need_gap`` False).
+    budget, a start in the basin the candidate found. From there it is a continuation (a few
+    evaluations of the FRF stage), where a start from the nominal repeats the gross starts and the
+    modes-alone stage.
 
-    From the candidate's end it is a continuation (a few evaluations of the FRF stage), where a
-    start from the nominal repeats the gross starts and the modes-alone stage."""
-    if not need_gap:
+    Where that null reaches the held-out noise too, the held-out postures cannot tell the two
+    apart, and the training data with the prior decide: the candidate nests the null (its k
+    parameters at zero), so its training objective (data χ² and prior) below the null's by more
+    than the χ²(k) quantile at ``options.p_noise`` is a likelihood-ratio test the null fails (the
+    ordinary parameters reach the held-out noise only pulled out of their spread, e.g. a wrist
+    2.8 times its mass: 570 against 179). Otherwise the null is returned (the gap was the first
+    calibration's, or an ordinary parameter takes the candidate's part) and no candidate is
+    credited. Not where the candidates ran without a gap (``options.need_gap`` False)."""
+    if not options.need_gap:
         return null
     winner = min((c for c in done if accept(c, null)), key=lambda c: c.train_objective)
     fresh = run(None, warm=winner)
-    return null if fresh.significant else fresh
+    if fresh.significant:
+        return null
+    k = max(len(winner.freed), 1)     # a sensor candidate frees nothing: its one held size
+    if fresh.train_objective - winner.train_objective > float(chi2_dist.ppf(1 - options.p_noise, k)):
+        return null
+    return fresh
