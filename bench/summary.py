@@ -57,18 +57,28 @@ def read_summaries(results: Path = RESULTS, bench: Path = BENCH) -> list[BenchSu
 
 
 def last_json_object(path: Path) -> dict | None:
-    """The last line of the text file `path` that parses as a JSON object, or None."""
+    """The summary line of the text file `path`: its last line that parses as a JSON object, merged
+    with the JSON-object lines directly before it (a bench's second line, e.g. its rejected draws
+    counted as misses, follows its main line), or None."""
+    found = []
     for line in reversed(path.read_text(encoding="utf-8", errors="replace").splitlines()):
         line = line.strip()
-        if not line.startswith("{"):
-            continue
-        try:
-            value = json.loads(line)
-        except ValueError:
-            continue
+        value = None
+        if line.startswith("{"):
+            try:
+                value = json.loads(line)
+            except ValueError:
+                value = None
         if isinstance(value, dict):
-            return value
-    return None
+            found.append(value)
+        elif found:
+            break
+    if not found:
+        return None
+    merged = {}
+    for value in reversed(found):
+        merged.update(value)
+    return merged
 
 
 def script_description(script: Path) -> str:

@@ -9,7 +9,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 # the modules that build truth by plain MJCF edits: dotted name, source
 TRUTH_MODULES = {"rmbench.gap.cases.truth": ROOT / "src" / "rmbench" / "gap" / "cases" / "truth.py",
-                 "_truth_edits": ROOT / "bench" / "_truth_edits.py"}
+                 "_truth_edits": ROOT / "bench" / "_truth_edits.py",
+                 "truth": ROOT / "bench" / "truth" / "__init__.py",
+                 "truth.form": ROOT / "bench" / "truth" / "form.py",
+                 "truth.robot": ROOT / "bench" / "truth" / "robot.py",
+                 "truth.visibility": ROOT / "bench" / "truth" / "visibility.py"}
 # what builds a diagnosis's candidates or a calibration's parameters
 FORBIDDEN = ("rmbench.robot.variant", "rmbench.robot.parameters", "rmbench.calibrate", "rmbench.gap",
              "rmbench.identify")
