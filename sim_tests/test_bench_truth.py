@@ -8,9 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-
-from truth import FORM_KINDS, apply_form, draw_real_robot, median_form  # noqa: E402
+# bench/ on the path only while the truth package is imported: left there, bench/control.py would
+# shadow python-control for every test collected after this one
+_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+sys.path.insert(0, _BENCH)
+try:
+    from truth import FORM_KINDS, apply_form, draw_real_robot, median_form
+    from truth.visibility import visibility
+finally:
+    sys.path.remove(_BENCH)
 
 from rmbench.robot import Robot, seed_grid  # noqa: E402
 
@@ -97,8 +103,6 @@ def test_a_change_that_is_no_change_is_not_visible_and_a_bending_forearm_is(nomi
     # the visibility rule's two sides on two postures: the difference of two independent noise
     # sums stays within z·√(2n) (p = 1e-3), and a forearm bending at its median compliance moves
     # the low modes by 0.5-1 % (above), far beyond the campaign's noise
-    from truth.visibility import visibility
-
     postures = [seed_grid()[i] for i in (0, 90)]
     same = visibility(nominal.xml, nominal.xml, postures, 11)
     assert not same["visible"] and same["effect_chi2"] == 0.0
