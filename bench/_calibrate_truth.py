@@ -20,29 +20,13 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from _truth_edits import draw_flex_joints, draw_links, draw_servos, logu, mount_on_foundation, mount_under
+from _truth_edits import draw_ordinary, logu, mount_on_foundation, mount_under
 
 
 def draw_truth(nominal_xml: str, rng: np.random.Generator, *, base: bool) -> tuple[str, dict]:
     """The MJCF of one "real robot" and its true parameter values (SI, calibration names)."""
     root = ET.fromstring(nominal_xml)
-    joints = {j.get("name"): j for j in root.iter("joint")}
-    truth = draw_flex_joints(root, rng)
-    truth.update(draw_servos(root, rng, lambda act: act.get("joint", "").startswith("j")
-                             and act.get("joint") in joints and act.get("name") != "a_spin"))
-    for name, (m, pos) in draw_links(root, rng).items():
-        truth[f"{name}.mass"] = m
-        for i, axis in enumerate("xyz"):
-            truth[f"{name}.com_{axis}"] = float(pos[i])
-    k_ratio = {}
-    for which, names in (("translation", ("tool_contact_x", "tool_contact_y")),
-                         ("rotation", ("tool_contact_rx", "tool_contact_ry"))):
-        f = logu(rng, 0.8, 1.25)
-        for n in names:
-            k = float(joints[n].get("stiffness").split()[0]) * f
-            joints[n].set("stiffness", f"{k:.9g}")
-            k_ratio.setdefault(which, k)
-        truth[f"tool_contact.{which}"] = k_ratio[which]
+    truth = draw_ordinary(root, rng)
     truth["base.tilt_compliance"] = mount_on_foundation(root, rng) if base else 0.0
     return ET.tostring(root, encoding="unicode"), truth
 

@@ -118,3 +118,26 @@ def subtree_mass(body) -> float:
             if g.get("mass"):
                 total += float(g.get("mass"))
     return total
+
+
+def draw_ordinary(root, rng) -> dict:
+    """Every ordinary parameter a calibration fits, drawn in place in this order: the ``*_flex``
+    joints (:func:`draw_flex_joints`), the arm's servos (:func:`draw_servos`), the links
+    (:func:`draw_links`) and the tool holder's contact (translational and rotational stiffness ×
+    log-uniform 0.8-1.25 each). Returns the true values by the calibration's parameter names (SI)."""
+    joints = {j.get("name"): j for j in root.iter("joint")}
+    truth = draw_flex_joints(root, rng)
+    truth.update(draw_servos(root, rng, lambda act: act.get("joint", "").startswith("j")
+                             and act.get("joint") in joints and act.get("name") != "a_spin"))
+    for name, (m, pos) in draw_links(root, rng).items():
+        truth[f"{name}.mass"] = m
+        for i, axis in enumerate("xyz"):
+            truth[f"{name}.com_{axis}"] = float(pos[i])
+    for which, names in (("translation", ("tool_contact_x", "tool_contact_y")),
+                         ("rotation", ("tool_contact_rx", "tool_contact_ry"))):
+        f = logu(rng, 0.8, 1.25)
+        drawn = [float(joints[n].get("stiffness").split()[0]) * f for n in names]
+        for n, k in zip(names, drawn):
+            joints[n].set("stiffness", f"{k:.9g}")
+        truth[f"tool_contact.{which}"] = drawn[0]
+    return truth

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from _truth_edits import draw_flex_joints, draw_links, draw_servos, logu, subtree_mass
+from _truth_edits import draw_ordinary, logu, subtree_mass
 from truth.form import FORM_KINDS, FormError, apply_form, draw_form
 
 __all__ = ["RealRobot", "draw_real_robot"]
@@ -64,7 +64,7 @@ def draw_real_robot(nominal_xml: str, rng: np.random.Generator, *, base: bool, p
         Of the form errors' sizes (:func:`truth.form.draw_form`).
     """
     root = ET.fromstring(nominal_xml)
-    ordinary = _ordinary(root, rng)
+    ordinary = draw_ordinary(root, rng)
     foundation = {}
     if base:
         foundation = _tilting_foundation(root, rng)
@@ -79,26 +79,6 @@ def draw_real_robot(nominal_xml: str, rng: np.random.Generator, *, base: bool, p
         # the skewed foundation replaced the tilting one: no isotropic tilt compliance is true
         ordinary["base.tilt_compliance"], foundation = None, {}
     return RealRobot(ET.tostring(root, encoding="unicode"), ordinary, form, foundation)
-
-
-def _ordinary(root: ET.Element, rng) -> dict:
-    """The calibration's parameters drawn in place: gearboxes, servos, links, tool holder."""
-    joints = {j.get("name"): j for j in root.iter("joint")}
-    truth = draw_flex_joints(root, rng)
-    truth.update(draw_servos(root, rng, lambda act: act.get("joint", "").startswith("j")
-                             and act.get("joint") in joints and act.get("name") != "a_spin"))
-    for name, (m, pos) in draw_links(root, rng).items():
-        truth[f"{name}.mass"] = m
-        for i, axis in enumerate("xyz"):
-            truth[f"{name}.com_{axis}"] = float(pos[i])
-    for which, names in (("translation", ("tool_contact_x", "tool_contact_y")),
-                         ("rotation", ("tool_contact_rx", "tool_contact_ry"))):
-        f = logu(rng, 0.8, 1.25)
-        for n in names:
-            k = float(joints[n].get("stiffness").split()[0]) * f
-            joints[n].set("stiffness", f"{k:.9g}")
-        truth[f"tool_contact.{which}"] = float(joints[names[0]].get("stiffness"))
-    return truth
 
 
 def _tilting_foundation(root: ET.Element, rng) -> dict:

@@ -32,7 +32,7 @@ from rmbench.errors import InputError, ModelError
 from rmbench.robot.load_stiffness import check_load_stiffness, set_load_stiffness
 from rmbench.robot.spec import copy_body, custom_text
 
-__all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant",
+__all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant", "compile_variant",
            "condensed", "with_tool_masses"]
 
 _EDIT = re.compile(r"^(?P<target>[\w*?\[\]-]+)\.(?P<field>\w+)\s*(?P<op>\*=|\+=|=)\s*(?P<value>.+)$")
@@ -183,6 +183,28 @@ def add_compliant_base(spec: mujoco.MjSpec, k_lateral: float, k_tilt: float, *,
     spec.delete(arm)
 
 
+def compile_variant(spec, robot, load_stiffness=None) -> mujoco.MjModel:
+    """Write ``load_stiffness`` (``{joint: α}``, 1/mrad, over the robot's own coefficients) into a
+    variant's ``spec`` and compile it, checking the coefficients against the compiled model.
+
+    Raises
+    ------
+    InputError
+        For a variant that does not compile, or a load-stiffness coefficient of an unknown or
+        actuated joint, or a negative α.
+    """
+    if load_stiffness:
+        coeffs = {**robot.load_stiffness, **load_stiffness}
+        set_load_stiffness(spec, {name: alpha for name, alpha in coeffs.items() if alpha != 0})
+    try:
+        model = spec.compile()
+    except ValueError as err:
+        raise InputError(f"the variant does not compile: {str(err).splitlines()[0]}") from None
+    if load_stiffness:
+        check_load_stiffness(model, load_stiffness)
+    return model
+
+
 def make_variant(robot, edits=(), *, masses=(), compliant_base=None, load_stiffness=None) -> str:
     """MJCF text of a variant of ``robot`` (a :class:`~rmbench.robot.Robot`).
 
@@ -219,15 +241,8 @@ def make_variant(robot, edits=(), *, masses=(), compliant_base=None, load_stiffn
         add_compliant_base(spec, *compliant_base)
         log.append(f"compliant base {compliant_base}")
     if load_stiffness:
-        coeffs = {**robot.load_stiffness, **load_stiffness}
-        set_load_stiffness(spec, {name: alpha for name, alpha in coeffs.items() if alpha != 0})
         log.append("load stiffness " + " ".join(f"{n}:{a:g}" for n, a in load_stiffness.items()))
-    try:
-        model = spec.compile()
-    except ValueError as err:
-        raise InputError(f"the variant does not compile: {str(err).splitlines()[0]}") from None
-    if load_stiffness:
-        check_load_stiffness(model, load_stiffness)
+    compile_variant(spec, robot, load_stiffness)
     previous = custom_text(spec, "rmbench_variant")
     set_custom_text(spec, "rmbench_variant", "; ".join(([previous] if previous else []) + log))
     return spec_to_xml(spec)

@@ -22,10 +22,10 @@ from rmbench.impact.sensors import COORDS
 from rmbench.robot import Posture, Robot
 from rmbench.robot.kinds import KINDS
 from rmbench.robot.linear import complex_modes
-from rmbench.robot.load_stiffness import REFERENCE_DEFLECTION, check_load_stiffness, set_load_stiffness
+from rmbench.robot.load_stiffness import REFERENCE_DEFLECTION
 from rmbench.robot.parameters import ParameterSet
 from rmbench.robot.spec import spec_to_xml
-from rmbench.robot.variant import add_compliant_base, with_tool_masses
+from rmbench.robot.variant import add_compliant_base, compile_variant, with_tool_masses
 
 __all__ = ["ModelModes", "ModelBench"]   # ModelModes: rmbench.calibrate.modes
 
@@ -209,16 +209,7 @@ def _variant_xml(robot: Robot, change: Change) -> str:
             raise InputError(f"the mass of {body!r} must stay positive, got {b.mass:.4g} kg")
     if change.base is not None:
         add_compliant_base(spec, *change.base)
-    load = dict(change.load_stiffness)
-    if load:
-        coeffs = {**robot.load_stiffness, **load}
-        set_load_stiffness(spec, {name: alpha for name, alpha in coeffs.items() if alpha != 0})
-    try:
-        model = spec.compile()
-    except ValueError as err:
-        raise InputError(f"the variant does not compile: {str(err).splitlines()[0]}") from None
-    if load:
-        check_load_stiffness(model, load)
+    compile_variant(spec, robot, dict(change.load_stiffness))
     return spec_to_xml(spec)
 
 
