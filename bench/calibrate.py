@@ -31,14 +31,14 @@ code; half stand on a foundation that tilts):
    one robot with the machine otherwise idle (``--time-default``).
 
 A fresh seed is drawn per run unless ``--seed`` is given, and printed. Each robot's measured FRFs
-are kept in ``bench/.cache/`` (keyed by seed, robot, method and a digest of the robot measured,
-its MJCF, placement errors and spindle speed: the campaign does not depend on the calibration's
+are kept in ``bench/.cache/`` (or ``--cache DIR``; keyed by seed, robot, method and a digest of
+the robot measured, its MJCF, placement errors and spindle speed: the campaign does not depend on the calibration's
 code, and a draw redrawn after a rejected one is a different robot), so a rerun on changed code measures nothing again; ``--only`` runs the
 robots named. Cases go to a JSON-lines file keyed by seed, settings and a digest of the code it runs (its syntax tree without docstrings: a
 comment does not start a new run); a rerun with the same key resumes, another key starts a new
 file. A robot that cannot hold a posture is rejected: counted, printed and kept in the file, never
 silently redrawn. With ``--scheduler ADDRESS`` the robots run on an existing dask cluster, one a
-single-threaded worker (its workers need rmbench and the file system of ``bench/.cache``), and
+single-threaded worker (its workers need rmbench and the file system of the cache), and
 are written as they finish: the same lines as a run here, but for the seconds.
 
 Last line: ``{"cases", "heldout_f_p95_before", "heldout_f_p95_after", "zeta_p95_after",
@@ -49,7 +49,7 @@ the verdict "explained" and the hidden effect ranked first).
 
 usage: python bench/calibrate.py [--robots 40] [--seed S] [--workers 2] [--method time] [--plain]
                                  [--groups G] [--gap-groups G] [--time-default] [--only I,J,...]
-                                 [--scheduler ADDRESS]
+                                 [--cache DIR] [--scheduler ADDRESS]
 """
 
 from __future__ import annotations
@@ -163,14 +163,15 @@ def measured(xml: str, postures, args, seed: int, i: int, *, placement=None, rpm
     # rejected one read the rejected draw's campaign at the same size (seed 16587, robot 2: a tool
     # holder read a heavier forearm's, χ² 763.9 both)
     robot = hashlib.sha256(repr((xml, placement, float(rpm))).encode()).hexdigest()[:10]
-    path = CACHE / f"calibrate_s{seed}_{i}{size}_{robot}_{args.method}.nc"
+    cache = Path(args.cache)
+    path = cache / f"calibrate_s{seed}_{i}{size}_{robot}_{args.method}.nc"
     if path.exists():
         return xr.open_dataset(path).load()
     tmp = Path(tempfile.mkdtemp(prefix="rmbench_cal_"))
     try:
         ds = measure(xml, postures, args.method, seed * 1000 + i, args.workers, tmp, placement=placement,
                      rpm=rpm, fit=False)
-        CACHE.mkdir(exist_ok=True)
+        cache.mkdir(parents=True, exist_ok=True)
         ds.to_netcdf(tmp / "ds.nc")
         shutil.move(tmp / "ds.nc", path)
     finally:
@@ -552,6 +553,9 @@ def main(argv=None) -> None:
     ap.add_argument("--time-default", action="store_true", help="time the default 24-parameter calibration")
     ap.add_argument("--only", default=None, metavar="I,J,...", help="run only these robots (indices)")
     ap.add_argument("--lines", default=None, help="JSON-lines file (default: bench/results/calibrate_<key>.jsonl)")
+    ap.add_argument("--cache", default=str(CACHE), metavar="DIR",
+                    help="where the measured FRFs are kept and read back (default: bench/.cache; a fresh "
+                         "folder measures every robot again)")
     ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
                     help="address of an existing dask scheduler: the robots run on its cluster, one a worker")
     args = ap.parse_args(argv)

@@ -1,7 +1,12 @@
 """Independent cases on worker pools (rmbench.parallel): here, local processes or a dask cluster give
-the same results, and the blind check run on a cluster writes the lines of a run here."""
+the same results, and the blind check and the calibration bench run on a cluster write the lines of a
+run here."""
 
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
@@ -109,3 +114,36 @@ def test_tracker_blind_cases_on_a_dask_cluster_write_the_lines_of_a_run_here(clu
     cases = run_tracker_blind(3, 3, out=remote, scheduler=cluster, **small)
     assert _lines(remote) == _lines(local)
     assert [c["index"] for c in cases] == [0, 1, 2]
+
+
+CALIBRATION_BENCH = Path(__file__).resolve().parents[1] / "bench" / "calibrate.py"
+
+
+def _calibration_bench(tmp_path, name, *extra) -> tuple:
+    """The calibration bench's smallest run (one rigid robot, its 16-posture campaign in the
+    frequency domain, the joints alone calibrated), as a command: bench/ never on this process's
+    path (its control.py would shadow python-control). Its own cache folder, so the campaign is
+    measured where the case runs. Its JSON-lines file and its last printed line."""
+    lines = tmp_path / f"{name}.jsonl"
+    run = subprocess.run([sys.executable, str(CALIBRATION_BENCH), "--robots", "1", "--seed", "1", "--plain",
+                          "--method", "linear", "--groups", "joints", "--lines", str(lines),
+                          "--cache", str(tmp_path / f"{name}_cache"), *extra],
+                         env={**os.environ, "OMP_NUM_THREADS": "1"}, capture_output=True, text=True, check=True)
+    return lines, json.loads(run.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.slow
+def test_the_calibration_bench_on_a_dask_cluster_writes_the_lines_of_a_run_here(cluster, tmp_path):
+    from dask.distributed import Client, get_task_stream
+
+    local_lines, local_last = _calibration_bench(tmp_path, "local")
+    with Client(cluster) as client, get_task_stream(client) as stream:
+        remote_lines, remote_last = _calibration_bench(tmp_path, "remote", "--scheduler", cluster)
+    # the robot ran on the cluster (one case, one task of its workers), and was calibrated in both
+    assert [t["key"].startswith("_single_threaded") for t in stream.data] == [True]
+    assert local_last["cases"] == 1
+    # wall-clock seconds alone may differ: a case's "seconds" (measure, calibrate, score) in the
+    # lines, and the last line's "calibrate_s" (the median of those calibrate seconds)
+    assert _lines(remote_lines) == _lines(local_lines)
+    assert {k: v for k, v in remote_last.items() if k != "calibrate_s"} \
+        == {k: v for k, v in local_last.items() if k != "calibrate_s"}
