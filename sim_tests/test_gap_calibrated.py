@@ -167,9 +167,10 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
     def run(effect, prev=None, *, from_nominal=False, null=None, warm=None):
         calls.append((effect, prev is not None, warm is not None))
         at_noise = (effect is not None and prev is not None) or warm is not None
+        # held-out χ² on 700 residuals: the null's 900 fails the χ² test itself (not by a peak alone)
         return SimpleNamespace(effect=effect, significant=not at_noise, same_chance=warm is not None, freed=("x",),
-                               chi2_held=200.0 if at_noise else (300.0 if effect else 900.0), train_objective=1.0,
-                               shrink_against=lambda null: 0.42 if effect else 0.0)
+                               chi2_held=200.0 if at_noise else (300.0 if effect else 900.0), n_held=700,
+                               train_objective=1.0, shrink_against=lambda null: 0.42 if effect else 0.0)
 
     monkeypatch.setattr(confirm_module, "_Recalibration", lambda *a: run)
     null, _ = confirm_module.confirm(_setup(), ["base_compliance@base"], accept=lambda c, n: not c.significant,

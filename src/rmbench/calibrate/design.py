@@ -17,9 +17,59 @@ import numpy as np
 from rmbench.errors import InputError
 from rmbench.impact.config import CampaignConfig, parse_config
 from rmbench.impact.sensors import COORDS, SensorSet, sensor_set
+from rmbench.robot.kinds import Kind
 from rmbench.robot.model import Band
+from rmbench.robot.parameters import Parameter
 
-__all__ = ["TestDesign", "SensorOffset"]
+__all__ = ["TestDesign", "SensorOffset", "SENSOR_KINDS", "sensor_parameter", "sensor_offsets"]
+
+
+def _nothing(target, p, x) -> None:
+    """A test design's parameter writes nothing into the robot's MJCF."""
+
+
+# A sensor's placement as a calibration parameter: it changes what the model's modes look like at
+# the sensors, not the modes (:class:`rmbench.calibrate.model.ModalModel` reads it through the
+# design). Linear in ``u``: along the tool in mm, about its axis in degrees; a freed one may move
+# 30 mm or 20° (the gap search's sensor effects stop at 10 mm and 15°).
+SENSOR_KINDS = (
+    Kind("sensor_along", _nothing, _nothing, display=lambda v: 1e3 * v, resolution=1e-3,
+         wide=lambda p: (-30.0, 30.0), gross=lambda p: [0.0]),
+    Kind("sensor_angle", _nothing, _nothing, display=np.degrees, resolution=float(np.radians(0.1)),
+         wide=lambda p: (-20.0, 20.0), gross=lambda p: [0.0]),
+)
+_SENSOR_FIELDS = {"along": ("sensor_along", 1e-3, "mm"), "angle": ("sensor_angle", float(np.radians(1.0)), "deg")}
+
+
+def sensor_parameter(name: str) -> Parameter:
+    """The placement error of one sensor as a parameter: ``sensor.BAND:COORD.along`` (m, fitted in
+    mm) or ``sensor.BAND:COORD.angle`` (rad, fitted in degrees), nominal 0 (the design as read).
+
+    Raises
+    ------
+    InputError
+        A name of another form, or an unknown coordinate.
+    """
+    parts = name.split(".")
+    if len(parts) != 3 or parts[0] != "sensor" or parts[2] not in _SENSOR_FIELDS or parts[1].count(":") != 1:
+        raise InputError(f"not a sensor parameter: {name!r} (sensor.BAND:COORD.along or .angle)")
+    band, coord = parts[1].split(":")
+    SensorOffset(band, coord)           # checks the coordinate
+    kind, unit, label = _SENSOR_FIELDS[parts[2]]
+    lo, hi = next(k for k in SENSOR_KINDS if k.name == kind).wide(None)
+    return Parameter(name, "design", kind, (band, coord), 0, 0.0, False, unit, lo, hi, label,
+                     registry=SENSOR_KINDS)
+
+
+def sensor_offsets(params, u) -> tuple:
+    """The :class:`SensorOffset` of each sensor parameter in ``params`` at ``u`` (the others skipped)."""
+    out = []
+    for p, x in zip(params, np.asarray(u, float)):
+        if p.kind == "sensor_along":
+            out.append(SensorOffset(p.targets[0], p.targets[1], along=p.value(x)))
+        elif p.kind == "sensor_angle":
+            out.append(SensorOffset(p.targets[0], p.targets[1], angle=p.value(x)))
+    return tuple(out)
 
 
 @dataclass(frozen=True)

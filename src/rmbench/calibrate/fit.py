@@ -29,14 +29,15 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from rmbench.calibrate.account import account
-from rmbench.calibrate.model import ModalModel
+from rmbench.calibrate.design import sensor_parameter
+from rmbench.calibrate.model import ModalModel, spindle_parameter
 from rmbench.calibrate.problem import Problem
 from rmbench.calibrate.residual import pair
 from rmbench.calibrate.result import Calibration, ParameterEstimate, error_summary, mode_errors
 from rmbench.calibrate.solver import IDENTIFIABLE, WEAK, Bounds, SolverOptions, solve
 from rmbench.calibrate.start import coarse_start, free_start, given_start
 from rmbench.errors import InputError, RmbenchError, UnreachablePosture
-from rmbench.robot.parameters import DEFAULT_GROUPS, parameter_set
+from rmbench.robot.parameters import DEFAULT_GROUPS, ParameterSet, parameter_set
 from rmbench.threads import one_blas_thread
 
 # Calibration, ParameterEstimate, mode_errors, error_summary (rmbench.calibrate.result) and the
@@ -69,8 +70,10 @@ class CalibrationSettings:
         tool contact's residual flexibility, a sensor's gain). A fit from the nominal (no
         ``start``) fits the modes alone first and adds the FRFs from there.
     extra : tuple of str
-        Parameters in no group (:data:`rmbench.robot.parameters.STRUCTURAL`, ``BODY.mass``) fitted
-        beside the groups'.
+        Parameters in no group (:data:`rmbench.robot.parameters.STRUCTURAL`, ``BODY.mass``, a
+        sensor's placement ``sensor.BAND:COORD.along`` or ``.angle``,
+        :func:`~rmbench.calibrate.design.sensor_parameter`; the spindle's speed ``spindle.speed``,
+        :func:`~rmbench.calibrate.model.spindle_parameter`) fitted beside the groups'.
     free : tuple of str
         Parameters fitted without their prior and with wide bounds
         (:meth:`~rmbench.robot.parameters.ParameterSet.freed`): a structural effect's size, which
@@ -185,7 +188,7 @@ def _fit(robot, data, held, settings, start, say) -> Calibration:
     gross starts and the coarse stage."""
     t0 = time.perf_counter()
     held, train, q = _postures(robot, data, held)
-    rob, params = parameter_set(robot, settings.groups, settings.extra)
+    rob, params = _parameters(robot, settings)
     if settings.free:
         params = params.freed(settings.free)
     mm = ModalModel(rob, params, data.design, np.array(q), data.bands)
@@ -221,6 +224,19 @@ def _fit(robot, data, held, settings, start, say) -> Calibration:
                        seconds=round(time.perf_counter() - t0, 3), notes=tuple(notes),
                        chi2_prior=sol.chi2_prior, at_limit=bool(sol.at_limit), chi2_held=chi2_held,
                        n_held=n_held, widening=widening)
+
+
+def _parameters(robot, settings) -> tuple:
+    """The robot to calibrate and the parameters of ``settings``: its groups', then its ``extra``
+    ones (the spindle's speed ``spindle.speed`` and a sensor's placement,
+    ``sensor.BAND:COORD.along``/``.angle``, after the MJCF's)."""
+    sensors = [n for n in settings.extra if n.startswith("sensor.")]
+    speed = "spindle.speed" in settings.extra
+    rob, params = parameter_set(robot, settings.groups,
+                                [n for n in settings.extra if n not in sensors and n != "spindle.speed"])
+    added = (spindle_parameter(rob),) if speed else ()
+    added += tuple(sensor_parameter(n) for n in dict.fromkeys(sensors))
+    return rob, ParameterSet(tuple(params) + added) if added else params
 
 
 def _solve(problem: Problem, settings, w, lo, hi, start, say) -> tuple:

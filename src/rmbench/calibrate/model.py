@@ -12,6 +12,10 @@ eigen-analysis per posture and band, whatever the number of parameters. Paramete
 linear model only through its matrices (joint stiffness and damping, servo gains, the base's
 compliance) change C and K directly; masses and centres of mass move the equilibrium and the
 gravity stiffness, so the robot is settled again (from the settled state) and linearised for each.
+A sensor's placement (:data:`~rmbench.calibrate.design.SENSOR_KINDS`) changes no mode, only how
+the design reads them: its step re-reads the unstepped modes at the moved sensor. The spindle's
+speed (:func:`spindle_parameter`) is the robot's state, not its MJCF: the robot settles with its
+rotor spinning at that speed, whose gyroscopic coupling enters C.
 """
 
 from __future__ import annotations
@@ -21,19 +25,48 @@ import copy
 import mujoco
 import numpy as np
 
+from rmbench.calibrate.design import SENSOR_KINDS, sensor_offsets
 from rmbench.calibrate.modes import ModelModes, modes_seen
-from rmbench.errors import RmbenchError
+from rmbench.errors import InputError, RmbenchError
 from rmbench.impact.measure import hammer_rows
 from rmbench.impact.sensors import COORDS
-from rmbench.robot.kinds import KINDS
+from rmbench.robot.kinds import KINDS, Kind
 from rmbench.robot.linear import equilibrium, linearize, perturbed_modes_many
 from rmbench.robot.model import OperatingPoint
+from rmbench.robot.parameters import Parameter
 from rmbench.robot.variant import with_tool_masses
 
-__all__ = ["ModalModel", "FAST_KINDS"]
+__all__ = ["ModalModel", "FAST_KINDS", "SPEED_KIND", "spindle_parameter"]
 
 # kinds whose change enters the linearisation through C and K alone (a matrix perturbation)
 FAST_KINDS = tuple(name for name, kind in KINDS.items() if kind.perturb is not None)
+_SENSOR = tuple(k.name for k in SENSOR_KINDS)
+_RPM = 2 * np.pi / 60          # rad/s per rev/min
+
+
+def _nothing(target, p, x) -> None:
+    """The spindle's speed writes nothing into the MJCF (:class:`ModalModel` spins the rotor)."""
+
+
+# fitted in thousands of rev/min, from the robot's own speed; a freed one from rest to 30,000
+SPEED_KIND = Kind("spindle_speed", _nothing, _nothing, display=lambda v: v / _RPM, resolution=100 * _RPM,
+                  wide=lambda p: (p.lower, p.upper), gross=lambda p: [0.0, 5.0, 10.0, 20.0])
+
+
+def spindle_parameter(robot) -> Parameter:
+    """The spindle's speed as a parameter, ``spindle.speed``: rad/s, fitted in thousands of rev/min
+    added to the robot's own (:attr:`Robot.spindle_rpm`), from rest to 30,000 rev/min.
+
+    Raises
+    ------
+    InputError
+        A robot without a spinning spindle (no ``spindle_spin`` joint).
+    """
+    if mujoco.mj_name2id(robot.model, mujoco.mjtObj.mjOBJ_JOINT, "spindle_spin") < 0:
+        raise InputError(f"{robot.name} has no spindle that spins (no spindle_spin joint)")
+    u0 = robot.spindle_rpm / 1000.0
+    return Parameter("spindle.speed", "state", "spindle_speed", ("spindle_spin",), 0, robot.spindle_rpm * _RPM,
+                     False, 1000 * _RPM, -u0, 30.0 - u0, "rev/min", registry=(SPEED_KIND,))
 
 
 class ModalModel:
@@ -62,6 +95,9 @@ class ModalModel:
             self._tested[b] = with_tool_masses(robot, masses) if masses else robot
         self._built = {}
         self._scratch = {}      # reusable MjData to settle in (:meth:`_work`)
+        # the test design's parameters: read through the design, not written into the model
+        self._sensor = np.array([p.kind in _SENSOR for p in params], bool)
+        self._speed = next((i for i, p in enumerate(params) if p.kind == "spindle_speed"), None)
 
     @property
     def n_postures(self) -> int:
@@ -69,7 +105,8 @@ class ModalModel:
 
     def _model(self, u, band):
         """The band's compiled model with the values at ``u`` (the last few kept)."""
-        key = (band, np.asarray(u, float).tobytes())
+        u = np.where(self._sensor, 0.0, np.asarray(u, float))    # a sensor's step: the same model
+        key = (band, u.tobytes())
         hit = self._built.get(key)
         if hit is not None:
             return hit
@@ -78,6 +115,8 @@ class ModalModel:
         self.params.apply_model(model, u)
         shell = copy.copy(base)     # the same robot with this model: what an OperatingPoint reads
         shell.model = model
+        if self._speed is not None:
+            shell.spindle_rpm = self.params.params[self._speed].value(u[self._speed]) / _RPM
         # room for a Jacobian's worth (each stepped parameter's model, reused across postures)
         if len(self._built) > (len(self.params) + 4) * len(self.bands):
             self._built.pop(next(iter(self._built)))
@@ -123,15 +162,22 @@ class ModalModel:
         data.qpos[:] = op.data.qpos
         data.qvel[:] = op.data.qvel
         data.ctrl[:] = op.data.ctrl
+        if self._speed is not None:     # the rotor at the stepped speed
+            data.qvel[shell.model.jnt_dofadr[shell.model.joint("spindle_spin").id]] = shell.spindle_rpm * _RPM
         equilibrium(shell.model, data, shell._held, stiffness=op.linear.K)
         # at rest (no spinning rotor) C is the joints' and servos' damping, which a mass or a
         # centre of mass leaves as it is
         rest = inertial and not np.any(data.qvel)
         return linearize(shell.model, data, op.linear.C if rest else None)
 
-    def _rows(self, op, band):
+    def _rows(self, op, band, u):
+        """The design's reading rows of the sensors (placed as ``u`` says), its hammer rows and
+        the band."""
         b = self.design.band(band)
-        return self.design.sensors(band).reading_rows(op), hammer_rows(op, COORDS, b.s_1a), b
+        design = self.design
+        if self._sensor.any():
+            design = design.with_offsets(sensor_offsets(self.params, u))
+        return design.sensors(band).reading_rows(op), hammer_rows(op, COORDS, b.s_1a), b
 
     def modes(self, u, p: int, band: str) -> ModelModes:
         """Modes at posture ``p`` in ``band`` with the values at ``u`` (settled, linearised: exact)."""
@@ -141,7 +187,7 @@ class ModalModel:
         """Modes at posture ``p`` in ``band`` with the values at ``u``, and the exact receptance as
         tested at ``freq`` (Hz; m/N, shape (n_freq, 4, 4); None without ``freq``)."""
         op = self._settle(u, p, band, self._work(band, 0))
-        out, inp, b = self._rows(op, band)
+        out, inp, b = self._rows(op, band, u)
         return _seen(op.linear.modes(), out, inp, b, freq)
 
     def sensitivity(self, u, p: int, band: str, steps, freq=None) -> tuple:
@@ -161,7 +207,7 @@ class ModalModel:
         """
         u = np.asarray(u, float)
         op = self._settle(u, p, band, self._work(band, 0))
-        out, inp, b = self._rows(op, band)
+        out, inp, b = self._rows(op, band, u)
         lin = op.linear
         cm = lin.modes()
         base = _seen(cm, out, inp, b, freq)
@@ -169,18 +215,23 @@ class ModalModel:
         names = list(lin.dof_names)
         k = len(self.params)
         dm, dc, dk = (np.zeros((k,) + lin.M.shape) for _ in range(3))
+        read = {}       # a sensor stepped: the modes at ``u`` read where it moved
         for i, prm in enumerate(self.params):
             v = u.copy()
             v[i] += steps[i]
-            if prm.kind in FAST_KINDS:
+            if self._sensor[i]:
+                read[i] = _seen(cm, self._rows(op, band, v)[0], inp, b, freq, base[0].band_peak)
+            elif prm.kind in FAST_KINDS:
                 C, K = lin.C.copy(), lin.K.copy()
                 _perturb(model, names, prm, u[i], v[i], C, K, self.params)
                 dc[i], dk[i] = C - lin.C, K - lin.K
             else:
                 step = self._settled_from(op, v, band, inertial=prm.kind in ("mass", "com"))
                 dm[i], dc[i], dk[i] = step.M - lin.M, step.C - lin.C, step.K - lin.K
-        stepped = [_seen(m, out, inp, b, freq, base[0].band_peak) for m in perturbed_modes_many(cm, dm, dc, dk)]
-        return base, stepped
+        moved = [i for i in range(k) if not self._sensor[i]]
+        stepped = dict(zip(moved, (_seen(m, out, inp, b, freq, base[0].band_peak)
+                                   for m in perturbed_modes_many(cm, dm[moved], dc[moved], dk[moved]))))
+        return base, [read[i] if i in read else stepped[i] for i in range(k)]
 
 
 def _seen(cm, out, inp, b, freq, band_peak=None):

@@ -21,7 +21,6 @@ from rmbench.calibrate.problem import Problem
 from rmbench.calibrate.residual import pair
 from rmbench.calibrate.solver import Bounds, SolverOptions, solve
 from rmbench.errors import InputError, RmbenchError
-from rmbench.robot.kinds import KINDS
 
 __all__ = ["given_start", "coarse_start", "gross_start", "free_start"]
 
@@ -181,4 +180,4 @@ def _gross_sizes(p) -> list[float]:
     """A freed parameter's trial sizes in ``u``: its nominal and a structural fault's gross sizes
     (a foundation a fifth and half of its range soft, a stiffness a third or three times, a mass
     0.7 or 1.5 times): its kind's (:attr:`~rmbench.robot.kinds.Kind.gross`)."""
-    return KINDS[p.kind].gross(p)
+    return p.kind_record.gross(p)

@@ -42,7 +42,7 @@ import mujoco
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.robot.kinds import (COMPLIANCE_UNIT, DAMPING_RATIO, KINDS, RIGID, _WIDE_LOG, _WIDE_MASS,
+from rmbench.robot.kinds import (COMPLIANCE_UNIT, DAMPING_RATIO, KINDS, RIGID, Kind, _WIDE_LOG, _WIDE_MASS,
                                  _WIDE_COMPLIANCE, tilt_joints)
 
 __all__ = ["GROUPS", "OPTIONAL_GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet",
@@ -97,12 +97,14 @@ class Parameter:
     carried : float
         Mass a compliance (``base``, ``tilt``) carries, kg: its joints' damping is a ratio of
         critical against it at 1 m (:func:`~rmbench.robot.kinds.compliance_damping`); 0 otherwise.
-    registry : tuple of str, optional
+    registry : tuple, optional
         The kinds :attr:`kind` is checked against. None (default): the MJCF edits,
         :data:`~rmbench.robot.kinds.KINDS`. A parameter of a model other than the MJCF names its
-        own (the tracker diagnosis's pose model: :data:`rmbench.gap.tracker.sources.SOURCE_KINDS`);
-        it has no MJCF edit, so :class:`ParameterSet` cannot write it into a model, nor free,
-        display or resolve it by its kind.
+        own: names alone (the tracker diagnosis's pose model,
+        :data:`rmbench.gap.tracker.sources.SOURCE_KINDS`: no :class:`Kind` to write, free, display
+        or resolve it by), or :class:`~rmbench.robot.kinds.Kind` records (a test design's sensor
+        placement, :data:`rmbench.calibrate.design.SENSOR_KINDS`: what :class:`ParameterSet` does
+        with a parameter, its record says; it writes nothing into the MJCF).
     """
 
     name: str
@@ -123,9 +125,25 @@ class Parameter:
     registry: tuple | None = None
 
     def __post_init__(self):
-        kinds = KINDS if self.registry is None else self.registry
+        kinds = KINDS if self.registry is None else [getattr(k, "name", k) for k in self.registry]
         if self.kind not in kinds:
             raise ValueError(f"unknown parameter kind {self.kind!r} of {self.name}; one of {', '.join(kinds)}")
+
+    @property
+    def kind_record(self) -> Kind:
+        """What this parameter's kind edits and how (:class:`~rmbench.robot.kinds.Kind`), from its
+        registry.
+
+        Raises
+        ------
+        ValueError
+            A kind its registry names without a record (the tracker's pose model)."""
+        if self.registry is None:
+            return KINDS[self.kind]
+        for k in self.registry:
+            if isinstance(k, Kind) and k.name == self.kind:
+                return k
+        raise ValueError(f"{self.name}: its kind {self.kind!r} has no record of how it edits a model")
 
     @property
     def resolution(self) -> float:
@@ -134,7 +152,7 @@ class Parameter:
         within this (95 % interval) is called identifiable."""
         if self.log:
             return float(np.log(1.05))
-        return KINDS[self.kind].resolution / self.unit
+        return self.kind_record.resolution / self.unit
 
     @property
     def sigma(self) -> float:
@@ -159,7 +177,7 @@ class Parameter:
 
     def display(self, value: float) -> float:
         """An SI value in the unit of :attr:`label` (mm for positions, µrad/(kN·m) for a compliance)."""
-        return KINDS[self.kind].display(value)
+        return self.kind_record.display(value)
 
 
 class ParameterSet:
@@ -203,7 +221,7 @@ class ParameterSet:
         out = []
         for p in self.params:
             if p.name in names:
-                lo, hi = KINDS[p.kind].wide(p)
+                lo, hi = p.kind_record.wide(p)
                 p = replace(p, lower=float(min(p.lower, lo)), upper=float(max(p.upper, hi)))
             out.append(p)
         return ParameterSet(out)
@@ -228,14 +246,14 @@ class ParameterSet:
         nominal values are those the set was built on, as :meth:`robot` gives).
         """
         for p, x in zip(self.params, np.asarray(u, float)):
-            KINDS[p.kind].write_model(model, p, x)
+            p.kind_record.write_model(model, p, x)
         data = mujoco.MjData(model)
         mujoco.mj_setConst(model, data)
 
     def apply_spec(self, spec: mujoco.MjSpec, u) -> None:
         """Write the values at ``u`` into a specification (to save it as MJCF), in place."""
         for p, x in zip(self.params, np.asarray(u, float)):
-            KINDS[p.kind].write_spec(spec, p, x)
+            p.kind_record.write_spec(spec, p, x)
 
 
 def parse_groups(text: str | None) -> tuple[str, ...]:

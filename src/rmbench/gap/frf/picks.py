@@ -13,8 +13,8 @@ __all__ = ["confirm_picks", "fitted_sizes", "pinned"]
 def confirm_picks(models, lib: dict, n: int) -> list:
     """The candidates to confirm: the best-scored refined single of each confirmable kind (the
     tool holder, the spindle bearings, the foundation, a body's mass, a sensor's placement), then
-    the kinds no refined single stands for (not a sensor: it is confirmed at its fitted size), at
-    most ``n``, and the foundation always.
+    the kinds no refined single stands for (not a sensor, confirmed from its fitted size, nor a
+    spinning spindle), at most ``n``, and the foundation always.
 
     One per kind rather than the best few overall: after a calibration has moved the ordinary
     parameters to mimic a structural effect, the first-order search can rank that effect below
@@ -38,8 +38,9 @@ def confirm_picks(models, lib: dict, n: int) -> list:
             best[effect.kind] = (m["score"], effect)
     picks = [e for _, e in sorted(best.values(), key=lambda x: x[0])]
     for effect in lib.values():
-        # a sensor is confirmed at its fitted size: only a refined one
-        if (confirmable(effect) and effect.kind not in ("added_mass",) + DESIGN_KINDS
+        # a sensor is confirmed from its fitted size, and a spinning spindle only where the search
+        # saw it: only a refined one
+        if (confirmable(effect) and effect.kind not in ("added_mass", "non_reciprocity") + DESIGN_KINDS
                 and effect.kind not in best):
             best[effect.kind] = (np.inf, effect)
             picks.append(effect)
