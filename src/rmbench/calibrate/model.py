@@ -3,8 +3,9 @@
 For a parameter vector ``u`` (:mod:`rmbench.robot.parameters`) the values are written into a copy of
 the compiled model (no recompilation), the robot settles at each posture's joint commands under
 gravity and is linearised exactly (METHODS.md §11), and its complex modes are read at the test
-design's sensors and hit points (:func:`~rmbench.calibrate.modes.modes_seen`). Each band has its own
-model: the band's sensors sit on the tool with their masses.
+design's sensors and hit points (:func:`~rmbench.calibrate.modes.as_tested`, the reading the gap
+diagnosis's model bench shares). Each band has its own model: the band's sensors sit on the tool
+with their masses (:func:`~rmbench.calibrate.modes.with_sensors`).
 
 Sensitivities (:meth:`ModalModel.sensitivity`) are analytic eigen-sensitivities (Fox-Kapoor,
 Nelson; :func:`~rmbench.robot.linear.perturbed_modes`) of the exact linearisation: one
@@ -21,14 +22,11 @@ import copy
 import mujoco
 import numpy as np
 
-from rmbench.calibrate.modes import ModelModes, modes_seen
+from rmbench.calibrate.modes import ModelModes, as_tested, with_sensors
 from rmbench.errors import RmbenchError
-from rmbench.impact.measure import hammer_rows
-from rmbench.impact.sensors import COORDS
 from rmbench.robot.kinds import KINDS
 from rmbench.robot.linear import equilibrium, linearize, perturbed_modes_many
 from rmbench.robot.model import OperatingPoint
-from rmbench.robot.variant import with_tool_masses
 
 __all__ = ["ModalModel", "FAST_KINDS"]
 
@@ -56,10 +54,7 @@ class ModalModel:
         self.design = design
         self.q_cmd = np.asarray(q_cmd, float)
         self.bands = tuple(bands)
-        self._tested = {}
-        for b in self.bands:
-            masses = design.sensors(b).tool_masses()
-            self._tested[b] = with_tool_masses(robot, masses) if masses else robot
+        self._tested = {b: with_sensors(robot, design, b) for b in self.bands}
         self._built = {}
         self._scratch = {}      # reusable MjData to settle in (:meth:`_work`)
 
@@ -97,15 +92,8 @@ class ModalModel:
     def _settle(self, u, p: int, band: str, data) -> OperatingPoint:
         """:meth:`operating_point` in a given ``MjData`` (any of the band's: they share the sizes)."""
         shell = self._model(u, band)
-        model = shell.model
-        mujoco.mj_resetData(model, data)      # as fresh: a reused one settles the same
-        for name, q in zip(shell.arm_joints, self.q_cmd[p]):
-            data.qpos[model.joint(name).qposadr[0]] = q
-        spin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "spindle_spin")
-        if spin >= 0:
-            data.qvel[model.jnt_dofadr[spin]] = shell.spindle_rpm * 2 * np.pi / 60
-        equilibrium(model, data, shell._held)
-        return OperatingPoint(shell, None, self.q_cmd[p], None, data, linearize(model, data))
+        shell.settle(self.q_cmd[p], data)
+        return OperatingPoint(shell, None, self.q_cmd[p], None, data, linearize(shell.model, data))
 
     def _work(self, band: str, which: int) -> mujoco.MjData:
         """A reusable ``MjData`` of the band's models (``which``: 0 the settled state, 1 a step)."""
@@ -129,10 +117,6 @@ class ModalModel:
         rest = inertial and not np.any(data.qvel)
         return linearize(shell.model, data, op.linear.C if rest else None)
 
-    def _rows(self, op, band):
-        b = self.design.band(band)
-        return self.design.sensors(band).reading_rows(op), hammer_rows(op, COORDS, b.s_1a), b
-
     def modes(self, u, p: int, band: str) -> ModelModes:
         """Modes at posture ``p`` in ``band`` with the values at ``u`` (settled, linearised: exact)."""
         return self.response(u, p, band)[0]
@@ -141,8 +125,7 @@ class ModalModel:
         """Modes at posture ``p`` in ``band`` with the values at ``u``, and the exact receptance as
         tested at ``freq`` (Hz; m/N, shape (n_freq, 4, 4); None without ``freq``)."""
         op = self._settle(u, p, band, self._work(band, 0))
-        out, inp, b = self._rows(op, band)
-        return _seen(op.linear.modes(), out, inp, b, freq)
+        return as_tested(op, self.design, band).response(freq)
 
     def sensitivity(self, u, p: int, band: str, steps, freq=None) -> tuple:
         """Modes at ``u`` and with each parameter stepped by ``steps[i]`` (in ``u``), and with
@@ -161,10 +144,9 @@ class ModalModel:
         """
         u = np.asarray(u, float)
         op = self._settle(u, p, band, self._work(band, 0))
-        out, inp, b = self._rows(op, band)
-        lin = op.linear
-        cm = lin.modes()
-        base = _seen(cm, out, inp, b, freq)
+        seen = as_tested(op, self.design, band)
+        lin, cm = op.linear, seen.cm
+        base = seen.response(freq)
         model = op.robot.model
         names = list(lin.dof_names)
         k = len(self.params)
@@ -179,12 +161,9 @@ class ModalModel:
             else:
                 step = self._settled_from(op, v, band, inertial=prm.kind in ("mass", "com"))
                 dm[i], dc[i], dk[i] = step.M - lin.M, step.C - lin.C, step.K - lin.K
-        stepped = [_seen(m, out, inp, b, freq, base[0].band_peak) for m in perturbed_modes_many(cm, dm, dc, dk)]
+        stepped = [seen.with_modes(m).response(freq, base[0].band_peak)
+                   for m in perturbed_modes_many(cm, dm, dc, dk)]
         return base, stepped
-
-
-def _seen(cm, out, inp, b, freq, band_peak=None):
-    return modes_seen(cm, out, inp, b, band_peak), (None if freq is None else cm.frf(np.asarray(freq, float), out, inp))
 
 
 def _perturb(model, names, prm, u_old, u_new, C, K, params) -> None:
