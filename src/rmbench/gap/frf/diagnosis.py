@@ -76,9 +76,7 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
     search, first = problem, None
     if settings.calibrate:
         first = first_calibration(problem, settings, workers, say)
-        # the same data and split, searched from the calibrated robot
-        search = replace(problem, robot=first.robot,
-                         bench=ModelBench(first.robot, problem.modal.design, problem.bench.q_cmd))
+        search = _calibrated(problem, first)
         t["calibrate"] = time.perf_counter()
     dg = _diagnose(search, settings, workers, say, t, ordinary=None if first is None else first.ordinary)
     if first is None:
@@ -131,7 +129,6 @@ def remaining_gap(nominal, data, *, test: str | None = None, tool=None, workers:
     RemainingGap
     """
     from rmbench.gap.frf.confirm import ConfirmOptions, ConfirmSetup, confirm
-    from rmbench.gap.frf.joint import JointObjective
 
     if not settings.calibrate:
         raise ValueError("remaining_gap needs settings.calibrate: the ordinary parameters to calibrate")
@@ -139,24 +136,26 @@ def remaining_gap(nominal, data, *, test: str | None = None, tool=None, workers:
     t = {"start": time.perf_counter()}
     problem = prepare(nominal, data, test, tool, workers, settings, say, t)
     first = first_calibration(problem, settings, workers, say)
-    md, train, held = problem.modal, problem.train, problem.held
-    meas, frf, bands = md.modes, md.frf, md.bands
-    cal_bench = ModelBench(first.robot, md.design, problem.bench.q_cmd)
-    obj_train = JointObjective(cal_bench, meas, frf, bands, train, first.ordinary)
-    obj_all = JointObjective(cal_bench, meas, frf, bands, range(cal_bench.n_postures), first.ordinary,
-                             fitted_on=obj_train)
+    obj_all, _, _ = _objectives(_calibrated(problem, first), first.ordinary)
     e_all = obj_all.vector(Change())
     chi2_all, peak_all = float(e_all @ e_all), float(abs(peak_residual(e_all)))
     gap = bool(significant(chi2_all, obj_all.n, p=settings.p_noise, peak=peak_all))
     null = None
     if gap:
-        held_sub = list(range(len(train), len(train) + len(held)))
+        held_sub = list(range(len(problem.train), len(problem.train) + len(problem.held)))
         setup = ConfirmSetup(problem, first.data, held_sub, first.cal, first.settings)
         options = ConfirmOptions(p_noise=settings.p_noise, min_shrink=settings.min_shrink)
         run, _ = confirm(setup, [], options=options, progress=say)
         null = run.to_dict()
     return RemainingGap(chi2_all, int(obj_all.n), peak_all, gap, null,
                         bool(gap and null["significant"]), round(time.perf_counter() - t["start"], 1))
+
+
+def _calibrated(problem: SearchData, first) -> SearchData:
+    """The same data and split on the first calibration's robot (``first``: its
+    :class:`~rmbench.gap.frf.calibration.FirstCalibration`)."""
+    return replace(problem, robot=first.robot,
+                   bench=ModelBench(first.robot, problem.modal.design, problem.bench.q_cmd))
 
 
 def _diagnose(data: SearchData, settings, workers, say, t, notes=(), ordinary=None) -> Diagnosis:
