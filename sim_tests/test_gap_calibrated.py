@@ -118,7 +118,7 @@ def _setup():
     from rmbench.gap.frf.confirm import ConfirmSetup
 
     first = SimpleNamespace(params=(), u=np.zeros(0))
-    return ConfirmSetup(None, None, [], first, None, None, [], [], (), [])
+    return ConfirmSetup(None, None, [], first, None)
 
 
 def _confirm(monkeypatch, fresh_noise, fresh_objective=300.0):

@@ -319,7 +319,7 @@ def _confirm_with(monkeypatch, ends):
     fake = _FakeRun(ends)
     monkeypatch.setattr(C, "_Recalibration", lambda *a, **k: fake)
     first = SimpleNamespace(params=[], u=np.zeros(0))
-    setup = C.ConfirmSetup(None, None, None, first, None, None, None, None, None, None)
+    setup = C.ConfirmSetup(None, None, None, first, None)
     null, done = C.confirm(setup, ["slide"], accept=lambda c, n: not c.significant)
     return fake.calls, null, done
 

@@ -12,8 +12,9 @@
     cal.plot()                                             # each estimate over its nominal, 95 % interval
     Path("calibrated.xml").write_text(cal.xml)             # a robot every command accepts
 
-The measurement side (test design, measured modes, pairing and residuals) lives here too, and the
-gap diagnosis builds on it.
+The measurement side (test design, measured modes, pairing and residuals, :class:`ModalData`) and the
+model as a test sees it (:mod:`rmbench.calibrate.modes`) live here too: the gap diagnosis builds on
+both.
 """
 
 from rmbench.calibrate.data import ModalData, load_modal_data, read_modal_table

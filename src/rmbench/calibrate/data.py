@@ -29,7 +29,7 @@ from rmbench.calibrate.measured import MeasuredModes, measured_data, modes_of_fi
 from rmbench.errors import InputError
 from rmbench.robot import Posture
 
-__all__ = ["ModalData", "load_modal_data", "read_modal_table", "TABLE_COLUMNS"]
+__all__ = ["ModalData", "load_modal_data", "fitted_modal_data", "source_name", "read_modal_table", "TABLE_COLUMNS"]
 
 _COORDS = ("1X", "1Y", "1aX", "1aY")
 TABLE_COLUMNS = ("x_mm", "y_mm", "theta_deg", "band", "f_n_hz", "zeta_pct")
@@ -101,7 +101,7 @@ def load_modal_data(data, *, test: str | None = None, workers: int | None = None
         postures, modes = read_modal_table(data)
         design = TestDesign.from_text(test) if test is not None else _seed_design()
         found = tuple(b for b in ("low", "high") if any(b in per and len(per[b]) for per in modes))
-        return ModalData(tuple(postures), tuple(modes), _pick(found, bands), design, Path(data).name)
+        return ModalData(tuple(postures), tuple(modes), _pick(found, bands), design, source_name(data))
     ds = _open(data)
     if "modal" in ds:
         if not all(c in ds.coords for c in ("x", "y", "theta")):
@@ -111,19 +111,39 @@ def load_modal_data(data, *, test: str | None = None, workers: int | None = None
         use = _pick(found, bands)
         postures = [Posture(float(x), float(y), float(t))
                     for x, y, t in zip(ds.x.values, ds.y.values, ds.theta.values)]
-        return ModalData(tuple(postures), tuple(modes_of_fit(ds, use)), use, design, _name(data))
-    from rmbench.calibrate.measured import fit_measured, frf_targets
-
+        return ModalData(tuple(postures), tuple(modes_of_fit(ds, use)), use, design, source_name(data))
     ds = measured_data(ds)
     design = TestDesign.of_dataset(ds, test)
     found = tuple(b for b in ("low", "high") if np.any(ds.band.values == b))
-    use = _pick(found, bands)
-    modes, fit = fit_measured(ds, use, workers=workers)
-    frf = frf_targets(ds, fit, use, design.averages(), design.direction_scatter())
-    return ModalData(tuple(postures_of(ds)), tuple(modes), use, design, _name(data), tuple(frf))
+    return fitted_modal_data(ds, design, _pick(found, bands), source_name(data), workers=workers)
 
 
-def _name(data) -> str:
+def fitted_modal_data(ds: xr.Dataset, design: TestDesign, bands, source: str = "", *,
+                      workers: int | None = None) -> ModalData:
+    """The modes and FRF targets of measured FRFs, fitted blind (:mod:`rmbench.modal`).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        Measured FRFs as :func:`~rmbench.calibrate.measured.measured_data` gives them.
+    design : TestDesign
+        The test design they were measured under.
+    bands : sequence of str
+    source : str
+        Where the data came from (:attr:`ModalData.source`).
+    workers : int, optional
+        Worker processes of the modal fit.
+    """
+    from rmbench.calibrate.measured import fit_measured, frf_targets
+
+    modes, fit = fit_measured(ds, bands, workers=workers)
+    frf = frf_targets(ds, fit, bands, design.averages(), design.direction_scatter())
+    return ModalData(tuple(postures_of(ds)), tuple(modes), tuple(bands), design, source, tuple(frf))
+
+
+def source_name(data) -> str:
+    """What names data given as ``data`` (:attr:`ModalData.source`): a file's or directory's
+    name, ``dataset`` for an in-memory Dataset."""
     return "dataset" if isinstance(data, xr.Dataset) else Path(data).name
 
 

@@ -3,8 +3,9 @@
 For a parameter vector ``u`` (:mod:`rmbench.robot.parameters`) the values are written into a copy of
 the compiled model (no recompilation), the robot settles at each posture's joint commands under
 gravity and is linearised exactly (METHODS.md §11), and its complex modes are read at the test
-design's sensors and hit points (:func:`~rmbench.calibrate.modes.modes_seen`). Each band has its own
-model: the band's sensors sit on the tool with their masses.
+design's sensors and hit points (:func:`~rmbench.calibrate.modes.as_tested`, the reading the gap
+diagnosis's model bench shares). Each band has its own model: the band's sensors sit on the tool
+with their masses (:func:`~rmbench.calibrate.modes.with_sensors`).
 
 Sensitivities (:meth:`ModalModel.sensitivity`) are analytic eigen-sensitivities (Fox-Kapoor,
 Nelson; :func:`~rmbench.robot.linear.perturbed_modes`) of the exact linearisation: one
@@ -26,15 +27,12 @@ import mujoco
 import numpy as np
 
 from rmbench.calibrate.design import SENSOR_KINDS, sensor_offsets
-from rmbench.calibrate.modes import ModelModes, modes_seen
+from rmbench.calibrate.modes import ModelModes, as_tested, with_sensors
 from rmbench.errors import InputError, RmbenchError
-from rmbench.impact.measure import hammer_rows
-from rmbench.impact.sensors import COORDS
 from rmbench.robot.kinds import KINDS, Kind
 from rmbench.robot.linear import equilibrium, linearize, perturbed_modes_many
 from rmbench.robot.model import OperatingPoint
 from rmbench.robot.parameters import Parameter
-from rmbench.robot.variant import with_tool_masses
 
 __all__ = ["ModalModel", "FAST_KINDS", "SPEED_KIND", "spindle_parameter"]
 
@@ -89,10 +87,7 @@ class ModalModel:
         self.design = design
         self.q_cmd = np.asarray(q_cmd, float)
         self.bands = tuple(bands)
-        self._tested = {}
-        for b in self.bands:
-            masses = design.sensors(b).tool_masses()
-            self._tested[b] = with_tool_masses(robot, masses) if masses else robot
+        self._tested = {b: with_sensors(robot, design, b) for b in self.bands}
         self._built = {}
         self._scratch = {}      # reusable MjData to settle in (:meth:`_work`)
         # the test design's parameters: read through the design, not written into the model
@@ -136,15 +131,8 @@ class ModalModel:
     def _settle(self, u, p: int, band: str, data) -> OperatingPoint:
         """:meth:`operating_point` in a given ``MjData`` (any of the band's: they share the sizes)."""
         shell = self._model(u, band)
-        model = shell.model
-        mujoco.mj_resetData(model, data)      # as fresh: a reused one settles the same
-        for name, q in zip(shell.arm_joints, self.q_cmd[p]):
-            data.qpos[model.joint(name).qposadr[0]] = q
-        spin = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, "spindle_spin")
-        if spin >= 0:
-            data.qvel[model.jnt_dofadr[spin]] = shell.spindle_rpm * 2 * np.pi / 60
-        equilibrium(model, data, shell._held)
-        return OperatingPoint(shell, None, self.q_cmd[p], None, data, linearize(model, data))
+        shell.settle(self.q_cmd[p], data)
+        return OperatingPoint(shell, None, self.q_cmd[p], None, data, linearize(shell.model, data))
 
     def _work(self, band: str, which: int) -> mujoco.MjData:
         """A reusable ``MjData`` of the band's models (``which``: 0 the settled state, 1 a step)."""
@@ -170,14 +158,11 @@ class ModalModel:
         rest = inertial and not np.any(data.qvel)
         return linearize(shell.model, data, op.linear.C if rest else None)
 
-    def _rows(self, op, band, u):
-        """The design's reading rows of the sensors (placed as ``u`` says), its hammer rows and
-        the band."""
-        b = self.design.band(band)
-        design = self.design
-        if self._sensor.any():
-            design = design.with_offsets(sensor_offsets(self.params, u))
-        return design.sensors(band).reading_rows(op), hammer_rows(op, COORDS, b.s_1a), b
+    def _design(self, u):
+        """The test design with the sensors placed as ``u`` says."""
+        if not self._sensor.any():
+            return self.design
+        return self.design.with_offsets(sensor_offsets(self.params, u))
 
     def modes(self, u, p: int, band: str) -> ModelModes:
         """Modes at posture ``p`` in ``band`` with the values at ``u`` (settled, linearised: exact)."""
@@ -187,8 +172,7 @@ class ModalModel:
         """Modes at posture ``p`` in ``band`` with the values at ``u``, and the exact receptance as
         tested at ``freq`` (Hz; m/N, shape (n_freq, 4, 4); None without ``freq``)."""
         op = self._settle(u, p, band, self._work(band, 0))
-        out, inp, b = self._rows(op, band, u)
-        return _seen(op.linear.modes(), out, inp, b, freq)
+        return as_tested(op, self._design(u), band).response(freq)
 
     def sensitivity(self, u, p: int, band: str, steps, freq=None) -> tuple:
         """Modes at ``u`` and with each parameter stepped by ``steps[i]`` (in ``u``), and with
@@ -207,10 +191,9 @@ class ModalModel:
         """
         u = np.asarray(u, float)
         op = self._settle(u, p, band, self._work(band, 0))
-        out, inp, b = self._rows(op, band, u)
-        lin = op.linear
-        cm = lin.modes()
-        base = _seen(cm, out, inp, b, freq)
+        seen = as_tested(op, self._design(u), band)
+        lin, cm = op.linear, seen.cm
+        base = seen.response(freq)
         model = op.robot.model
         names = list(lin.dof_names)
         k = len(self.params)
@@ -220,7 +203,7 @@ class ModalModel:
             v = u.copy()
             v[i] += steps[i]
             if self._sensor[i]:
-                read[i] = _seen(cm, self._rows(op, band, v)[0], inp, b, freq, base[0].band_peak)
+                read[i] = as_tested(op, self._design(v), band, cm).response(freq, base[0].band_peak)
             elif prm.kind in FAST_KINDS:
                 C, K = lin.C.copy(), lin.K.copy()
                 _perturb(model, names, prm, u[i], v[i], C, K, self.params)
@@ -229,13 +212,9 @@ class ModalModel:
                 step = self._settled_from(op, v, band, inertial=prm.kind in ("mass", "com"))
                 dm[i], dc[i], dk[i] = step.M - lin.M, step.C - lin.C, step.K - lin.K
         moved = [i for i in range(k) if not self._sensor[i]]
-        stepped = dict(zip(moved, (_seen(m, out, inp, b, freq, base[0].band_peak)
+        stepped = dict(zip(moved, (seen.with_modes(m).response(freq, base[0].band_peak)
                                    for m in perturbed_modes_many(cm, dm[moved], dc[moved], dk[moved]))))
         return base, [read[i] if i in read else stepped[i] for i in range(k)]
-
-
-def _seen(cm, out, inp, b, freq, band_peak=None):
-    return modes_seen(cm, out, inp, b, band_peak), (None if freq is None else cm.frf(np.asarray(freq, float), out, inp))
 
 
 def _perturb(model, names, prm, u_old, u_new, C, K, params) -> None:

@@ -263,9 +263,16 @@ class Robot:
         return Robot(spec_to_xml(spec), name=self.name, tool=self.tool, spindle_rpm=self.spindle_rpm,
                      spec=spec)
 
-    def settle(self, q_cmd: np.ndarray) -> mujoco.MjData:
-        """MjData at the deflected static equilibrium under the arm command ``q_cmd`` (rad)."""
-        data = mujoco.MjData(self.model)
+    def settle(self, q_cmd: np.ndarray, data: mujoco.MjData | None = None) -> mujoco.MjData:
+        """MjData at the deflected static equilibrium under the arm command ``q_cmd`` (rad).
+
+        ``data``: an ``MjData`` of a model with this one's sizes to settle in, reset first (a
+        calibration settles thousands of times: allocating one each time costs more than the
+        reset); by default a new one."""
+        if data is None:
+            data = mujoco.MjData(self.model)
+        else:
+            mujoco.mj_resetData(self.model, data)      # as fresh: a reused one settles the same
         for name, q in zip(self.arm_joints, q_cmd):
             data.qpos[self.model.joint(name).qposadr[0]] = q
         spin = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_JOINT, "spindle_spin")

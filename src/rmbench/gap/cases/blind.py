@@ -171,9 +171,8 @@ def _campaign_toml(robot_name: str, tool, postures, method: str, seed: int, *, c
 def _visible_db(nominal: Robot, xml: str, design, placement, rpm, q_cmd) -> float:
     """Largest band-rms change of the exact as-tested FRF (dB) over the given commands."""
     from rmbench.calibrate.design import SensorOffset
-    from rmbench.impact.measure import hammer_rows
+    from rmbench.calibrate.modes import as_tested, with_sensors
     from rmbench.impact.sensors import COORDS
-    from rmbench.robot.variant import with_tool_masses
 
     changed = Robot(xml, name="hidden", tool=nominal.tool, spindle_rpm=rpm)
     true = design.with_offsets([SensorOffset(b, c, along=1e-3 * placement[b]["position_error_mm"][i],
@@ -183,13 +182,10 @@ def _visible_db(nominal: Robot, xml: str, design, placement, rpm, q_cmd) -> floa
     for band in design.band_names:
         b = design.band(band)
         freq = np.linspace(b.f_min, b.f_max, 200)
-        s_nom, s_true = design.sensors(band), true.sensors(band)
-        r_nom = with_tool_masses(nominal, s_nom.tool_masses()) if s_nom.mass > 0 else nominal
-        r_true = with_tool_masses(changed, s_true.tool_masses()) if s_true.mass > 0 else changed
+        r_nom, r_true = with_sensors(nominal, design, band), with_sensors(changed, true, band)
         for q in q_cmd:
-            op0, op1 = r_nom.at(q), r_true.at(q)
-            h0 = op0.linear.modes().frf(freq, s_nom.reading_rows(op0), hammer_rows(op0, COORDS, b.s_1a))
-            h1 = op1.linear.modes().frf(freq, s_true.reading_rows(op1), hammer_rows(op1, COORDS, b.s_1a))
+            h0 = as_tested(r_nom.at(q), design, band).frf(freq)
+            h1 = as_tested(r_true.at(q), true, band).frf(freq)
             worst = max(worst, float(np.sqrt(np.mean((20 * np.log10(np.abs(h1) / np.abs(h0))) ** 2))))
     return worst
 

@@ -5,11 +5,10 @@ the search and the confirmation read (:class:`FirstCalibration`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
-from rmbench.gap.frf.prepare import Prepared
+from rmbench.gap.frf.prepare import SearchData
 
 __all__ = ["FirstCalibration", "first_calibration"]
 
@@ -42,21 +41,17 @@ class FirstCalibration:
     settings: object
 
 
-def first_calibration(problem: Prepared, data, settings, workers, say) -> FirstCalibration:
+def first_calibration(problem: SearchData, settings, workers, say) -> FirstCalibration:
     """The nominal robot of ``problem`` calibrated on its training postures (scored on the
-    held-out ones) for ``settings.calibrate``'s parameter groups; ``data``: the measurement as
-    given (its file name names the modal data), ``workers``: the calibration's worker processes,
-    ``say``: the progress callback."""
-    from rmbench.calibrate import CalibrationSettings, ModalData, calibrate, linearisation
+    held-out ones) for ``settings.calibrate``'s parameter groups; ``workers``: the calibration's
+    worker processes, ``say``: the progress callback."""
+    from rmbench.calibrate import CalibrationSettings, calibrate, linearisation
     from rmbench.gap.frf.joint import Ordinary
     from rmbench.robot import Robot
 
-    robot, postures, meas, frf, bands = problem.robot, problem.postures, problem.meas, problem.frf, problem.bands
-    design, train, held = problem.design, problem.train, problem.held
-    name = data.name if isinstance(data, Path) else (Path(data).name if isinstance(data, str) else "dataset")
-    md = ModalData(tuple(postures), tuple(meas), tuple(bands), design, name, tuple(frf))
+    robot, train, held = problem.robot, problem.train, problem.held
     order = list(train) + list(held)
-    sub = md.subset(order)
+    sub = problem.modal.subset(order)
     cal_settings = CalibrationSettings(groups=tuple(settings.calibrate), workers=workers)
     held_sub = list(range(len(train), len(order)))
     cal = calibrate(robot, sub, held=held_sub, settings=cal_settings, progress=say)

@@ -165,35 +165,30 @@ class ConfirmSetup:
 
     Attributes
     ----------
-    nominal : Robot
-        The nominal robot the first calibration started from.
+    problem : SearchData
+        The diagnosis's data on the nominal robot (:func:`~rmbench.gap.frf.prepare.prepare`):
+        the measured modes and FRF targets of every posture, the bench's joint commands and the
+        held-out postures the recalibrations are scored on.
     data : ModalData
         The postures the first calibration saw, with FRF targets (:attr:`ModalData.frf`).
     held_data : sequence of int
-        Held-out posture indices into ``data``.
+        Held-out posture indices into ``data`` (the postures ``problem.held``).
     first : Calibration
         The first calibration (the null recalibration's start).
     settings : CalibrationSettings
         The first calibration's.
-    q_cmd : ndarray, shape (n_postures, n_arm)
-        Joint commands of every measured posture (the search's bench).
-    meas, frf : list of dict
-        Per measured posture, the modes and FRF targets (the search's).
-    bands : sequence of str
-    held : sequence of int
-        The held-out postures' indices into ``meas`` (the same postures as ``held_data``).
     """
 
-    nominal: object
+    problem: object
     data: object
     held_data: object
     first: object
     settings: object
-    q_cmd: np.ndarray
-    meas: list
-    frf: list
-    bands: object
-    held: object
+
+    @property
+    def nominal(self):
+        """The nominal robot the first calibration started from."""
+        return self.problem.robot
 
 
 @dataclass(frozen=True)
@@ -371,8 +366,9 @@ class _Recalibration:
             out_values = terms.values(dict(zip([p.name for p in cal.params], np.asarray(cal.u, float))))
         change = Change() if terms is None else effect.change(out_values) if terms.reread else terms.change
         robot = Robot(cal.xml, name=nominal.name, tool=nominal.tool, spindle_rpm=nominal.spindle_rpm)
-        obj = Objective(ModelBench(robot, setup.data.design, setup.q_cmd), setup.meas, setup.frf, setup.bands,
-                        setup.held)
+        md, problem = setup.problem.modal, setup.problem
+        obj = Objective(ModelBench(robot, setup.data.design, problem.bench.q_cmd), md.modes, md.frf, md.bands,
+                        problem.held)
         e = obj.vector(change)
         chi2, prev = float(e @ e), run.prev
         return Confirmed(effect=effect, values=out_values, calibration=cal, robot=robot, chi2_held=chi2,

@@ -15,7 +15,7 @@ from rmbench.gap.frf.effects import Change, library
 from rmbench.gap.frf.evidence import metrics
 from rmbench.gap.frf.model import ModelBench
 from rmbench.gap.frf.picks import confirm_picks, fitted_sizes, pinned
-from rmbench.gap.frf.prepare import Prepared
+from rmbench.gap.frf.prepare import SearchData
 from rmbench.gap.frf.result import Diagnosis, EffectResult, step_seconds
 from rmbench.gap.frf.rules import better_calibration, confirms
 from rmbench.gap.frf.search import Objective
@@ -54,7 +54,7 @@ class Recalibrated:
     first_chi2: float
 
 
-def confirmed(dg: Diagnosis, problem: Prepared, first: FirstCalibration, settings, say, t) -> Diagnosis:
+def confirmed(dg: Diagnosis, problem: SearchData, first: FirstCalibration, settings, say, t) -> Diagnosis:
     """The diagnosis ``dg`` after the confirmable candidates were recalibrated in place,
     best-ranked first (:mod:`rmbench.gap.frf.confirm`): explained by the best of those whose
     held-out residual is noise, that closes ``settings.min_shrink`` of the baseline's held-out gap
@@ -90,8 +90,7 @@ def confirmed(dg: Diagnosis, problem: Prepared, first: FirstCalibration, setting
 
     if on_bound:
         say("on a bound of their spread after calibration, confirmed freed: " + ", ".join(e.name for e in on_bound))
-    setup = ConfirmSetup(problem.robot, sub, held_sub, cal, cal_settings, problem.bench.q_cmd, problem.meas,
-                         problem.frf, problem.bands, problem.held)
+    setup = ConfirmSetup(problem, sub, held_sub, cal, cal_settings)
     options = ConfirmOptions(p_noise=settings.p_noise, min_shrink=settings.min_shrink, need_gap=gap)
     null, done = confirm(setup, picks, options=options, accept=explains, sizes=sizes, progress=say)
     t["confirm"] = time.perf_counter()
@@ -144,13 +143,14 @@ def explained(dg: Diagnosis, winners, outcome: Recalibrated, problem, settings, 
                    seconds=step_seconds(t), localisation=dg.where.describe(), calibration=account)
 
 
-def _baseline(dg: Diagnosis, null, first_chi2: float, first: FirstCalibration, problem: Prepared):
+def _baseline(dg: Diagnosis, null, first_chi2: float, first: FirstCalibration, problem: SearchData):
     """The null recalibration, or the first calibration (held-out χ² ``first_chi2``) in its place
     where that is the better model without a structural effect."""
     if null.chi2_held <= first_chi2:
         return null
-    first_obj = Objective(ModelBench(first.robot, first.data.design, problem.bench.q_cmd), problem.meas,
-                          problem.frf, problem.bands, problem.held)
+    md = problem.modal
+    first_obj = Objective(ModelBench(first.robot, first.data.design, problem.bench.q_cmd), md.modes, md.frf,
+                          md.bands, problem.held)
     return replace(null, chi2_held=first_chi2, objective=first_obj,
                    chi2_held_posture=np.asarray(dg.models[0]["chi2_held_posture"]))
 

@@ -24,7 +24,7 @@ from rmbench.gap.frf.effects import Change, library
 from rmbench.gap.frf.evidence import equivalent, localise, model_weights, ranked
 from rmbench.gap.frf.model import ModelBench
 from rmbench.gap.frf.pairs import pairs
-from rmbench.gap.frf.prepare import SearchData, load_data, prepare, xyt
+from rmbench.gap.frf.prepare import SearchData, load_data, prepare
 from rmbench.gap.frf.result import Diagnosis, EffectResult, RemainingGap, model_row, step_seconds
 from rmbench.gap.frf.rules import explains, spread_checked
 from rmbench.gap.frf.search import Fitted, Objective, Refiner, peak_residual, per_posture_chi2
@@ -73,14 +73,11 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
     say = progress or (lambda msg: None)
     t = {"start": time.perf_counter()}
     problem = prepare(nominal, data, test, tool, workers, settings, say, t)
-    robot, bench, first = problem.robot, problem.bench, None
+    search, first = problem, None
     if settings.calibrate:
-        first = first_calibration(problem, data, settings, workers, say)
-        robot, bench = first.robot, ModelBench(first.robot, problem.design, problem.bench.q_cmd)
+        first = first_calibration(problem, settings, workers, say)
+        search = _calibrated(problem, first)
         t["calibrate"] = time.perf_counter()
-    frf = None if problem.frf is None else tuple(problem.frf)
-    search = SearchData(robot, problem.design, bench, tuple(problem.meas), frf, tuple(problem.bands),
-                        xyt(problem.ds), problem.ds, tuple(problem.train), tuple(problem.held))
     dg = _diagnose(search, settings, workers, say, t, ordinary=None if first is None else first.ordinary)
     if first is None:
         return dg
@@ -132,32 +129,33 @@ def remaining_gap(nominal, data, *, test: str | None = None, tool=None, workers:
     RemainingGap
     """
     from rmbench.gap.frf.confirm import ConfirmOptions, ConfirmSetup, confirm
-    from rmbench.gap.frf.joint import JointObjective
 
     if not settings.calibrate:
         raise ValueError("remaining_gap needs settings.calibrate: the ordinary parameters to calibrate")
     say = progress or (lambda msg: None)
     t = {"start": time.perf_counter()}
     problem = prepare(nominal, data, test, tool, workers, settings, say, t)
-    first = first_calibration(problem, data, settings, workers, say)
-    meas, frf, bands, train, held = problem.meas, problem.frf, problem.bands, problem.train, problem.held
-    cal_bench = ModelBench(first.robot, problem.design, problem.bench.q_cmd)
-    obj_train = JointObjective(cal_bench, meas, frf, bands, train, first.ordinary)
-    obj_all = JointObjective(cal_bench, meas, frf, bands, range(cal_bench.n_postures), first.ordinary,
-                             fitted_on=obj_train)
+    first = first_calibration(problem, settings, workers, say)
+    obj_all, _, _ = _objectives(_calibrated(problem, first), first.ordinary)
     e_all = obj_all.vector(Change())
     chi2_all, peak_all = float(e_all @ e_all), float(abs(peak_residual(e_all)))
     gap = bool(significant(chi2_all, obj_all.n, p=settings.p_noise, peak=peak_all))
     null = None
     if gap:
-        held_sub = list(range(len(train), len(train) + len(held)))
-        setup = ConfirmSetup(problem.robot, first.data, held_sub, first.cal, first.settings, problem.bench.q_cmd,
-                             meas, frf, bands, held)
+        held_sub = list(range(len(problem.train), len(problem.train) + len(problem.held)))
+        setup = ConfirmSetup(problem, first.data, held_sub, first.cal, first.settings)
         options = ConfirmOptions(p_noise=settings.p_noise, min_shrink=settings.min_shrink)
         run, _ = confirm(setup, [], options=options, progress=say)
         null = run.to_dict()
     return RemainingGap(chi2_all, int(obj_all.n), peak_all, gap, null,
                         bool(gap and null["significant"]), round(time.perf_counter() - t["start"], 1))
+
+
+def _calibrated(problem: SearchData, first) -> SearchData:
+    """The same data and split on the first calibration's robot (``first``: its
+    :class:`~rmbench.gap.frf.calibration.FirstCalibration`)."""
+    return replace(problem, robot=first.robot,
+                   bench=ModelBench(first.robot, problem.modal.design, problem.bench.q_cmd))
 
 
 def _diagnose(data: SearchData, settings, workers, say, t, notes=(), ordinary=None) -> Diagnosis:
@@ -169,8 +167,7 @@ def _diagnose(data: SearchData, settings, workers, say, t, notes=(), ordinary=No
     nominal_change = Change()
     e_all = obj_all.vector(nominal_change)
     chi2_all, peak_all = float(e_all @ e_all), peak_residual(e_all)
-    where = gap_map(data.bench, data.meas, data.ds, data.bands, nominal_change, data.xyt,
-                    averages=data.design.averages(), scatter=data.design.direction_scatter())
+    where = _gap_map(data, nominal_change)
     t["where"] = time.perf_counter()
     say("gap map")
     e_held = obj_held.vector(nominal_change)
@@ -178,7 +175,7 @@ def _diagnose(data: SearchData, settings, workers, say, t, notes=(), ordinary=No
                  obj_train.n, obj_held.n, peak_held=peak_residual(e_held),
                  chi2_held_posture=per_posture_chi2(obj_held, e_held))
     notes = list(notes)
-    effects = _candidates(data.robot, data.design, settings)
+    effects = _candidates(data.robot, data.modal.design, settings)
     common = dict(where=where, nominal_chi2=chi2_all, n_residuals=obj_all.n, nominal_peak=peak_all,
                   train=tuple(data.train), held=tuple(data.held))
     if not significant(chi2_all, obj_all.n, p=settings.p_noise, peak=peak_all):
@@ -207,7 +204,7 @@ def _objectives(data: SearchData, ordinary) -> tuple:
     """The search's objectives over every posture, the training and the held-out ones: the
     plain ones, or with ``ordinary`` the joint ones (the calibrated parameters fitted to first
     order beside each candidate, on the training postures)."""
-    bench, meas, frf, bands = data.bench, data.meas, data.frf, data.bands
+    bench, meas, frf, bands = data.bench, data.modal.modes, data.modal.frf, data.modal.bands
     n = bench.n_postures
     if ordinary is None:
         return (Objective(bench, meas, frf, bands, range(n)), Objective(bench, meas, frf, bands, data.train),
@@ -267,11 +264,17 @@ def _updated(data: SearchData, chosen: Fitted | None, notes: list) -> tuple:
                            if e.kind.startswith("sensor_"))
     where_after = None
     try:
-        where_after = gap_map(data.bench, data.meas, data.ds, data.bands, chosen.change(), data.xyt,
-                              averages=data.design.averages(), scatter=data.design.direction_scatter())
+        where_after = _gap_map(data, chosen.change())
     except RmbenchError as err:
         notes.append(f"no gap map of the updated model: {err}")
     return variant_xml, design_changes, where_after
+
+
+def _gap_map(data: SearchData, change: Change):
+    """The gap map of the model with ``change`` over every measured posture (:func:`gap_map`)."""
+    md = data.modal
+    return gap_map(data.bench, md.modes, data.ds, md.bands, change, data.xyt,
+                   averages=md.design.averages(), scatter=md.design.direction_scatter())
 
 
 def _cores(workers) -> int:

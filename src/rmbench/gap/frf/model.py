@@ -6,6 +6,11 @@ nominal one or a changed one — settles at those commands under gravity, with t
 sensor masses on the tool. Its modes are exact (the linearisation's complex modes); read at the
 design's sensors (position, direction, cross-axis sensitivity) and excited at its hit points they
 give the modal parameters a test of that model would find, so only the measurement needs a fit.
+
+The reading is the calibration's (:func:`rmbench.calibrate.modes.as_tested`, as its
+:class:`~rmbench.calibrate.model.ModalModel` reads a parametrised robot); what is the bench's own is
+the changed robot a :class:`~rmbench.gap.frf.effects.Change` builds, its first-order perturbation
+for screening, and the caches a search needs.
 """
 
 from __future__ import annotations
@@ -14,18 +19,16 @@ from collections import OrderedDict
 
 import numpy as np
 
-from rmbench.calibrate.modes import ModelModes, modes_seen
+from rmbench.calibrate.modes import AsTested, ModelModes, as_tested, with_sensors
 from rmbench.errors import InputError, RmbenchError
 from rmbench.gap.frf.effects import Change
-from rmbench.impact.measure import hammer_rows
-from rmbench.impact.sensors import COORDS
 from rmbench.robot import Posture, Robot
 from rmbench.robot.kinds import KINDS
 from rmbench.robot.linear import complex_modes
 from rmbench.robot.load_stiffness import REFERENCE_DEFLECTION
 from rmbench.robot.parameters import ParameterSet
 from rmbench.robot.spec import spec_to_xml
-from rmbench.robot.variant import add_compliant_base, compile_variant, with_tool_masses
+from rmbench.robot.variant import add_compliant_base, compile_variant
 
 __all__ = ["ModelModes", "ModelBench"]   # ModelModes: rmbench.calibrate.modes
 
@@ -98,9 +101,7 @@ class ModelBench:
         tested_key = (change.robot_part, band)
         tested = self._robots.get(tested_key)
         if tested is None:
-            robot = self.robot_for(change)
-            masses = self.design.sensors(band).tool_masses()
-            tested = with_tool_masses(robot, masses) if masses else robot
+            tested = with_sensors(self.robot_for(change), self.design, band)
             _put(self._robots, tested_key, tested, 8)
         op = tested.at(self.q_cmd[p])
         _put(self._ops, key, op, 2 * self.n_postures + 8)
@@ -114,7 +115,7 @@ class ModelBench:
         hit = self._modes.get(key)
         if hit is not None:
             return hit
-        out = modes_seen(*self._view(change, p, band))
+        out = self._view(change, p, band).modes()
         _put(self._modes, key, out, self._cache)
         return out
 
@@ -125,8 +126,7 @@ class ModelBench:
         hit = self._frfs.get(key)
         if hit is not None:
             return hit
-        cm, out_rows, in_rows, _ = self._view(change, p, band)
-        out = cm.frf(freq, out_rows, in_rows)
+        out = self._view(change, p, band).frf(freq)
         _put(self._frfs, key, out, self._cache // 4)
         return out
 
@@ -142,24 +142,22 @@ class ModelBench:
     def modes_fast(self, base: Change, delta: Change, p: int, band: str) -> ModelModes:
         """Modes of ``base + delta`` with ``delta`` applied to ``base``'s linearisation (the
         equilibrium's shift under ``delta`` neglected: first order, for screening)."""
-        return modes_seen(*self._view(base, p, band, delta))
+        return self._view(base, p, band, delta).modes()
 
     def frf_fast(self, base: Change, delta: Change, p: int, band: str, freq) -> np.ndarray:
-        cm, out_rows, in_rows, _ = self._view(base, p, band, delta)
-        return cm.frf(np.asarray(freq, float), out_rows, in_rows)
+        """Exact receptance as tested of :meth:`modes_fast`'s model, m/N, shape (n_freq, 4, 4)."""
+        return self._view(base, p, band, delta).frf(freq)
 
-    def _view(self, change: Change, p: int, band: str, delta: Change | None = None):
-        """Complex modes, sensor rows, hit rows and band of a changed model at a posture."""
+    def _view(self, change: Change, p: int, band: str, delta: Change | None = None) -> AsTested:
+        """A changed model at a posture as the design, with the change's sensor offsets, tests it
+        (``delta``'s parameters as a perturbation of its linearisation)."""
         op = self.operating_point(change, band, p)
         offsets = change.offsets + (delta.offsets if delta is not None else ())
         design = self.design.with_offsets(offsets) if offsets else self.design
-        b = design.band(band)
-        out_rows = design.sensors(band).reading_rows(op)
-        in_rows = hammer_rows(op, COORDS, b.s_1a)
-        if delta is None or (not delta.values and not delta.load_stiffness):
-            return op.linear.modes(), out_rows, in_rows, b
-        M, C, K = _perturbed(op, delta)
-        return complex_modes(M, C, K), out_rows, in_rows, b
+        cm = None
+        if delta is not None and (delta.values or delta.load_stiffness):
+            cm = complex_modes(*_perturbed(op, delta))
+        return as_tested(op, design, band, cm)
 
     def deflection(self, p: int, joint: str) -> float:
         """Static deflection of a passive joint at posture ``p`` under gravity (rad or m)."""

@@ -1,7 +1,11 @@
 """The diagnosis's data, prepared: the measurement loaded (:func:`load_data`), its bands checked
 against the test design and the model, its modes fitted, the postures split into training and
-held-out ones (:func:`prepare`), and the records the search runs on (:class:`Prepared`,
-:class:`SearchData`)."""
+held-out ones (:func:`prepare`), and the record the search runs on (:class:`SearchData`).
+
+The measured side is the calibration's container, :class:`~rmbench.calibrate.data.ModalData`
+(modes, FRF targets, bands, design, postures): a calibrated diagnosis hands it to the calibration
+as it is, and the search adds only what is its own (the model bench, the dataset, the split).
+"""
 
 from __future__ import annotations
 
@@ -12,87 +16,48 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from rmbench.calibrate.data import ModalData, fitted_modal_data, source_name
 from rmbench.calibrate.design import TestDesign
-from rmbench.calibrate.measured import fit_measured, frf_targets, measured_data, postures_of
+from rmbench.calibrate.measured import measured_data, postures_of
 from rmbench.calibrate.residual import mode_residuals
 from rmbench.calibrate.split import spread_held_out
 from rmbench.errors import InputError, UnreachablePosture
 from rmbench.gap.frf.effects import Change
 from rmbench.gap.frf.model import ModelBench
 
-__all__ = ["Prepared", "SearchData", "load_data", "prepare", "xyt"]
-
-
-@dataclass(frozen=True)
-class Prepared:
-    """What every FRF diagnosis starts from, once the data are in (:func:`prepare`).
-
-    Attributes
-    ----------
-    robot : Robot
-        The nominal robot.
-    ds : xarray.Dataset
-        The measured FRFs (:func:`rmbench.calibrate.measured.measured_data`).
-    design : TestDesign
-    bands : list of str
-        The bands of the data, the design and the model.
-    postures : list of Posture
-    bench : ModelBench
-        ``robot`` under ``design`` at the measured postures (their joint commands ``bench.q_cmd``).
-    meas : list of dict
-        Per posture, ``{band: MeasuredModes}``.
-    frf : list of dict
-        Per posture, ``{band: FrfTarget}``.
-    train, held : list of int
-        Posture indices the candidates are fitted on and scored on.
-    """
-
-    robot: object
-    ds: object
-    design: TestDesign
-    bands: list
-    postures: list
-    bench: ModelBench
-    meas: list
-    frf: list
-    train: list
-    held: list
+__all__ = ["SearchData", "load_data", "prepare"]
 
 
 @dataclass(frozen=True)
 class SearchData:
-    """What the search runs on, once the data are in.
+    """What the search runs on: the measured modes, a model under the test design and the split.
 
     Attributes
     ----------
     robot : Robot
-        The model searched from (the nominal, or the calibrated one).
-    design : TestDesign
+        The model searched from: the nominal one (:func:`prepare`), or the calibrated one.
+    modal : ModalData
+        The measured modes per posture and band, their FRF targets (None for modes alone: a modal
+        table), the bands, the test design and the postures.
     bench : ModelBench
-        ``robot`` under ``design`` at the measured postures.
-    meas : tuple of dict
-        Per posture, ``{band: MeasuredModes}``.
-    frf : tuple of dict or None
-        Per posture, ``{band: FrfTarget}``; None for modes alone (a modal table).
-    bands : tuple of str
-    xyt : ndarray, shape (n_postures, 3)
-        Posture coordinates (x, y m; θ rad) of the gap map.
+        ``robot`` under the design at the measured postures (their joint commands ``bench.q_cmd``).
     ds : xarray.Dataset or None
-        The measured FRFs (None for a modal table).
+        The measured FRFs (:func:`rmbench.calibrate.measured.measured_data`; None for a modal table).
     train, held : tuple of int
         Posture indices the candidates are fitted on and scored on.
     """
 
     robot: object
-    design: TestDesign
+    modal: ModalData
     bench: ModelBench
-    meas: tuple
-    frf: tuple | None
-    bands: tuple
-    xyt: np.ndarray
     ds: object
     train: tuple
     held: tuple
+
+    @property
+    def xyt(self) -> np.ndarray:
+        """Posture coordinates of the gap map, shape (n_postures, 3): x, y in m, θ in rad."""
+        return np.array([[p.x, p.y, p.theta] for p in self.modal.postures], float).reshape(-1, 3)
 
     @classmethod
     def from_modes(cls, robot, postures, meas, *, design: TestDesign, train, held, bands=("low", "high"),
@@ -114,8 +79,8 @@ class SearchData:
             ``robot`` under ``design`` at ``postures``, to share its caches between calls (folds).
         """
         bench = bench if bench is not None else ModelBench.commanded(robot, design, list(postures))
-        coords = np.array([[p.x, p.y, p.theta] for p in postures])
-        return cls(robot, design, bench, tuple(meas), None, tuple(bands), coords, None, tuple(train), tuple(held))
+        modal = ModalData(tuple(postures), tuple(meas), tuple(bands), design)
+        return cls(robot, modal, bench, None, tuple(train), tuple(held))
 
 
 def load_data(data) -> xr.Dataset:
@@ -132,12 +97,13 @@ def load_data(data) -> xr.Dataset:
     return open_campaign(p)
 
 
-def prepare(nominal, data, test, tool, workers, settings, say, t) -> Prepared:
-    """What every FRF diagnosis starts from: the robot, the measured dataset and its test design,
-    the bands, postures and model bench, the measured modes and FRF targets, and the training and
-    held-out postures. ``test``, ``tool``, ``workers``: :func:`~rmbench.gap.frf.diagnosis.diagnose`'s;
-    ``settings``: the :class:`~rmbench.gap.frf.settings.DiagnosisSettings` (the split);
-    ``say``: the progress callback; ``t``: the step times, to which the modal fit's is added."""
+def prepare(nominal, data, test, tool, workers, settings, say, t) -> SearchData:
+    """What every FRF diagnosis starts from, on the nominal robot: the measured dataset, its modes
+    and FRF targets under its test design in the bands it shares with the model, the model bench,
+    and the training and held-out postures. ``test``, ``tool``, ``workers``:
+    :func:`~rmbench.gap.frf.diagnosis.diagnose`'s; ``settings``: the
+    :class:`~rmbench.gap.frf.settings.DiagnosisSettings` (the split); ``say``: the progress
+    callback; ``t``: the step times, to which the modal fit's is added."""
     from rmbench.robot import Robot
 
     robot = nominal if isinstance(nominal, Robot) else Robot.load(nominal, tool=tool)
@@ -150,19 +116,13 @@ def prepare(nominal, data, test, tool, workers, settings, say, t) -> Prepared:
     except UnreachablePosture as err:
         raise InputError(f"the data's postures are not this model's: {err}") from None
     say(f"nominal model at {len(postures)} postures")
-    meas, fit = fit_measured(ds, bands, workers=workers)
-    frf = frf_targets(ds, fit, bands, design.averages(), design.direction_scatter())
+    modal = fitted_modal_data(ds, design, bands, source_name(data), workers=workers)
     t["fit"] = time.perf_counter()
     say("measured FRFs fitted")
-    _check_match(bench, meas, bands)
+    _check_match(bench, modal.modes, bands)
     train, held = _split(ds, settings.heldout)
     train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
-    return Prepared(robot, ds, design, bands, postures, bench, meas, frf, train, held)
-
-
-def xyt(ds) -> np.ndarray:
-    """Posture coordinates of a dataset, shape (n_postures, 3): x, y in m, θ in rad."""
-    return np.column_stack([ds.x.values, ds.y.values, ds.theta.values])
+    return SearchData(robot, modal, bench, ds, tuple(train), tuple(held))
 
 
 def _bands(ds, design, robot) -> list[str]:
