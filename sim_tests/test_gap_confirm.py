@@ -385,7 +385,7 @@ def _favourite_with(monkeypatch, ends):
     fake = _NullEndRun(ends)
     monkeypatch.setattr(C, "_Recalibration", lambda *a, **k: fake)
     first = SimpleNamespace(params=[], u=np.zeros(0))
-    setup = C.ConfirmSetup(None, None, None, first, None, None, None, None, None, None)
+    setup = C.ConfirmSetup(None, None, None, first, None)
     null, done = C.confirm(setup, ["wrist", "slide"], accept=lambda c, n: not c.significant)
     return fake.calls, null, done
 
