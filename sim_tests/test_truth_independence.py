@@ -13,7 +13,9 @@ TRUTH_MODULES = {"rmbench.gap.cases.truth": ROOT / "src" / "rmbench" / "gap" / "
                  "truth": ROOT / "bench" / "truth" / "__init__.py",
                  "truth.form": ROOT / "bench" / "truth" / "form.py",
                  "truth.robot": ROOT / "bench" / "truth" / "robot.py",
-                 "truth.visibility": ROOT / "bench" / "truth" / "visibility.py"}
+                 "truth.visibility": ROOT / "bench" / "truth" / "visibility.py",
+                 "truth.score": ROOT / "bench" / "truth" / "score.py",
+                 "truth.structural": ROOT / "bench" / "truth" / "structural.py"}
 # what builds a diagnosis's candidates or a calibration's parameters
 FORBIDDEN = ("rmbench.robot.variant", "rmbench.robot.parameters", "rmbench.calibrate", "rmbench.gap",
              "rmbench.identify")

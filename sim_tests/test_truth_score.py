@@ -1,0 +1,116 @@
+"""The blind benches' strict scoring (bench/truth/score.py): what counts as named, as a false
+attribution, as "unexplained", and every rate with its Wilson interval."""
+
+import sys
+from pathlib import Path
+
+import pytest
+
+# bench/ on the path only while the truth package is imported (bench/control.py would shadow
+# python-control for the tests collected after this one)
+_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+sys.path.insert(0, _BENCH)
+try:
+    from truth.score import (LEAD, false_attribution, identifiable_within, named_first, rated, size_within,
+                             summary, unexplained_strict)
+finally:
+    sys.path.remove(_BENCH)
+
+
+def _case(cls="in_library", hidden=("tool_contact_stiffness", "tool_contact", 3.5), verdict="explained",
+          top=("tool_contact_stiffness", "tool_contact", 1.0, 3.4), params=(), f_err=(0.01,), seconds=40.0):
+    h = None if hidden is None else {"kind": hidden[0], "location": hidden[1], "size": hidden[2]}
+    t = None if top is None else {"kind": top[0], "location": top[1], "confidence": top[2], "size": top[3]}
+    return {"class": cls, "hidden": h, "verdict": verdict, "top": t, "params": list(params),
+            "f_err_after": list(f_err), "seconds": seconds}
+
+
+def test_a_holder_found_at_half_its_true_factor_is_not_named_first():
+    # the kind and the place right, the size off by ×2 (a holder ×3.47 found at ×1.72): the user
+    # would correct the model by the wrong amount
+    assert not named_first(_case(top=("tool_contact_stiffness", "tool_contact", 1.0, 1.72), hidden=(
+        "tool_contact_stiffness", "tool_contact", 3.47)))
+
+
+def test_a_holder_found_within_thirty_percent_of_its_factor_is_named_first():
+    assert named_first(_case(top=("tool_contact_stiffness", "tool_contact", 1.0, 3.0)))
+
+
+def test_a_ratio_size_is_judged_on_the_log_scale_both_ways():
+    # a stiffness factor 1.3 times too large and one 1.3 times too small are equally far off
+    assert size_within("tool_contact_stiffness", 2.0, 2.0 * 1.29)
+    assert size_within("tool_contact_stiffness", 2.0, 2.0 / 1.29)
+    assert not size_within("tool_contact_stiffness", 2.0, 2.0 / 1.35)
+
+
+def test_an_added_size_is_judged_on_its_magnitude_and_sign():
+    assert size_within("sensor_misalignment", 10.0, 7.5)
+    assert not size_within("sensor_misalignment", 10.0, -10.0)
+    assert not size_within("added_mass", 20.0, None)
+
+
+def test_the_right_kind_at_another_place_is_not_named_first_and_is_a_false_attribution():
+    c = _case(hidden=("added_mass", "wrist", 30.0), top=("added_mass", "forearm", 1.0, 30.0))
+    assert not named_first(c)
+    assert false_attribution(c)
+
+
+def test_the_right_effect_at_the_wrong_size_is_a_miss_not_a_false_attribution():
+    c = _case(top=("tool_contact_stiffness", "tool_contact", 1.0, 1.5))
+    assert not named_first(c)
+    assert not false_attribution(c)
+
+
+def test_explaining_a_robot_with_no_structural_effect_is_a_false_attribution():
+    assert false_attribution(_case(cls="form", hidden=None))
+
+
+def test_a_confident_wrong_lead_inside_unexplained_is_a_false_attribution():
+    # "unexplained, but look at the gear harmonics" on a robot with backlash points the user at the
+    # wrong physics as surely as "explained" would
+    c = _case(cls="out_of_library", hidden=("hose_resonator", "forearm", 5.0), verdict="unexplained",
+              top=("added_mass", "forearm", LEAD, 10.0))
+    assert false_attribution(c)
+
+
+def test_a_weak_lead_inside_unexplained_is_not_an_attribution():
+    c = _case(cls="out_of_library", hidden=("hose_resonator", "forearm", 5.0), verdict="unexplained",
+              top=("added_mass", "forearm", LEAD - 0.01, 10.0))
+    assert not false_attribution(c)
+    assert unexplained_strict(c)
+
+
+def test_no_significant_gap_is_not_unexplained():
+    c = _case(cls="out_of_library", hidden=("hose_resonator", "forearm", 5.0), verdict="no significant gap",
+              top=None)
+    assert not unexplained_strict(c)
+
+
+def test_every_rate_carries_its_wilson_interval():
+    # 10 of 10: the point estimate is 1, but ten robots only bound it below by 72 %
+    k, n, p, lo, hi = rated([True] * 10)
+    assert (k, n, p, hi) == (10, 10, 1.0, 1.0)
+    assert lo == pytest.approx(0.7225, abs=1e-4)
+    assert rated([]) == [0, 0, None, None, None]
+
+
+def test_identifiability_counts_every_parameter_and_apart_the_labelled_ones():
+    params = [{"name": "a", "true": 1.0, "value": 1.02, "interval": [0.9, 1.1], "identifiability": "identifiable"},
+              {"name": "b", "true": 1.0, "value": 1.5, "interval": [0.0, 3.0], "identifiability": "weak"}]
+    cases = [_case(params=params)]
+    assert identifiable_within(cases, labelled=False) == [True, False]
+    assert identifiable_within(cases, labelled=True) == [True]
+
+
+def test_the_summary_holds_the_bench_line_keys_with_coverage_per_class():
+    params = [{"name": "a", "true": 1.0, "value": 1.0, "interval": [0.9, 1.1], "identifiability": "identifiable"}]
+    cases = [_case(params=params), _case(cls="form", hidden=None, verdict="unexplained", top=None,
+                                         params=params, f_err=(0.02, 0.04))]
+    s = summary(cases, invisible=2)
+    assert {"cases", "form_f_median_after", "form_f_p95_after", "named_first", "named_first_lo95",
+            "false_attribution", "form_blamed", "unexplained_strict", "ident_all_within5", "coverage_by_class",
+            "invisible", "s_per_robot"} <= set(s)
+    assert s["form_f_median_after"] == pytest.approx(0.03)
+    assert s["coverage_by_class"]["form"][:2] == [1, 1]
+    assert s["coverage_by_class"]["out_of_library"] == [0, 0, None, None, None]
+    assert s["invisible"] == 2
