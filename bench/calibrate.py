@@ -251,7 +251,7 @@ def run_case(i: int, seed: int, args) -> dict:
     t2 = time.perf_counter()
     truth_robot = Robot(xml, name="truth", tool="dummy")
     cal_robot = Robot(cal.xml, name="calibrated", tool="dummy")
-    unseen = exact_errors(truth_robot, cal_robot, nominal, data.design, unseen_postures(rng))
+    unseen = exact_errors(truth_robot, cal_robot, nominal, data.design, unseen_postures(rng, args.unseen))
     rows = cal.modes_held
     return {"index": i, "seed": seed, "base": bool(i % 2), "groups": list(settings.groups),
             "heldout": {k: [r for r in v] for k, v in rows.items()},
@@ -273,7 +273,7 @@ def run_robot(i: int, *, seed: int, args) -> dict:
 
 # the truth parameters a structural effect also moves: not scored (the calibration is right to
 # put the effect elsewhere, or wrong in a way the gap search, not the parameter score, judges)
-def _touched(hidden) -> set:
+def touched_by(hidden) -> set:
     if hidden is None:
         return set()
     if hidden["kind"] == "tool_contact_stiffness":
@@ -370,6 +370,17 @@ def _structural(nominal, xml: str, postures, args, seed: int, i: int, rng, in_li
                          "null_chi2_at_max_scale": vis.get("null_chi2"), "held_target": vis.get("held_target")})
 
 
+def diagnosed(nominal, ds, groups: str, workers: int):
+    """``gap diagnose --calibrate`` of the measured FRFs ``ds``: ``groups`` calibrated on 12
+    postures, 4 held out (a quarter)."""
+    from rmbench.gap import DiagnosisSettings, diagnose
+
+    settings = DiagnosisSettings(calibrate=parse_groups(groups), heldout=0.25)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return diagnose(nominal, ds, workers=workers, settings=settings)
+
+
 def run_gap_case(i: int, seed: int, args) -> dict:
     """One robot of the gap half: the spread, on half of them a structural effect, measured and
     handed to ``gap diagnose --calibrate`` (which calibrates on 12 postures, holds 4 out)."""
@@ -392,13 +403,10 @@ def run_gap_case(i: int, seed: int, args) -> dict:
     ds = measured(xml, postures, args, seed, i, placement=placement, rpm=rpm,
                   scale=1.0 if vis is None else vis["scale"])
     t1 = time.perf_counter()
-    settings = DiagnosisSettings(calibrate=parse_groups(args.gap_groups), heldout=0.25)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        dg = diagnose(nominal, ds, workers=args.workers, settings=settings)
+    dg = diagnosed(nominal, ds, args.gap_groups, args.workers)
     t2 = time.perf_counter()
     acct = dg.calibration
-    skip = _touched(hidden)
+    skip = touched_by(hidden)
     est = [SimpleNamespace(name=p["name"], value=p["value"], interval=p["interval"],
                            identifiability=p["identifiability"], on_bound=p["on_bound"])
            for p in acct["params"] if p["name"] not in skip]
@@ -410,9 +418,9 @@ def run_gap_case(i: int, seed: int, args) -> dict:
     from rmbench.calibrate import TestDesign
 
     design = TestDesign.of_dataset(measured_data(ds))
-    unseen = exact_errors(truth_robot, cal_robot, nominal, design, unseen_postures(rng))
+    unseen = exact_errors(truth_robot, cal_robot, nominal, design, unseen_postures(rng, args.unseen))
     top = dg.effects[0] if dg.effects else None
-    return {"index": i, "seed": seed, "base": bool(i % 2), "groups": list(settings.calibrate),
+    return {"index": i, "seed": seed, "base": bool(i % 2), "groups": list(parse_groups(args.gap_groups)),
             "hidden": hidden, "visibility": vis, "rejected_draws": rejected, "verdict": dg.verdict,
             "top": None if top is None else {"name": top.name, "confidence": top.confidence,
                                              "shrink": top.shrink, "params": top.params,
@@ -553,6 +561,8 @@ def main(argv=None) -> None:
     ap.add_argument("--time-default", action="store_true", help="time the default 24-parameter calibration")
     ap.add_argument("--only", default=None, metavar="I,J,...", help="run only these robots (indices)")
     ap.add_argument("--lines", default=None, help="JSON-lines file (default: bench/results/calibrate_<key>.jsonl)")
+    ap.add_argument("--unseen", type=int, default=N_UNSEEN,
+                    help="quasi-random unseen postures each calibrated model is checked at against the truth")
     ap.add_argument("--cache", default=str(CACHE), metavar="DIR",
                     help="where the measured FRFs are kept and read back (default: bench/.cache; a fresh "
                          "folder measures every robot again)")

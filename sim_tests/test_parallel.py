@@ -121,12 +121,12 @@ CALIBRATION_BENCH = Path(__file__).resolve().parents[1] / "bench" / "calibrate.p
 
 def _calibration_bench(tmp_path, name, *extra) -> tuple:
     """The calibration bench's smallest run (one rigid robot, its 16-posture campaign in the
-    frequency domain, the joints alone calibrated), as a command: bench/ never on this process's
+    frequency domain, the joints alone calibrated, checked at 16 unseen postures), as a command: bench/ never on this process's
     path (its control.py would shadow python-control). Its own cache folder, so the campaign is
     measured where the case runs. Its JSON-lines file and its last printed line."""
     lines = tmp_path / f"{name}.jsonl"
     run = subprocess.run([sys.executable, str(CALIBRATION_BENCH), "--robots", "1", "--seed", "1", "--plain",
-                          "--method", "linear", "--groups", "joints", "--lines", str(lines),
+                          "--method", "linear", "--groups", "joints", "--unseen", "16", "--lines", str(lines),
                           "--cache", str(tmp_path / f"{name}_cache"), *extra],
                          env={**os.environ, "OMP_NUM_THREADS": "1"}, capture_output=True, text=True, check=True)
     return lines, json.loads(run.stdout.strip().splitlines()[-1])

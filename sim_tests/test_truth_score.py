@@ -95,15 +95,15 @@ def test_every_rate_carries_its_wilson_interval():
 
 
 def test_identifiability_counts_every_parameter_and_apart_the_labelled_ones():
-    params = [{"name": "a", "true": 1.0, "value": 1.02, "interval": [0.9, 1.1], "identifiability": "identifiable"},
-              {"name": "b", "true": 1.0, "value": 1.5, "interval": [0.0, 3.0], "identifiability": "weak"}]
+    params = [{"name": "a", "identifiability": "identifiable", "within5": True, "covered": True},
+              {"name": "b", "identifiability": "weak", "within5": False, "covered": True}]
     cases = [_case(params=params)]
     assert identifiable_within(cases, labelled=False) == [True, False]
     assert identifiable_within(cases, labelled=True) == [True]
 
 
 def test_the_summary_holds_the_bench_line_keys_with_coverage_per_class():
-    params = [{"name": "a", "true": 1.0, "value": 1.0, "interval": [0.9, 1.1], "identifiability": "identifiable"}]
+    params = [{"name": "a", "identifiability": "identifiable", "within5": True, "covered": True}]
     cases = [_case(params=params), _case(cls="form", hidden=None, verdict="unexplained", top=None,
                                          params=params, f_err=(0.02, 0.04))]
     s = summary(cases, invisible=2)

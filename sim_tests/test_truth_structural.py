@@ -16,6 +16,7 @@ _BENCH = str(Path(__file__).resolve().parents[1] / "bench")
 sys.path.insert(0, _BENCH)
 try:
     from truth.structural import IN_LIBRARY, OUT_OF_LIBRARY, Effect, apply_effect, draw_effect, turned_signals
+    from truth.visibility import visibility
 finally:
     sys.path.remove(_BENCH)
 
@@ -115,3 +116,12 @@ def test_effects_are_drawn_reproducibly_with_sizes_in_their_stated_ranges():
             assert 6 <= abs(e.size) <= 12
         elif e.kind == "non_reciprocity":
             assert 12000 <= e.size <= 24000
+
+
+def test_a_sensor_turned_by_its_smallest_draw_is_visible_on_two_postures(nominal):
+    # the bench's visibility rule sees a turned sensor through its signals, as the campaign does:
+    # 6° mixes a tenth of the perpendicular response into the reading, far above the noise
+    effect = Effect("sensor_misalignment", "low:1X", {"angle_deg": 6.0})
+    postures = [seed_grid()[i] for i in (0, 90)]
+    seen = visibility(nominal.xml, nominal.xml, postures, 11, signals=lambda ds: turned_signals(ds, effect))
+    assert seen["visible"] and seen["effect_chi2"] > 10 * seen["threshold"]

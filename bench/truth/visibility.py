@@ -34,15 +34,18 @@ SMOOTH = 5            # lines either side over which the noise's variance is ave
 P_VISIBLE = 1e-3      # the level of the visibility test
 
 
-def campaign_toml(robot_path: str, postures, seed: int, *, noise_scale: float) -> str:
-    """A linear campaign's TOML: the calibration bench's bands, commanded by the nominal IRB6660."""
+def campaign_toml(robot_path: str, postures, seed: int, *, noise_scale: float, rpm: float = 0.0) -> str:
+    """A linear campaign's TOML: the calibration bench's bands, commanded by the nominal IRB6660, the
+    spindle at ``rpm`` rev/min."""
     from rmbench.impact import load_config
 
     base = load_config("seed_full")
     rows = ", ".join(f"[{1e3 * p.x:.6g}, {1e3 * p.y:.6g}, {np.degrees(p.theta):.6g}]" for p in postures)
     lines = ['name = "visibility"', f"seed = {seed}", 'method = "linear"', f"noise_scale = {noise_scale:g}",
-             "[robot]", f'name = "{robot_path}"', 'commands_from = "irb6660"',
-             "[grid]", 'kind = "list"', f"postures = [{rows}]"]
+             "[robot]", f'name = "{robot_path}"', 'commands_from = "irb6660"']
+    if rpm:
+        lines.append(f"spindle_rpm = {rpm:.6g}")
+    lines += ["[grid]", 'kind = "list"', f"postures = [{rows}]"]
     for band, b in base.bands.items():
         lines += [f"[bands.{band}]", f"f_min = {b.f_min}", f"f_max = {b.f_max}", f'sensor = "{b.sensor}"',
                   f"s_1a_mm = {b.s_1a_mm}", f"sample_rate = {b.sample_rate}", f"line_spacing = {b.line_spacing}",
@@ -50,20 +53,21 @@ def campaign_toml(robot_path: str, postures, seed: int, *, noise_scale: float) -
     return "\n".join(lines) + "\n"
 
 
-def frfs(xml: str, postures, seed: int, *, noise_scale: float, workers: int = 1) -> np.ndarray:
-    """The as-tested receptances of the robot ``xml`` at the postures, shape
-    (n_posture, n_freq, 4, 4), m/N: exact where ``noise_scale`` is 0."""
+def frfs(xml: str, postures, seed: int, *, noise_scale: float, workers: int = 1, rpm: float = 0.0):
+    """The as-tested receptances of the robot ``xml`` at the postures, its spindle at ``rpm``:
+    ``H`` (over posture, freq, out, inp; m/N), exact where ``noise_scale`` is 0, with its
+    ``band`` per line."""
     from rmbench.impact import open_campaign, parse_config, run_campaign
 
     tmp = Path(tempfile.mkdtemp(prefix="rmbench_vis_"))
     try:
         (tmp / "robot.xml").write_text(xml)
-        toml = campaign_toml(str(tmp / "robot.xml"), postures, seed, noise_scale=noise_scale)
+        toml = campaign_toml(str(tmp / "robot.xml"), postures, seed, noise_scale=noise_scale, rpm=rpm)
         run_campaign(parse_config(toml), tmp / "c.nc", toml=toml, workers=workers, progress=False)
         ds = open_campaign(tmp / "c.nc")
         if "ok" in ds.coords and not ds.ok.values.all():
             raise RuntimeError("the real robot could not hold a posture")
-        return np.asarray(ds.H.values)
+        return ds[["H"]].load()
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -79,15 +83,19 @@ def _variance(noise: np.ndarray) -> np.ndarray:
 
 
 def visibility(xml_without: str, xml_with: str, postures, seed: int, *, p: float = P_VISIBLE,
-               workers: int = 1) -> dict:
+               workers: int = 1, rpm_with: float = 0.0, signals=None) -> dict:
     """Whether the change from ``xml_without`` to ``xml_with`` shows beyond the campaign's noise.
+
+    ``rpm_with``: the spindle's speed with the change (a spinning spindle); ``signals``: a map of
+    the measured FRF dataset with the change (a turned sensor's, ``truth.structural.turned_signals``).
 
     Returns ``{"chi2_with": χ²_with, "chi2_null": χ²_null, "n": terms, "threshold": z·√(2n),
     "visible": bool, "effect_chi2": the noise-free part Σ |ΔH|²/σ̂²}``.
     """
-    h0 = frfs(xml_without, postures, seed, noise_scale=0.0, workers=workers)
-    h1 = frfs(xml_with, postures, seed, noise_scale=0.0, workers=workers)
-    draws = [frfs(xml_without, postures, seed + k, noise_scale=1.0, workers=workers) - h0
+    h0 = frfs(xml_without, postures, seed, noise_scale=0.0, workers=workers).H.values
+    with_ = frfs(xml_with, postures, seed, noise_scale=0.0, workers=workers, rpm=rpm_with)
+    h1 = (with_ if signals is None else signals(with_)).H.values
+    draws = [frfs(xml_without, postures, seed + k, noise_scale=1.0, workers=workers).H.values - h0
              for k in (7919, 104729, 1299709)]
     var = _variance(draws[0])
     ok = var > 0
