@@ -201,7 +201,7 @@ def _resonator(link: ET.Element, mass: float, f_hz: float, zeta: float) -> None:
 
 def _coupling(root: ET.Element, joints, fraction: float) -> None:
     """A fixed tendon on ``q0 − q1`` relaxed at zero, ``fraction`` of the softer joint's stiffness."""
-    k = fraction * min(float(_named(root, "joint", j).get("stiffness")) for j in joints)
+    k = fraction * min(float(_named(root, "joint", j).get("stiffness").split()[0]) for j in joints)
     tendons = root.find("tendon")
     if tendons is None:
         tendons = ET.SubElement(root, "tendon")
