@@ -15,7 +15,9 @@ TRUTH_MODULES = {"rmbench.gap.cases.truth": ROOT / "src" / "rmbench" / "gap" / "
                  "truth.robot": ROOT / "bench" / "truth" / "robot.py",
                  "truth.visibility": ROOT / "bench" / "truth" / "visibility.py",
                  "truth.score": ROOT / "bench" / "truth" / "score.py",
-                 "truth.structural": ROOT / "bench" / "truth" / "structural.py"}
+                 "truth.structural": ROOT / "bench" / "truth" / "structural.py",
+                 "truth.tracker": ROOT / "bench" / "truth" / "tracker.py",
+                 "_tracker_truth": ROOT / "bench" / "_tracker_truth.py"}
 # what builds a diagnosis's candidates or a calibration's parameters
 FORBIDDEN = ("rmbench.robot.variant", "rmbench.robot.parameters", "rmbench.calibrate", "rmbench.gap",
              "rmbench.identify")

@@ -1,0 +1,105 @@
+"""The tracker bench's real MH180s (bench/truth/tracker.py): read by their own physics, with form
+errors, sources and noise the diagnosis is not told."""
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+# bench/ on the path only while the truth package is imported (bench/control.py would shadow
+# python-control for the tests collected after this one)
+_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+sys.path.insert(0, _BENCH)
+try:
+    from truth.tracker import Reader, TrackerRobot, _ar1, draw_tracker_robot, visibility
+finally:
+    sys.path.remove(_BENCH)
+
+from rmbench.robot import Robot  # noqa: E402
+
+# three configurations across the MH180's ranges, rad
+Q = np.array([[0.0, 0.2, -0.3, 0.0, 0.4, 0.0], [0.5, -0.1, 0.2, 0.8, -0.6, 1.0], [-0.6, 0.4, -0.5, -1.0, 0.9, -0.5]])
+TRACKER_SIGMA = 15e-6       # m: the tracker's σ at 3-5 m (5 µm/m and 12.5 µm as 2σ bounds)
+
+
+@pytest.fixture(scope="module")
+def plain():
+    nominal = Robot.load("mh180")
+    base = draw_tracker_robot(nominal.xml, np.random.default_rng(1), p_form=0.0)
+    return replace(base, source=None, form=(), noise={"scale": 1.0, "rho": 0.0})
+
+
+def _read(robot, t=None):
+    t = np.zeros(len(Q)) if t is None else t
+    return Reader(robot).positions(Q, Q, t)
+
+
+@pytest.mark.parametrize("form", [{"kind": "reflector_sag", "location": "tool", "size": {"per_g": 50e-6}},
+                                  {"kind": "thermal_gradient", "location": "forearm", "size": {"per_hour": 2.5e-5}}],
+                         ids=["reflector sag", "thermal gradient"])
+def test_a_reading_form_error_moves_the_tcp_beyond_the_trackers_noise(plain, form):
+    # a mount sagging 50 µm per g, or a forearm 1.2 m long growing 25 µm/m an hour read two hours
+    # on: tens of µm, several times the tracker's σ
+    t = np.full(len(Q), 7200.0)
+    moved = np.linalg.norm(_read(replace(plain, form=(form,)), t) - _read(plain, t), axis=1)
+    assert moved.max() > 2 * TRACKER_SIGMA
+
+
+def test_a_joint_stiffer_under_positive_torque_reads_differently_on_one_side_only(plain):
+    # the arm leaning back (j2 at -0.8 rad) loads j2 the other way than leaning forward (+0.4)
+    src = {"kind": "directional_stiffness", "location": "j2", "joint": 1, "ratio": 2.0}
+    q = np.array([[0.0, -0.8, -0.5, 0.0, 0.4, 0.0], [0.0, 0.4, -0.5, 0.0, 0.4, 0.0]])
+    t = np.zeros(2)
+    back, forward = np.linalg.norm(Reader(replace(plain, source=src)).positions(q, q, t)
+                                   - Reader(plain).positions(q, q, t), axis=1)
+    assert back < 1e-9 and forward > 10 * TRACKER_SIGMA
+
+
+def test_backlash_lags_against_the_last_move():
+    # moving up to a configuration and down to it read two places: the lag's sign follows the move
+    nominal = Robot.load("mh180")
+    base = draw_tracker_robot(nominal.xml, np.random.default_rng(1), p_form=0.0)
+    robot = replace(base, form=(), noise={"scale": 1.0, "rho": 0.0},
+                    source={"kind": "backlash", "location": "j3", "joint": 2, "angle": 150e-6})
+    q = np.repeat(Q[:1], 2, axis=0)
+    previous = q.copy()
+    previous[0, 2] -= 0.1
+    previous[1, 2] += 0.1
+    up, down = Reader(robot).positions(q, previous, np.zeros(2))
+    assert np.linalg.norm(up - down) > 10 * TRACKER_SIGMA
+
+
+def test_correlated_noise_keeps_unit_variance_and_its_lag_one_correlation():
+    e = _ar1(np.random.default_rng(3), (20000, 1), 0.6)[:, 0]
+    assert np.var(e) == pytest.approx(1.0, rel=0.05)
+    assert np.corrcoef(e[1:], e[:-1])[0, 1] == pytest.approx(0.6, abs=0.03)
+
+
+def test_a_reflector_offset_of_its_smallest_draw_is_visible(plain):
+    src = {"kind": "frame_error", "location": "tool", "offset": [1.5e-3, 0.0, 0.0]}
+    q = np.tile(Q, (4, 1))
+    seen = visibility(replace(plain, source=src), q, q, np.arange(len(q)) * 15.0, 5)
+    assert seen["visible"] and seen["effect_chi2"] > 10 * seen["threshold"]
+
+
+def test_no_source_is_not_visible(plain):
+    # the rule's other side: two independent noise sums differ by less than its threshold
+    robot = replace(plain, source={"kind": "thermal_drift", "location": "time", "per_hour": 0.0})
+    q = np.tile(Q, (4, 1))
+    seen = visibility(robot, q, q, np.arange(len(q)) * 15.0, 5)
+    assert not seen["visible"] and seen["effect_chi2"] == 0.0
+
+
+def test_the_noise_the_diagnosis_is_not_told_is_drawn_from_its_stated_ranges():
+    nominal = Robot.load("mh180")
+    noises = [draw_tracker_robot(nominal.xml, np.random.default_rng([9, i]), p_form=0.0).noise for i in range(24)]
+    scales = [n["scale"] for n in noises]
+    assert min(scales) >= 0.5 and max(scales) <= 2.0
+    correlated = [n["rho"] for n in noises if n["rho"] > 0]
+    assert 6 <= len(correlated) <= 18 and all(0.3 <= r <= 0.8 for r in correlated)
+
+
+def test_a_real_tracker_robot_is_a_frozen_record_of_plain_values():
+    assert TrackerRobot.__dataclass_params__.frozen
