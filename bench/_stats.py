@@ -144,3 +144,31 @@ def keyed_run(args, stem: str, bench_file: str, *, modules: tuple = (), extra: t
         digest = code_digest(code + [Path(bench_file)] + [here / f for f in extra])
         args.lines = str(Path(bench_file).resolve().parent / "results" / f"{stem}_s{args.seed}_{digest}.jsonl")
     print(f"seed {args.seed}; cases in {args.lines}", flush=True)
+
+
+def cases_to_lines(args, fn, say, *, by_value=()) -> list[dict]:
+    """Run ``fn(i)`` for robots ``0 .. args.robots - 1`` (``args.only`` of them, where given) not
+    yet in the JSON-lines file ``args.lines``, here or on the cluster at ``args.scheduler``; each
+    case's dict is appended to the file as it finishes and ``say(case)`` printed. Returns every
+    case of the file, by index. ``by_value``: module names (and their submodules) sent to the
+    cluster's workers with the cases, besides the bench's own helpers."""
+    from rmbench.parallel import map_cases
+
+    lines = Path(args.lines)
+    lines.parent.mkdir(parents=True, exist_ok=True)
+    done = {c["index"]: c for c in resumed_cases(lines, args.seed)}
+    only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
+    todo = [i for i in range(args.robots) if i not in done and (only is None or i in only)]
+    if args.scheduler is not None:
+        import cloudpickle
+
+        ship_bench_modules()
+        for name, module in list(sys.modules.items()):
+            if name.split(".")[0] in by_value:
+                cloudpickle.register_pickle_by_value(module)
+    for i, c in map_cases(fn, todo, workers=1, scheduler=args.scheduler):
+        with open(lines, "a") as fh:
+            fh.write(json.dumps(c) + "\n")
+        done[i] = c
+        print(say(c), flush=True)
+    return [done[i] for i in sorted(done)]

@@ -44,14 +44,13 @@ sys.path.insert(0, str(HERE))
 
 import numpy as np  # noqa: E402
 
-from _stats import keyed_run, resumed_cases, ship_bench_modules  # noqa: E402
+from _stats import cases_to_lines, keyed_run  # noqa: E402
 from calibrate import diagnosed, measure, score_params, touched_by  # noqa: E402
 from truth import draw_real_robot  # noqa: E402
 from truth.score import summary  # noqa: E402
 from truth.structural import apply_effect, draw_effect, turned_signals  # noqa: E402
 from truth.visibility import visibility  # noqa: E402
 
-from rmbench.parallel import map_cases  # noqa: E402
 from rmbench.robot import Robot, seed_grid  # noqa: E402
 
 GROUPS = "joints,damping,servo,masses,com,base,tool"
@@ -197,27 +196,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     keyed_run(args, f"blind_frf_{args.method}_p{args.p_form:g}_x{args.form_scale:g}", __file__,
               modules=("rmbench.gap", "rmbench.calibrate", "rmbench.impact"), extra=TRUTH_FILES)
-    lines = Path(args.lines)
-    lines.parent.mkdir(parents=True, exist_ok=True)
-    done = {c["index"]: c for c in resumed_cases(lines, args.seed)}
-    only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
-    todo = [i for i in range(args.robots) if i not in done and (only is None or i in only)]
-    if args.scheduler is not None:
-        import cloudpickle
-
-        ship_bench_modules()
-        for name, module in list(sys.modules.items()):
-            if name == "truth" or name.startswith("truth."):
-                cloudpickle.register_pickle_by_value(module)
-        cloudpickle.register_pickle_by_value(sys.modules["calibrate"])
     one = partial(run_robot, seed=args.seed, args=args if args.scheduler is None
                   else argparse.Namespace(**{**vars(args), "workers": 0}))
-    for i, c in map_cases(one, todo, workers=1, scheduler=args.scheduler):
-        with open(lines, "a") as fh:
-            fh.write(json.dumps(c) + "\n")
-        done[i] = c
-        print(_say(c), flush=True)
-    cases = [done[i] for i in sorted(done)]
+    cases = cases_to_lines(args, one, _say, by_value=("truth", "calibrate"))
     print(json.dumps(bench_line(cases, args.seed)))
     return 0
 

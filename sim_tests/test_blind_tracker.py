@@ -1,0 +1,45 @@
+"""The blind tracker bench beyond the model (bench/blind_tracker.py): how a named source's size and
+the calibrated compliances are read against the truth."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+# bench/ on the path only while the bench module is imported (bench/control.py would shadow
+# python-control for the tests collected after this one)
+_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+sys.path.insert(0, _BENCH)
+try:
+    from blind_tracker import found_size, scored_params, true_size
+finally:
+    sys.path.remove(_BENCH)
+
+
+def test_a_gear_harmonics_size_is_its_amplitude_whatever_its_phase():
+    # a sin(q) + b cos(q) is A sin(q + φ) with A = √(a² + b²)
+    truth = {"kind": "gear_periodic_error", "amplitude": 1e-4, "phase": 0.7}
+    found = found_size("gear_periodic_error", {"a_sin": 1e-4 * np.cos(0.7), "b_cos": 1e-4 * np.sin(0.7)})
+    assert found == pytest.approx(true_size(truth))
+
+
+def test_a_reflector_offsets_size_is_its_length():
+    assert true_size({"kind": "frame_error", "offset": [3e-3, 4e-3, 0.0]}) == pytest.approx(5e-3)
+    assert found_size("frame_error", {"dx": 0.0, "dy": 5e-3, "dz": 0.0}) == pytest.approx(5e-3)
+
+
+def test_a_stiffer_gearbox_is_a_negative_compliance_fraction_within_five_percent():
+    # stiffness × 1.25 is compliance × 0.8: fraction −0.2; an estimate of −0.18 is 2.5 % off the
+    # true compliance, inside; its interval holds the truth
+    cal = {"params": [{"name": "gravity_compliance@j2.fraction", "value": -0.18, "interval": [-0.25, -0.1],
+                       "identifiability": "identifiable"}]}
+    row, = scored_params(cal, {"j2_flex.stiffness": 1.25})
+    assert row["true"] == pytest.approx(-0.2) and row["within5"] and row["covered"]
+
+
+def test_a_placement_is_scored_for_coverage_alone():
+    cal = {"params": [{"name": "link_geometry@j3.length", "value": 4e-4, "interval": [1e-4, 6e-4],
+                       "identifiability": "weak"}]}
+    row, = scored_params(cal, {"motor3.length": 3e-4})
+    assert row["covered"] and "within5" not in row
