@@ -112,8 +112,11 @@ def run_robot(i: int, *, seed: int, args) -> dict:
             "hidden": None if effect is None else effect.to_dict()}
     signals = None if effect is None else partial(turned_signals, effect=effect)
     if effect is not None:
-        vis = visibility(real.xml, xml, postures, seed * 1000 + i + 500, rpm_with=effect.rpm, signals=signals,
-                         workers=args.workers)
+        try:
+            vis = visibility(real.xml, xml, postures, seed * 1000 + i + 500, rpm_with=effect.rpm, signals=signals,
+                             workers=args.workers)
+        except RuntimeError as err:      # a posture the real robot cannot hold: counted, never redrawn
+            return {**head, "rejected": str(err)}
         head["visibility"] = vis
         if not vis["visible"]:
             return {**head, "invisible": True, "seconds": {"visibility": round(time.perf_counter() - t0, 1)}}

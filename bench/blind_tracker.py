@@ -42,6 +42,7 @@ from blind_frf import slot  # noqa: E402
 from truth.score import rated, summary  # noqa: E402
 from truth.tracker import Reader, draw_tracker_robot, visibility  # noqa: E402
 
+from rmbench.errors import RmbenchError  # noqa: E402
 from rmbench.robot import Robot  # noqa: E402
 
 TRUTH_FILES = ("_tracker_truth.py", "_stats.py", "blind_frf.py", "truth/__init__.py", "truth/form.py",
@@ -124,14 +125,17 @@ def run_robot(i: int, *, seed: int, args) -> dict:
     nominal, real, (q, order, previous, t), rng = draw_robot(i, seed, args.p_form)
     head = {"index": i, "seed": seed, "class": case_class(real), "real": real.to_dict(),
             "hidden": None if real.source is None else {**real.source, "size": true_size(real.source)}}
-    if real.source is not None:
-        vis = visibility(real, q, previous, t, seed * 1000 + i + 500)
-        head["visibility"] = vis
-        if not vis["visible"]:
-            return {**head, "invisible": True, "seconds": {"visibility": round(time.perf_counter() - t0, 1)}}
-    reader = Reader(real)
-    y = reader.positions(q, previous, t, rng)
-    p_true = reader.positions(q, previous, t)
+    try:
+        if real.source is not None:
+            vis = visibility(real, q, previous, t, seed * 1000 + i + 500)
+            head["visibility"] = vis
+            if not vis["visible"]:
+                return {**head, "invisible": True, "seconds": {"visibility": round(time.perf_counter() - t0, 1)}}
+        reader = Reader(real)
+        y = reader.positions(q, previous, t, rng)
+        p_true = reader.positions(q, previous, t)
+    except RmbenchError as err:     # a configuration the real robot cannot hold: counted, never redrawn
+        return {**head, "rejected": str(err)}
     cov = default_covariance(nominal, q, y)
     data = TrackerData(q, y, order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), t, tuple(nominal.arm_joints),
                        covariance=cov)
@@ -174,6 +178,7 @@ def bench_line(cases: list, seed: int) -> dict:
     line["ident_labelled_within5"] = rated(p["within5"] for c in scored for p in c["params"]
                                            if "within5" in p and p["identifiability"] == "identifiable")
     line["seed"] = seed
+    line["rejected"] = sum("rejected" in c for c in cases)
     line["form_rms_unit"] = "m"
     return line
 
@@ -201,6 +206,8 @@ def _say(c: dict) -> str:
     what = f"robot {c['index']} ({c['class']}" + (f"; {h['kind']}@{h['location']}" if h else "") + ")"
     if c.get("invisible"):
         return f"{what}: invisible"
+    if "rejected" in c:
+        return f"{what}: rejected ({c['rejected']})"
     top = c["top"]
     return (f"{what}: {c['verdict']}" + ("" if top is None else f", top {top['name']} ({top['confidence']:.2f})")
             + f"; true rms {1e6 * c['true_rms_before']:.0f} -> {1e6 * c['true_rms_after']:.0f} µm; {c['seconds']}")
