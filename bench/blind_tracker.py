@@ -32,7 +32,8 @@ from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+if str(HERE) not in sys.path:     # run as a script; imported, the importer put bench/ there
+    sys.path.insert(0, str(HERE))
 
 import numpy as np  # noqa: E402
 

@@ -9,12 +9,13 @@ import pytest
 # bench/ on the path only while the truth package is imported (bench/control.py would shadow
 # python-control for the tests collected after this one)
 _BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+_SAVED = list(sys.path)
 sys.path.insert(0, _BENCH)
 try:
     from truth.score import (LEAD, false_attribution, identifiable_within, named_first, rated, size_within,
                              summary, unexplained_strict)
 finally:
-    sys.path.remove(_BENCH)
+    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 
 def _case(cls="in_library", hidden=("tool_contact_stiffness", "tool_contact", 3.5), verdict="explained",

@@ -13,12 +13,13 @@ import xarray as xr
 # bench/ on the path only while the truth package is imported (bench/control.py would shadow
 # python-control for the tests collected after this one)
 _BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+_SAVED = list(sys.path)
 sys.path.insert(0, _BENCH)
 try:
     from truth.structural import IN_LIBRARY, OUT_OF_LIBRARY, Effect, apply_effect, draw_effect, turned_signals
     from truth.visibility import visibility
 finally:
-    sys.path.remove(_BENCH)
+    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 from rmbench.robot import Robot, seed_grid  # noqa: E402
 

@@ -11,11 +11,12 @@ import pytest
 # bench/ on the path only while the truth package is imported (bench/control.py would shadow
 # python-control for the tests collected after this one)
 _BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+_SAVED = list(sys.path)
 sys.path.insert(0, _BENCH)
 try:
     from truth.tracker import Reader, TrackerRobot, _ar1, draw_tracker_robot, visibility
 finally:
-    sys.path.remove(_BENCH)
+    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 from rmbench.robot import Robot  # noqa: E402
 
