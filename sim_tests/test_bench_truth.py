@@ -1,22 +1,16 @@
 """The blind benches' real robots (bench/truth): drawn reproducibly, and each model-form error is
 physics the nominal model lacks, large enough to see in the tested band."""
 
-import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-# bench/ on the path only while the truth package is imported: left there, bench/control.py would
-# shadow python-control for every test collected after this one
-_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
-sys.path.insert(0, _BENCH)
-try:
+from _bench_path import bench_on_path
+
+with bench_on_path():
     from truth import FORM_KINDS, apply_form, draw_real_robot, median_form
     from truth.visibility import visibility
-finally:
-    sys.path.remove(_BENCH)
 
 from rmbench.robot import Robot, seed_grid  # noqa: E402
 

@@ -1,22 +1,15 @@
 """The blind FRF bench beyond the model (bench/blind_frf.py): who gets what, how a named size is
 read, and what its line counts."""
 
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-# bench/ on the path only while the bench module is imported (bench/control.py would shadow
-# python-control for the tests collected after this one)
-_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
-_SAVED = list(sys.path)
-sys.path.insert(0, _BENCH)
-try:
+from _bench_path import bench_on_path
+
+with bench_on_path():
     from blind_frf import _same_modes, bench_line, draw_robot, found_size, slot
-finally:
-    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 ARGS = SimpleNamespace(p_form=0.5, form_scale=1.0)
 

@@ -1,21 +1,14 @@
 """The blind tracker bench beyond the model (bench/blind_tracker.py): how a named source's size and
 the calibrated compliances are read against the truth."""
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-# bench/ on the path only while the bench module is imported (bench/control.py would shadow
-# python-control for the tests collected after this one)
-_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
-_SAVED = list(sys.path)
-sys.path.insert(0, _BENCH)
-try:
+from _bench_path import bench_on_path
+
+with bench_on_path():
     from blind_tracker import found_size, scored_params, true_size
-finally:
-    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 
 def test_a_gear_harmonics_size_is_its_amplitude_whatever_its_phase():

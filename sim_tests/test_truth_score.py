@@ -1,21 +1,14 @@
 """The blind benches' strict scoring (bench/truth/score.py): what counts as named, as a false
 attribution, as "unexplained", and every rate with its Wilson interval."""
 
-import sys
-from pathlib import Path
 
 import pytest
 
-# bench/ on the path only while the truth package is imported (bench/control.py would shadow
-# python-control for the tests collected after this one)
-_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
-_SAVED = list(sys.path)
-sys.path.insert(0, _BENCH)
-try:
+from _bench_path import bench_on_path
+
+with bench_on_path():
     from truth.score import (LEAD, false_attribution, identifiable_within, named_first, rated, size_within,
                              summary, unexplained_strict)
-finally:
-    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 
 def _case(cls="in_library", hidden=("tool_contact_stiffness", "tool_contact", 3.5), verdict="explained",

@@ -2,24 +2,17 @@
 nominal robot lacks, made by plain MJCF edits or on the measured signals, and sized against the
 nominal for scoring."""
 
-import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
 
-# bench/ on the path only while the truth package is imported (bench/control.py would shadow
-# python-control for the tests collected after this one)
-_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
-_SAVED = list(sys.path)
-sys.path.insert(0, _BENCH)
-try:
+from _bench_path import bench_on_path
+
+with bench_on_path():
     from truth.structural import IN_LIBRARY, OUT_OF_LIBRARY, Effect, apply_effect, draw_effect, turned_signals
     from truth.visibility import visibility
-finally:
-    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 from rmbench.robot import Robot, seed_grid  # noqa: E402
 

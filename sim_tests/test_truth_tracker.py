@@ -1,22 +1,15 @@
 """The tracker bench's real MH180s (bench/truth/tracker.py): read by their own physics, with form
 errors, sources and noise the diagnosis is not told."""
 
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-# bench/ on the path only while the truth package is imported (bench/control.py would shadow
-# python-control for the tests collected after this one)
-_BENCH = str(Path(__file__).resolve().parents[1] / "bench")
-_SAVED = list(sys.path)
-sys.path.insert(0, _BENCH)
-try:
+from _bench_path import bench_on_path
+
+with bench_on_path():
     from truth.tracker import Reader, TrackerRobot, _ar1, draw_tracker_robot, visibility
-finally:
-    sys.path[:] = _SAVED      # as it was, whatever the imported modules added
 
 from rmbench.robot import Robot  # noqa: E402
 

@@ -1,0 +1,20 @@
+"""Importing the bench's modules (bench/truth, the bench scripts) from a test."""
+
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+
+BENCH = str(Path(__file__).resolve().parents[1] / "bench")
+
+
+@contextmanager
+def bench_on_path():
+    """``bench/`` on ``sys.path`` for the imports inside the block, and ``sys.path`` restored
+    whole after it (whatever the imported modules added): left there, bench/control.py would
+    shadow python-control for every test collected after."""
+    saved = list(sys.path)
+    sys.path.insert(0, BENCH)
+    try:
+        yield
+    finally:
+        sys.path[:] = saved
