@@ -15,6 +15,8 @@ from rmbench.impact import load_config
 from rmbench.robot import Posture, Robot
 from rmbench.robot.parameters import ParameterSet, parameter_set, parse_groups
 
+from _exact_modes import exact_modes
+
 POSTURES = [Posture.from_mm_deg(1800, -200, 0), Posture.from_mm_deg(1500, 100, 40),
             Posture.from_mm_deg(1300, 300, -60), Posture.from_mm_deg(1900, -100, 20),
             Posture.from_mm_deg(1700, 300, 60)]
@@ -25,24 +27,6 @@ TRUE_STIFFNESS = {"j2_flex": 1.3, "j3_flex": 0.75, "j5_flex": 1.2}
 @pytest.fixture(scope="module")
 def design():
     return TestDesign.from_config(load_config("seed_full"))
-
-
-def _exact_data(robot, design, postures) -> ModalData:
-    """The modes a noise-free test of ``robot`` would give: those a test must see (inside a band,
-    above 1 % of its peak), with no standard errors."""
-    q = np.array([robot.ik(p).q for p in postures])
-    mm = ModalModel(robot, ParameterSet([]), design, q, ("low", "high"))
-    modes = []
-    for p in range(len(postures)):
-        per = {}
-        for b in ("low", "high"):
-            m = mm.modes(np.zeros(0), p, b)
-            k = (m.peak >= 0.01) & m.inside
-            n = int(k.sum())
-            per[b] = MeasuredModes(f_n=m.f_n[k], zeta=m.zeta[k], f_std=np.zeros(n), zeta_std=np.zeros(n),
-                                   residue=m.residue[k], residue_std=np.zeros(n), mode_id=np.arange(n))
-        modes.append(per)
-    return ModalData(tuple(postures), tuple(modes), ("low", "high"), design, "exact")
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +42,7 @@ def truth(irb):
 
 @pytest.fixture(scope="module")
 def calibrated(irb, truth, design):
-    data = _exact_data(truth, design, POSTURES)
+    data = exact_modes(truth, design, POSTURES)
     return calibrate(irb, data, held=[4], settings=CalibrationSettings(groups=("joints", "servo"), workers=1))
 
 
@@ -120,7 +104,7 @@ def test_heldout_frequencies_improve_after_calibration(calibrated):
 def test_a_fit_stopped_at_its_limit_says_so(irb, truth, design):
     # two evaluations cannot converge from the nominal to gearboxes 25-30 % off; the converged
     # fixture's fit did not stop there
-    data = _exact_data(truth, design, POSTURES[:3])
+    data = exact_modes(truth, design, POSTURES[:3])
     cal = calibrate(irb, data, settings=CalibrationSettings(groups=("joints",), workers=1, max_iter=2))
     assert cal.at_limit and cal.to_json()["at_limit"] is True
     assert any("limit of 2 evaluations" in n for n in cal.notes)
@@ -133,14 +117,14 @@ def test_a_converged_fit_is_not_at_its_limit(calibrated):
 def test_the_calibrated_mjcf_is_the_model_that_was_fitted(calibrated, truth, design):
     robot = Robot(calibrated.xml, name="calibrated", tool="dummy")
     assert calibrated.xml.startswith("<!-- calibrated by rmbench to exact")
-    after = _exact_data(robot, design, POSTURES[:1]).modes[0]["low"]
-    true = _exact_data(truth, design, POSTURES[:1]).modes[0]["low"]
+    after = exact_modes(robot, design, POSTURES[:1]).modes[0]["low"]
+    true = exact_modes(truth, design, POSTURES[:1]).modes[0]["low"]
     # the MJCF keeps 9 significant digits of each value; the fit converged to 1e-3 of the truth
     np.testing.assert_allclose(after.f_n, true.f_n, rtol=2e-3)
 
 
 def test_fewer_data_than_parameters_names_the_undetermined_ones(irb, truth, design):
-    data = _exact_data(truth, design, POSTURES[:1])
+    data = exact_modes(truth, design, POSTURES[:1])
     low = data.modes[0]["low"]
     one = MeasuredModes(f_n=low.f_n[:2], zeta=low.zeta[:2], f_std=np.zeros(2), zeta_std=np.zeros(2),
                         residue=low.residue[:2], residue_std=np.zeros(2), mode_id=np.arange(2))
@@ -150,14 +134,14 @@ def test_fewer_data_than_parameters_names_the_undetermined_ones(irb, truth, desi
 
 
 def test_unreachable_postures_are_a_one_line_error(irb, truth, design):
-    data = _exact_data(truth, design, POSTURES[:2])
+    data = exact_modes(truth, design, POSTURES[:2])
     far = ModalData((Posture.from_mm_deg(4000, 0, 0),) + data.postures[1:], data.modes, data.bands, design)
     with pytest.raises(InputError, match="not this robot's"):
         calibrate(irb, far, settings=CalibrationSettings(groups=("joints",), workers=1))
 
 
 def test_a_nominal_whose_modes_do_not_pair_is_refused(irb, truth, design):
-    data = _exact_data(truth, design, POSTURES[:2])
+    data = exact_modes(truth, design, POSTURES[:2])
     scaled = tuple({b: MeasuredModes(f_n=m.f_n * 3, zeta=m.zeta, f_std=m.f_std, zeta_std=m.zeta_std,
                                      residue=m.residue, residue_std=m.residue_std, mode_id=m.mode_id)
                     for b, m in per.items()} for per in data.modes)
@@ -216,7 +200,7 @@ def test_model_calibrate_refuses_too_many_heldout_postures(cli):
 def test_suggest_names_new_postures_that_shrink_the_uncertainty(irb, truth, design):
     from rmbench.calibrate.suggest import suggest_postures
 
-    data = _exact_data(truth, design, POSTURES[:2])
+    data = exact_modes(truth, design, POSTURES[:2])
     candidates = [Posture.from_mm_deg(x, y, t) for x in (1300, 1900) for y in (-300, 300) for t in (-60, 60)]
     s = suggest_postures(irb, data, candidates, 2, settings=CalibrationSettings(groups=("joints",), workers=1))
     assert len(s.postures) == 2 and all(p in candidates for p in s.postures)
@@ -521,7 +505,7 @@ def soft_holder(irb):
 
 
 def test_the_frf_residuals_join_the_modal_ones_when_asked(irb, soft_holder, design):
-    data = _with_frf(soft_holder, design, _exact_data(soft_holder, design, POSTURES[:3]))
+    data = _with_frf(soft_holder, design, exact_modes(soft_holder, design, POSTURES[:3]))
     s = CalibrationSettings(groups=("joints",), workers=1, max_iter=1)
     plain, with_frf = calibrate(irb, data, settings=s), calibrate(irb, data, settings=replace(s, frf=True))
     # 16 entries in 4 quarter bands, per posture and band
@@ -529,7 +513,7 @@ def test_the_frf_residuals_join_the_modal_ones_when_asked(irb, soft_holder, desi
 
 
 def test_a_freed_holder_is_recovered_beside_the_gearboxes_from_modes_and_frfs(irb, soft_holder, design):
-    data = _with_frf(soft_holder, design, _exact_data(soft_holder, design, POSTURES))
+    data = _with_frf(soft_holder, design, exact_modes(soft_holder, design, POSTURES))
     s = CalibrationSettings(groups=("joints", "tool"), workers=1, frf=True,
                             free=("tool_contact.translation", "tool_contact.rotation"))
     cal = calibrate(irb, data, settings=s, start={"tool_contact.translation": np.log(0.5),

@@ -15,7 +15,8 @@ from rmbench.impact import load_config
 from rmbench.robot import Posture, Robot
 from rmbench.robot.parameters import ParameterSet
 
-from test_calibrate import POSTURES, _exact_data
+from _exact_modes import exact_modes
+from test_calibrate import POSTURES
 
 TURN = np.radians(6.0)       # a sensor turned about the tool axis, as the bench's largest draws
 
@@ -58,7 +59,7 @@ def test_a_malformed_sensor_parameter_is_a_one_line_error():
 
 def test_a_turned_sensor_is_recovered_beside_the_gearboxes(irb, design):
     turned = design.with_offsets([SensorOffset("low", "1aX", angle=TURN)])
-    data = _exact_data(irb, turned, POSTURES[:3])
+    data = exact_modes(irb, turned, POSTURES[:3])
     data = ModalData(data.postures, data.modes, data.bands, design, data.source)   # the design as written
     name = "sensor.low:1aX.angle"
     cal = calibrate(irb, data, settings=CalibrationSettings(groups=("joints",), workers=1, extra=(name,),
@@ -87,7 +88,7 @@ def test_the_spindle_speed_step_follows_the_exact_modes(irb, design):
 
 def test_a_spinning_spindle_is_recovered_from_the_modes(irb, design):
     spinning = Robot(irb.xml, name="truth", tool="dummy", spindle_rpm=15000.0)
-    data = _exact_data(spinning, design, POSTURES[:3])
+    data = exact_modes(spinning, design, POSTURES[:3])
     cal = calibrate(irb, data, settings=CalibrationSettings(groups=("joints",), workers=1, extra=("spindle.speed",),
                                                             free=("spindle.speed",)))
     speed = next(p for p in cal.params if p.name == "spindle.speed")

@@ -133,9 +133,15 @@ def draw_form(rng: np.random.Generator, kind: str, *, scale: float = 1.0) -> For
     raise ValueError(f"unknown form kind {kind!r}; one of {', '.join(FORM_KINDS)}")
 
 
-def median_form(kind: str, location: str | None = None) -> FormError:
+# the sizes :func:`draw_form`'s ``scale`` multiplies, per kind
+SCALED = {"bearing_tilt": ("compliance",), "bending_link": ("compliance",), "counterbalance": ("stiffness", "preload"),
+          "cable_bundle": ("mass",), "gear_nonlinear": ("ratio",), "foundation_skew": ("lateral", "tilt")}
+
+
+def median_form(kind: str, location: str | None = None, *, scale: float = 1.0) -> FormError:
     """The error of ``kind`` at the middle of its ranges (geometric for sizes, arithmetic for a
-    damping ratio, a backlash or an angle), at ``location`` (default: the first place it can act)."""
+    damping ratio, a backlash or an angle), at ``location`` (default: the first place it can act),
+    with the sizes :func:`draw_form` scales (:data:`SCALED`) times ``scale``."""
     places = {"bearing_tilt": tuple(_TILT_BODIES), "bending_link": tuple(_LINKS), "counterbalance": ("j2",),
               "cable_bundle": tuple(_LINKS), "gear_nonlinear": tuple(_GEARS), "foundation_skew": ("base",)}
     if kind not in places:
@@ -146,6 +152,8 @@ def median_form(kind: str, location: str | None = None) -> FormError:
         size["frequency"] = [size["frequency"]] * 3
     if kind == "foundation_skew":
         size["lateral"], size["tilt"] = [size["lateral"]] * 2, [size["tilt"]] * 2
+    for k in SCALED[kind]:
+        size[k] = [scale * v for v in size[k]] if isinstance(size[k], list) else scale * size[k]
     return FormError(kind, location or places[kind][0], size)
 
 
