@@ -94,3 +94,28 @@ def test_relative_frequency_distance_is_taken_from_the_second_set():
 def test_pairing_with_an_empty_set_pairs_nothing():
     rows, cols = pair_modes([], [10.0], np.zeros((0, 3, 2)), np.ones((1, 3, 2)), freq_scale=0.15)
     assert rows.shape == cols.shape == (0,)
+
+
+def test_a_mode_beyond_the_gate_does_not_displace_a_closer_pair():
+    # seed 000's IRB6660 at (1800, −200, 0): measured 17.62 and 18.03 Hz, one model mode at
+    # 18.13 Hz and the next at 25.7 Hz. The 18.03 Hz mode is the closer partner; forcing both onto
+    # a partner made every choice an exact tie of summed |ln| distances
+    no_shape = np.full((3, 2), np.nan)
+    rows, cols = pair_modes([18.03, 17.62, 20.63], [18.13, 20.69, 25.70], no_shape, np.ones((3, 2)),
+                            freq_scale=0.15, max_cost=1.5)
+    assert dict(zip(rows.tolist(), cols.tolist())) == {0: 0, 2: 1}
+
+
+def test_two_modes_between_two_partners_pair_in_order():
+    # both partners lie above both modes: crossed and in-order pairs sum to the same |ln| distance,
+    # and a physical drift keeps the order
+    no_shape = np.full((2, 2), np.nan)
+    rows, cols = pair_modes([17.62, 18.03], [18.13, 18.50], no_shape, no_shape, freq_scale=0.15, max_cost=1.5)
+    assert cols[np.argsort(rows)].tolist() == [0, 1]
+
+
+def test_a_pair_outside_the_window_leaves_its_partner_free_for_another():
+    # 10 Hz may pair only with 10.5 Hz (20.5 is beyond a factor 1.5); 12 Hz then takes 15 Hz
+    no_shape = np.full((2, 2), np.nan)
+    rows, cols = pair_modes([10.0, 12.0], [10.5, 15.0], no_shape, no_shape, freq_scale=0.4, window=1.5)
+    assert dict(zip(rows.tolist(), cols.tolist())) == {0: 0, 1: 1}

@@ -17,6 +17,9 @@ from scipy.optimize import linear_sum_assignment
 
 __all__ = ["mac", "pair_modes"]
 
+_TIE = 1e-6          # weight of the tie-breaking squared distance
+_IMPOSSIBLE = 1e12   # cost of a pair outside the window
+
 
 def mac(a, b, *, zero: float = np.nan) -> np.ndarray:
     """Modal Assurance Criterion between the rows of ``a`` and the rows of ``b``.
@@ -74,10 +77,11 @@ def pair_modes(f_a, f_b, shapes_a, shapes_b, *, freq_scale: float, freq: str = "
         The frequency distance: ``|ln(f_b / f_a)|``, or ``|f_a / f_b − 1|`` (relative to the
         second set).
     max_cost : float, optional
-        Pairs costing more are dropped.
+        The gate: a mode left unpaired costs this much, so no pair costing more is made, and a
+        pair beyond it never displaces a closer one.
     window : float, optional
         Pairs whose frequencies differ by this factor or more (``|ln(f_b / f_a)| ≥ ln(window)``)
-        are dropped.
+        are not made.
     zero : float
         MAC of a shape of zero norm (see :func:`mac`).
 
@@ -94,16 +98,28 @@ def pair_modes(f_a, f_b, shapes_a, shapes_b, *, freq_scale: float, freq: str = "
     m = mac(np.reshape(shapes_a, (len(f_a), -1)), np.reshape(shapes_b, (len(f_b), -1)), zero=zero)
     m = np.where(np.isfinite(m), m, 1.0)
     if freq == "log":
-        dist = np.abs(np.log(f_b[None, :] / f_a[:, None]))
+        dist = _dist_log(f_a, f_b)
     elif freq == "relative":
         dist = np.abs(f_a[:, None] / f_b[None, :] - 1)
     else:
         raise ValueError(f"freq must be 'log' or 'relative', not {freq!r}")
     cost = (1 - m) + dist / freq_scale
-    rows, cols = linear_sum_assignment(cost)
-    keep = np.ones(len(rows), bool)
-    if max_cost is not None:
-        keep &= cost[rows, cols] <= max_cost
-    if window is not None:
-        keep &= np.abs(np.log(f_b[cols] / f_a[rows])) < np.log(window)
+    n, k = cost.shape
+    allowed = np.ones(cost.shape, bool) if window is None else _dist_log(f_a, f_b) < np.log(window)
+    gate = np.inf if max_cost is None else max_cost
+    # Leaving a mode unpaired costs the gate (a dummy partner each), so a pair beyond the gate
+    # never displaces a closer one: with the assignment forced on every row, a mode that cannot
+    # pair within the gate used to take a partner all the same, and the sum of |ln| distances,
+    # linear on either side, made such choices exact ties. The small squared term breaks the
+    # remaining ties (two modes on the same side of two partners) towards the order-preserving pairs.
+    work = np.where(allowed, cost + _TIE * (dist / freq_scale) ** 2, _IMPOSSIBLE)
+    dummy = np.full((n, n), min(gate, _IMPOSSIBLE / 2))
+    rows, cols = linear_sum_assignment(np.hstack([work, dummy]))
+    keep = (cols < k)
+    keep[keep] &= allowed[rows[keep], cols[keep]] & (cost[rows[keep], cols[keep]] <= gate)
     return rows[keep], cols[keep]
+
+
+def _dist_log(f_a, f_b) -> np.ndarray:
+    """``|ln(f_b / f_a)|`` between every mode of two sets, shape (n, m)."""
+    return np.abs(np.log(np.asarray(f_b, float)[None, :] / np.asarray(f_a, float)[:, None]))
