@@ -1,7 +1,8 @@
 """Specification of the parameter kinds' registry (:mod:`rmbench.robot.kinds`): it covers every
 parameter a set holds, each kind writes a compiled model and a specification alike, a fast kind's
-matrix perturbation is the re-linearised model's change, and the bearing tilt kind is rigid at its
-nominal and soft when asked."""
+matrix perturbation is the re-linearised model's change, and the model-form kinds (a bearing's
+tilt, a link's bending, a counterbalance) leave the model as it was at their nominal and change it
+as their physics says when asked."""
 
 import copy
 
@@ -18,16 +19,17 @@ from rmbench.robot.parameters import GROUPS, Parameter, ParameterSet, parameter_
 
 POSTURE = Posture.from_mm_deg(1800, -200, 0)      # the irb_op fixture's
 TILT = "j2_flex.tilt_compliance"
+BEND = "lower_arm.bending_compliance"
 # every group, and a parameter of each structural form: a compliance, a stiffness, a bearing tilt,
-# a body mass
-EVERY = ("base.lateral_compliance", "spindle.radial", "motor2.mass", TILT)
+# a link's bending, a body mass
+EVERY = ("base.lateral_compliance", "spindle.radial", "motor2.mass", TILT, BEND)
 _FIELDS = ("jnt_stiffness", "dof_damping", "actuator_gainprm", "actuator_biasprm", "body_mass", "body_inertia",
-           "body_ipos")
+           "body_ipos", "tendon_stiffness", "tendon_lengthspring", "site_pos")
 
 
 @pytest.fixture(scope="module")
 def every(irb):
-    return parameter_set(irb, "all", extra=EVERY)
+    return parameter_set(irb, GROUPS + ("counterbalance",), extra=EVERY)
 
 
 @pytest.fixture(scope="module")
@@ -58,13 +60,14 @@ def test_registry_covers_every_kind_of_a_set(every):
 
 
 def test_fast_kinds_are_those_that_leave_the_equilibrium():
-    # a mass or a centre of mass moves the equilibrium and the gravity stiffness: no C, K shortcut
-    assert set(FAST_KINDS) == set(KINDS) - {"mass", "com"}
+    # a mass or a centre of mass moves the equilibrium and the gravity stiffness, a counterbalance
+    # spring pushes the arm and acts through its posture's geometry: no C, K shortcut
+    assert set(FAST_KINDS) == set(KINDS) - {"mass", "com", "spring", "foot", "head", "preload"}
 
 
 def test_parameter_of_unknown_kind_is_refused():
-    with pytest.raises(ValueError, match="unknown parameter kind 'spring' of a.b"):
-        Parameter("a.b", "joints", "spring", ("a",), 0, 1.0, True, 1.0, -1.0, 1.0, "N·m/rad")
+    with pytest.raises(ValueError, match="unknown parameter kind 'spring_rate' of a.b"):
+        Parameter("a.b", "joints", "spring_rate", ("a",), 0, 1.0, True, 1.0, -1.0, 1.0, "N·m/rad")
 
 
 @pytest.mark.parametrize("kind", sorted(KINDS), ids=sorted(KINDS))
@@ -140,3 +143,88 @@ def test_tilt_group_is_named_and_not_in_all(irb):
 def test_tilt_of_a_missing_joint_is_refused(irb):
     with pytest.raises(InputError, match="no hinge joint 'j9_flex' for j9_flex.tilt_compliance"):
         parameter_set(irb, ("joints",), extra=("j9_flex.tilt_compliance",))
+
+
+@pytest.fixture(scope="module")
+def bent(irb):
+    """The robot with its bending links split at mid-length (rigid), the bending group alone."""
+    return parameter_set(irb, ("bending",))
+
+
+def test_bending_group_names_the_long_links_after_the_first_axis(irb, bent):
+    # the carousel (a column on the first axis) tilts in its bearing; the lower arm (0.7 m) and the
+    # forearm (0.89 m) bend; the upper arm's 0.28 m is a joint's neighbourhood
+    assert "bending" not in parse_groups("all")
+    assert bent[1].names == ("lower_arm.bending_compliance", "forearm.bending_compliance")
+
+
+def test_splitting_a_link_keeps_its_mass_its_centre_and_its_inertia(irb, bent):
+    robot, _ = bent
+    before, after = mujoco.MjData(irb.model), mujoco.MjData(robot.model)
+    mujoco.mj_forward(irb.model, before)
+    mujoco.mj_forward(robot.model, after)
+    for link in ("lower_arm", "forearm"):
+        parts = [robot.model.body(n).id for n in (link, f"{link}_distal")]
+        whole = irb.model.body(link).id
+        assert sum(robot.model.body_mass[parts]) == pytest.approx(irb.model.body_mass[whole], rel=1e-12)
+        centre = sum(robot.model.body_mass[i] * after.xipos[i] for i in parts) / irb.model.body_mass[whole]
+        np.testing.assert_allclose(centre, before.xipos[whole], atol=1e-12)
+        np.testing.assert_allclose(_inertia_about(robot.model, after, parts, centre),
+                                   _inertia_about(irb.model, before, [whole], centre), atol=1e-9)
+    # and everything after the split is where it was
+    np.testing.assert_allclose(after.site_xpos, before.site_xpos, atol=1e-12)
+
+
+def _inertia_about(model, data, bodies, point) -> np.ndarray:
+    """Inertia tensor of ``bodies`` about ``point`` in the world frame (kg·m²)."""
+    out = np.zeros((3, 3))
+    for i in bodies:
+        rot = data.ximat[i].reshape(3, 3)
+        r = data.xipos[i] - point
+        out += rot @ np.diag(model.body_inertia[i]) @ rot.T + model.body_mass[i] * (r @ r * np.eye(3) - np.outer(r, r))
+    return out
+
+
+def test_rigid_bending_leaves_the_modes(irb_op, bent):
+    robot, _ = bent
+    nominal = irb_op.linear.modes()
+    modes = robot.at(POSTURE).linear.modes()
+    n = len(nominal.f_n)        # the hinges' own modes are far above every other
+    np.testing.assert_allclose(modes.f_n[:n], nominal.f_n, rtol=1e-6)
+
+
+def test_a_bending_lower_arm_lowers_the_lowest_modes(irb_op, bent):
+    robot, params = bent
+    u = np.zeros(len(params))
+    u[0] = 400.0        # µrad/(kN·m): a 0.7 m tube of EI 1.7 MN·m² turns its end by 410
+    soft = _with(robot, params, u).at(irb_op.q_cmd).linear.modes().f_n[:6]
+    rigid = irb_op.linear.modes().f_n[:6]
+    # a spring in series with the gearboxes (Rayleigh): no mode rises, the arm's pitch falls most
+    assert np.all(soft <= rigid * (1 + 1e-6))
+    assert np.min(soft / rigid) < 0.95
+
+
+@pytest.fixture(scope="module")
+def balanced(irb):
+    return parameter_set(irb, ("counterbalance",))
+
+
+def test_an_absent_counterbalance_leaves_the_modes(irb_op, balanced):
+    robot, params = balanced
+    assert params.names == ("counterbalance.stiffness", "counterbalance.foot_angle", "counterbalance.head",
+                            "counterbalance.preload")
+    np.testing.assert_allclose(robot.at(POSTURE).linear.modes().f_n, irb_op.linear.modes().f_n, rtol=1e-9)
+
+
+def test_a_counterbalance_moves_the_low_modes_by_posture(irb, balanced):
+    # the spring's lever about J2, and the stiffness its preload adds through the geometry (negative
+    # where the spring is compressed across its line), change with J2's angle: the low modes move
+    # differently with the arm near and reaching far
+    robot, params = balanced
+    near, far = Posture.from_mm_deg(1300, 0, 0), Posture.from_mm_deg(2100, 0, 0)
+    rise = []
+    for posture in (near, far):
+        stiff = _with(robot, params, np.array([50.0, 0.0, 0.0, 5.0])).at(robot.ik(posture).q).linear.modes().f_n[:4]
+        free = robot.at(posture).linear.modes().f_n[:4]
+        rise.append(np.max(np.abs(stiff / free - 1)))
+    assert min(rise) > 0.002 and abs(rise[0] - rise[1]) > 0.2 * max(rise)

@@ -22,7 +22,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 
-__all__ = ["IDENTIFIABLE", "WEAK", "Bounds", "SolverOptions", "Solution", "Posterior", "solve", "posterior",
+__all__ = ["IDENTIFIABLE", "WEAK", "Bounds", "SolverOptions", "Solution", "Posterior", "solve", "huber", "posterior",
            "identifiability"]
 
 IDENTIFIABLE = 0.3     # posterior over reference standard deviation below this: identifiable
@@ -62,6 +62,11 @@ class SolverOptions:
         deviations), ``"jac"`` where it is in SI of different sizes.
     xtol, ftol, gtol : float
         scipy's tolerances on the step, the cost's change and the gradient.
+    robust : float or None
+        Huber's threshold on the data residuals, in standard errors (None: least squares): a
+        residual beyond it costs ``2c|r| − c²`` instead of ``r²``, so one gross error (a biased
+        measured mode) pulls the fit as one at the threshold does, not in proportion to its size.
+        The prior's rows stay squared.
     """
 
     max_nfev: int = 16
@@ -69,6 +74,7 @@ class SolverOptions:
     xtol: float = 1e-4
     ftol: float = 1e-6
     gtol: float = 1e-8
+    robust: float | None = None
 
     def __post_init__(self):
         if int(self.max_nfev) < 1:
@@ -153,11 +159,24 @@ def solve(residuals, jacobian, x0, *, prior_sd, bounds: Bounds = Bounds(),
     w = _weights(prior_sd)
     k = len(x0) if np.any(w) else 0          # the prior's rows; none where no parameter has one
 
+    c = options.robust
+    last = {}
+
+    def data(x):
+        # scipy asks for the Jacobian at the point whose residuals it has just had
+        if last.get("x") is None or not np.array_equal(last["x"], x):
+            last["x"], last["r"] = np.array(x, float), residuals(x)
+        return last["r"]
+
     def fun(x):
-        return np.concatenate([residuals(x), w * x]) if k else residuals(x)
+        r = data(x) if c is None else huber(data(x), c)[0]
+        return np.concatenate([r, w * x]) if k else r
 
     def jac(x):
-        return np.vstack([jacobian(x), np.diag(w)]) if k else jacobian(x)
+        j = jacobian(x)
+        if c is not None:
+            j = huber(data(x), c)[1][:, None] * j
+        return np.vstack([j, np.diag(w)]) if k else j
 
     lo, hi = bounds.arrays(len(x0))
     # one BLAS thread: the solver's matrices are a few hundred by a few dozen, where a second
@@ -165,9 +184,22 @@ def solve(residuals, jacobian, x0, *, prior_sd, bounds: Bounds = Bounds(),
     with threadpool_limits(limits=1, user_api="blas"):
         sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=options.x_scale,
                             max_nfev=options.max_nfev, xtol=options.xtol, ftol=options.ftol, gtol=options.gtol)
-    r = sol.fun[:len(sol.fun) - k]          # the data rows, as evaluated at the solution
+    r = sol.fun[:len(sol.fun) - k] if c is None else data(sol.x)   # the data rows, as they are
     return Solution(x=sol.x, chi2=float(r @ r), chi2_prior=float(np.sum((w * sol.x) ** 2)),
                     nfev=int(sol.nfev), at_limit=sol.status == 0)
+
+
+def huber(r, c: float) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals whose squares are Huber's loss, and their derivative over the residuals'.
+
+    ``r̃ = r`` where ``|r| ≤ c``, else ``sign(r) √(2c|r| − c²)`` (so ``r̃² = 2c|r| − c²``); the
+    derivative ``dr̃/dr`` is 1, or ``c / |r̃|`` (shapes those of ``r``)."""
+    r = np.asarray(r, float)
+    a = np.abs(r)
+    out = np.where(a <= c, r, np.sign(r) * np.sqrt(np.maximum(2 * c * a - c * c, 0.0)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = np.where(a <= c, 1.0, c / np.abs(out))
+    return out, d
 
 
 def posterior(jac, precision, chi2: float, n: int, *, reference=None) -> Posterior:

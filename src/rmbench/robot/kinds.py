@@ -14,11 +14,21 @@ kind             edits                                                       str
 ``com``          one component of a body's centre of mass                    --           no
 ``base``         a foundation's compliance (its tilt or lateral joints)      foundation   yes
 ``tilt``         a joint bearing's tilt compliance (two hinges after it)     two hinges   yes
+``bending``      a link's bending compliance (its distal half on two hinges)  half, hinges yes
+``spring``       a counterbalance spring's stiffness (a tendon's)            the spring   no
+``foot``         where a counterbalance spring's foot sits about the axis    the spring   no
+``head``         how far up the link a counterbalance spring's head sits    the spring   no
+``preload``      a counterbalance spring's compression at the zero posture  the spring   no
 ===============  ==========================================================  ===========  ==========
 
-A compliance (``base``, ``tilt``) is the inverse stiffness of its joints, 0 rigid
+A compliance (``base``, ``tilt``, ``bending``) is the inverse stiffness of its joints, 0 rigid
 (:data:`RIGID`); their damping follows the stiffness at :data:`DAMPING_RATIO` of critical
 against the mass the parameter carries at 1 m (:attr:`Parameter.carried`).
+
+A counterbalance (``spring``, ``preload``) is a spatial tendon from the carousel behind the
+second axis to the lower arm above it (:func:`counterbalance_geometry`), a linear spring absent at
+the nominal (stiffness 0): pushing the arm up, it adds a stiffness about the axis that follows the
+posture (its lever arm changes with the angle, and its preload acts through the geometry).
 
 Only the kinds whose change enters the linearisation through C and K alone have a matrix
 perturbation (:attr:`Kind.perturb`): a mass or a centre of mass moves the equilibrium and the
@@ -35,8 +45,8 @@ import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["Kind", "KINDS", "RIGID", "COMPLIANCE_UNIT", "DAMPING_RATIO", "compliance_damping",
-           "tilt_joints"]
+__all__ = ["Kind", "KINDS", "RIGID", "COMPLIANCE_UNIT", "DAMPING_RATIO", "WIDE_FORM", "compliance_damping",
+           "tilt_joints", "bending_joints", "bending_child", "COUNTERBALANCE", "counterbalance_geometry"]
 
 RIGID = 1e14                  # N/m or N·m/rad: a joint this stiff is rigid in every band
 COMPLIANCE_UNIT = 1e-9        # 1 µrad/(kN·m) in rad/(N·m) (1 µm/kN in m/N)
@@ -44,6 +54,14 @@ DAMPING_RATIO = 0.05          # of a compliance's joints, against the mass it ca
 _WIDE_LOG = (np.log(0.1), np.log(10.0))     # a freed factor: a tenth to ten times the nominal
 _WIDE_MASS = (np.log(0.5), np.log(3.0))     # a freed mass: half to three times
 _WIDE_COMPLIANCE = 300.0                    # a freed compliance: rigid to 300 units
+# a form group's compliance, rigid to this many units: what robots of the class reach (a link
+# of EI 1.7 MN·m², 0.9 m long, turns its end by 260 units; a slender one, or a bearing worn
+# loose, several times that)
+WIDE_FORM = {"tilt": 1000.0, "bending": 2000.0}
+MIN_BENDING_LENGTH = 0.5      # m: a shorter link's bending is its joints' tilt
+COUNTERBALANCE = "counterbalance"     # the counterbalance spring's tendon
+_CB_BEHIND = 0.35             # m: the spring's foot behind the second axis, on the carousel
+_CB_UP = 0.35                 # m: its head up the lower arm from the axis
 
 
 @dataclass(frozen=True)
@@ -107,6 +125,23 @@ def compliance_damping(k: float, carried: float) -> float:
 def tilt_joints(joint: str) -> tuple[str, str]:
     """Names of the two hinges that tilt the bearing of ``joint`` (kind ``tilt``)."""
     return f"{joint}_tilt_u", f"{joint}_tilt_v"
+
+
+def bending_joints(link: str) -> tuple[str, str]:
+    """Names of the two hinges that bend ``link`` at mid-length (kind ``bending``)."""
+    return f"{link}_bend_u", f"{link}_bend_v"
+
+
+def bending_child(spec, link: str):
+    """The body at the distal end of ``link`` in ``spec`` (its one child body), or None where the
+    link has no single child at least :data:`MIN_BENDING_LENGTH` from its origin."""
+    body = spec.body(link)
+    if body is None:
+        return None
+    children = list(body.bodies)
+    if len(children) != 1 or np.linalg.norm(children[0].pos) < MIN_BENDING_LENGTH:
+        return None
+    return children[0]
 
 
 # --- joints' stiffness and damping ---------------------------------------------------------------
@@ -258,7 +293,7 @@ def _compliance_perturb(model, dofs, p, u_old, u_new, C, K) -> None:
 
 
 def _compliance_wide(p) -> tuple:
-    return -p.nominal / p.unit, _WIDE_COMPLIANCE - p.nominal / p.unit
+    return -p.nominal / p.unit, WIDE_FORM.get(p.kind, _WIDE_COMPLIANCE) - p.nominal / p.unit
 
 
 def _compliance_gross(p) -> list:
@@ -302,6 +337,161 @@ def _add_bearing_tilt(spec, joint: str) -> bool:
     return True
 
 
+def _add_link_bending(spec, link: str) -> bool:
+    """``link`` split at mid-length, its distal half a body of its own (``LINK_distal``) on two
+    hinges about the two axes perpendicular to the link, carrying the link's distal child and all
+    after it: the link's bending, lumped. The two halves share the link's mass equally and keep its
+    centre of mass and inertia (:func:`_split_inertia`); the hinges are rigid and damped as
+    :func:`compliance_damping` against what the distal half carries."""
+    u_name, v_name = bending_joints(link)
+    if spec.joint(u_name) is not None:
+        return False
+    child = bending_child(spec, link)
+    if child is None:
+        raise InputError(f"the robot has no link {link!r} with one child body at least "
+                         f"{MIN_BENDING_LENGTH} m along it for {link}.bending_compliance")
+    compiled = spec.compile()
+    body = spec.body(link)
+    along = np.asarray(child.pos, float)
+    d = along / np.linalg.norm(along)
+    proximal, distal = _split_inertia(compiled.body(link), d, np.linalg.norm(along), along / 2)
+    body.explicitinertial = True
+    body.mass, body.ipos, body.iquat, body.inertia = proximal
+    half = spec.body(link).add_body(name=f"{link}_distal", pos=along / 2)
+    half.explicitinertial = True
+    half.mass, half.ipos, half.iquat, half.inertia = distal
+    e = np.eye(3)[int(np.argmin(np.abs(d)))]
+    u = e - (e @ d) * d
+    u /= np.linalg.norm(u)
+    carried = float(compiled.body(child.name).subtreemass[0]) + distal[0]
+    c = compliance_damping(RIGID, carried)
+    for name, ax in ((u_name, u), (v_name, np.cross(d, u))):
+        half.add_joint(name=name, type=mujoco.mjtJoint.mjJNT_HINGE, axis=ax, pos=np.zeros(3),
+                       stiffness=[RIGID, 0, 0], damping=[c, 0, 0])
+    from rmbench.robot.spec import move_body
+
+    move_body(spec, child, half, np.asarray(child.pos, float) - along / 2)
+    return True
+
+
+def _split_inertia(b, d: np.ndarray, length: float, mid: np.ndarray) -> tuple:
+    """``(mass, ipos, iquat, inertia)`` of a link's proximal half (in the link's frame) and of its
+    distal half (in a frame at ``mid``): half the mass each, their centres a quarter length either
+    side of the link's along ``d``, their inertias what is left of the link's once the two offsets'
+    share is taken out (a uniform bar's split exactly), so that together they are the link."""
+    m, c = float(b.mass[0]), np.asarray(b.ipos, float)
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, np.asarray(b.iquat, float))
+    rot = rot.reshape(3, 3)
+    inertia = rot @ np.diag(np.asarray(b.inertia, float)) @ rot.T
+    offset = length / 4
+    each = inertia / 2 - (m / 2) * offset ** 2 * (np.eye(3) - np.outer(d, d))
+    if np.linalg.eigvalsh(each).min() <= 0:      # a link too compact to part: both halves at its centre
+        offset, each = 0.0, inertia / 2
+    principal, axes = np.linalg.eigh(each)
+    if np.linalg.det(axes) < 0:
+        axes[:, 0] *= -1
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, axes.ravel())
+    return (m / 2, c - offset * d, quat, principal), (m / 2, c + offset * d - mid, quat.copy(), principal.copy())
+
+
+def counterbalance_geometry(spec, joint: str) -> tuple:
+    """``(foot_body, foot, head_body, head)``: where a counterbalance of the hinge ``joint`` (the
+    second axis, lifting the lower arm) is mounted, each point in its body's frame, m. The foot on
+    the body the joint's motor hangs from, :data:`_CB_BEHIND` behind the axis (away from the
+    arm's reach, −x); the head on the link the joint drives, :data:`_CB_UP` along it. A real
+    robot's mounts differ: the spring's stiffness and preload, fitted, take up most of it."""
+    j = spec.joint(joint)
+    if j is None or j.type != mujoco.mjtJoint.mjJNT_HINGE:
+        raise InputError(f"the robot has no hinge joint {joint!r} for a counterbalance")
+    motor = j.parent
+    links = list(motor.bodies)
+    if motor.parent is None or len(links) != 1:
+        raise InputError(f"{joint}'s body has no single link after it to mount a counterbalance on")
+    link = links[0]
+    child = bending_child(spec, link.name)
+    along = np.array([0.0, 0.0, 1.0]) if child is None else np.asarray(child.pos, float)
+    foot = _foot(np.asarray(motor.pos, float) + np.asarray(j.pos, float), 0.0)
+    return motor.parent, foot, link, _CB_UP * along / np.linalg.norm(along)
+
+
+def _add_counterbalance(spec, joint: str) -> bool:
+    """The counterbalance spring of ``joint`` (:func:`counterbalance_geometry`): two sites and a
+    spatial tendon between them, of stiffness 0 (absent) and its spring length its length at the
+    zero posture."""
+    if any(t.name == COUNTERBALANCE for t in spec.tendons):
+        return False
+    foot_body, foot, head_body, head = counterbalance_geometry(spec, joint)
+    foot_body.add_site(name=f"{COUNTERBALANCE}_foot", pos=foot)
+    head_body.add_site(name=f"{COUNTERBALANCE}_head", pos=head)
+    t = spec.add_tendon(name=COUNTERBALANCE, stiffness=[0.0, 0.0, 0.0])
+    t.wrap_site(f"{COUNTERBALANCE}_foot")
+    t.wrap_site(f"{COUNTERBALANCE}_head")
+    return True
+
+
+def _spring_model(model, p, x) -> None:
+    model.tendon_stiffness[model.tendon(p.targets[0]).id] = p.value(x)
+
+
+def _spring_spec(spec, p, x) -> None:
+    _tendon(spec, p).stiffness = [p.value(x), 0.0, 0.0]
+
+
+def _preload_model(model, p, x) -> None:
+    t = model.tendon(p.targets[0]).id
+    model.tendon_lengthspring[t] = _zero_length(model) + p.value(x)
+
+
+def _preload_spec(spec, p, x) -> None:
+    _tendon(spec, p).springlength = [_zero_length(spec.compile()) + p.value(x)] * 2
+
+
+def _zero_length(model) -> float:
+    """Length of the counterbalance at the zero posture (every joint at its reference), m, with
+    its mounts where the model has them now (the foot's angle written before)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    foot, head = (data.site_xpos[model.site(f"{COUNTERBALANCE}_{end}").id] for end in ("foot", "head"))
+    return float(np.linalg.norm(head - foot))
+
+
+def _foot(axis_point, angle: float) -> np.ndarray:
+    """The counterbalance's foot on a circle of :data:`_CB_BEHIND` about the second axis, in the
+    plane the arm swings in: behind it at ``angle`` 0, below it at +90° (rad)."""
+    return np.asarray(axis_point, float) + _CB_BEHIND * np.array([-np.cos(angle), 0.0, -np.sin(angle)])
+
+
+def _foot_model(model, p, x) -> None:
+    j = model.joint(p.targets[1]).id
+    axis_point = model.body_pos[model.jnt_bodyid[j]] + model.jnt_pos[j]
+    model.site_pos[model.site(p.targets[0]).id] = _foot(axis_point, p.value(x))
+
+
+def _head_model(model, p, x) -> None:
+    i = model.site(p.targets[0]).id
+    model.site_pos[i] = model.site_pos[i] / np.linalg.norm(model.site_pos[i]) * p.value(x)
+
+
+def _head_spec(spec, p, x) -> None:
+    site = spec.site(p.targets[0])
+    pos = np.asarray(site.pos, float)
+    site.pos = pos / np.linalg.norm(pos) * p.value(x)
+
+
+def _foot_spec(spec, p, x) -> None:
+    j = spec.joint(p.targets[1])
+    spec.site(p.targets[0]).pos = _foot(np.asarray(j.parent.pos, float) + np.asarray(j.pos, float), p.value(x))
+
+
+def _tendon(spec, p):
+    for t in spec.tendons:
+        if t.name == p.targets[0]:
+            return t
+    raise InputError(f"the robot has no tendon {p.targets[0]!r} for {p.name}")
+
+
 _COMPLIANCE = dict(write_model=_compliance_model, write_spec=_compliance_spec, perturb=_compliance_perturb,
                    display=_per_unit, resolution=2 * COMPLIANCE_UNIT, wide=_compliance_wide,
                    gross=_compliance_gross, read_model=_compliance_read)
@@ -315,4 +505,17 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Kind("com", _com_model, _com_spec, display=lambda value: 1e3 * value, resolution=0.005),
     Kind("base", structure=_add_foundation, **_COMPLIANCE),
     Kind("tilt", structure=_add_bearing_tilt, **_COMPLIANCE),
+    Kind("bending", structure=_add_link_bending, **_COMPLIANCE),
+    Kind("spring", _spring_model, _spring_spec, structure=_add_counterbalance,
+         display=lambda value: value / 1e6, resolution=1e5, wide=lambda p: (0.0, 200.0),
+         gross=lambda p: [0.0, 20.0, 60.0]),
+    Kind("foot", _foot_model, _foot_spec, structure=_add_counterbalance,
+         display=np.degrees, resolution=np.radians(2.0), wide=lambda p: (p.lower, p.upper),
+         gross=lambda p: [0.0, -30.0, 30.0]),
+    Kind("head", _head_model, _head_spec, structure=_add_counterbalance,
+         display=lambda value: 1e3 * value, resolution=0.01, wide=lambda p: (p.lower, p.upper),
+         gross=lambda p: [0.0, -0.1 / p.unit, 0.15 / p.unit]),
+    Kind("preload", _preload_model, _preload_spec, structure=_add_counterbalance,
+         display=lambda value: 1e3 * value, resolution=5e-4, wide=lambda p: (0.0, 60.0),
+         gross=lambda p: [0.0, 5.0, 20.0]),
 )}

@@ -18,9 +18,11 @@ Groups (``--params``): ``joints`` (gearbox stiffness of each ``*_flex`` joint), 
 damping), ``servo`` (position gain kp of each arm actuator), ``masses`` (mass of each arm link of
 5 kg or more, inertia scaled with it), ``com`` (the three components of those links' centres of
 mass, in the link's frame), ``base`` (tilt compliance of a foundation the robot is mounted on),
-``tool`` (translational and rotational stiffness of the tool-holder contact). ``tilt`` (the tilt
-compliance of each ``*_flex`` joint's bearing, :data:`OPTIONAL_GROUPS`) is asked for by name
-only: ``all`` leaves it out, so that ``--params all`` fits the model it always fitted.
+``tool`` (translational and rotational stiffness of the tool-holder contact). The model-form
+groups (:data:`OPTIONAL_GROUPS`) are asked for by name only: ``tilt`` (the tilt compliance of
+each ``*_flex`` joint's bearing), ``bending`` (the bending compliance of each link 0.5 m or
+longer after the first axis's column, lumped in two hinges at mid-length); ``all`` leaves them
+out, so that ``--params all`` fits the model it always fitted.
 
 What a parameter edits, and how, is its kind's (:data:`rmbench.robot.kinds.KINDS`): a parameter
 is data, and writing it into a model, adding the structure it needs (a foundation, a bearing's
@@ -28,7 +30,8 @@ tilt hinges) and its change of the linearised C and K are one registry entry per
 
 Structural parameters (:data:`STRUCTURAL`, ``extra=`` of :func:`parameter_set`) are in no group:
 the foundation's lateral compliance, the spindle bearings' radial and tilt stiffness, the tilt
-compliance of a joint's bearing (``JOINT.tilt_compliance``) and any body's mass. A gap diagnosis
+compliance of a joint's bearing (``JOINT.tilt_compliance``), a link's bending compliance
+(``LINK.bending_compliance``) and any body's mass. A gap diagnosis
 adds the ones a candidate effect edits and fits them with no prior
 (:meth:`ParameterSet.freed`), beside the ordinary ones: the same description and the same
 solver for every parameter.
@@ -42,8 +45,8 @@ import mujoco
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.robot.kinds import (COMPLIANCE_UNIT, DAMPING_RATIO, KINDS, RIGID, Kind, _WIDE_LOG, _WIDE_MASS,
-                                 _WIDE_COMPLIANCE, tilt_joints)
+from rmbench.robot.kinds import (_CB_UP, COMPLIANCE_UNIT, COUNTERBALANCE, DAMPING_RATIO, KINDS, RIGID, Kind, _WIDE_LOG, _WIDE_MASS,
+                                 _WIDE_COMPLIANCE, WIDE_FORM, bending_child, bending_joints, tilt_joints)
 
 __all__ = ["GROUPS", "OPTIONAL_GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet",
            "parameter_set", "parse_groups", "BASE_DAMPING_RATIO"]
@@ -51,7 +54,7 @@ __all__ = ["GROUPS", "OPTIONAL_GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Paramet
 GROUPS = ("joints", "damping", "servo", "masses", "com", "base", "tool")
 # groups asked for by name only, not in ``all``: adding one there would change what every
 # ``--params all`` calibration fits
-OPTIONAL_GROUPS = ("tilt",)
+OPTIONAL_GROUPS = ("tilt", "bending", "counterbalance")
 DEFAULT_GROUPS = ("joints", "damping", "servo", "masses")
 BASE_DAMPING_RATIO = DAMPING_RATIO     # of the foundation's tilt, against the arm's mass at 1 m
 _MIN_LINK_KG = 5.0
@@ -60,6 +63,8 @@ _MIN_LINK_KG = 5.0
 STRUCTURAL = ("base.lateral_compliance", "spindle.radial", "spindle.tilt", "tool_contact.translation",
               "tool_contact.rotation")
 _TILT = ".tilt_compliance"
+_BENDING = ".bending_compliance"
+_DISTAL = "_distal"          # a bent link's distal half: its mass is the link's, split at the nominal
 
 
 @dataclass(frozen=True)
@@ -334,7 +339,12 @@ def _structures(robot, groups, extra) -> list:
         out.append(("base", "base_mount"))
     tilted = list(_Names.of(robot).flex) if "tilt" in groups else []
     tilted += [n[:-len(_TILT)] for n in extra if n.endswith(_TILT)]
-    return out + [("tilt", j) for j in dict.fromkeys(tilted)]
+    bent = list(_Names.of(robot).bending) if "bending" in groups else []
+    bent += [n[:-len(_BENDING)] for n in extra if n.endswith(_BENDING)]
+    out += [("tilt", j) for j in dict.fromkeys(tilted)] + [("bending", b) for b in dict.fromkeys(bent)]
+    if "counterbalance" in groups:
+        out.append(("spring", robot.arm_joints[1]))
+    return out
 
 
 def _with_structure(robot, structures):
@@ -359,6 +369,7 @@ class _Names:
     flex: tuple
     servos: tuple
     links: tuple
+    bending: tuple = ()
 
     @classmethod
     def of(cls, robot) -> "_Names":
@@ -370,8 +381,13 @@ class _Names:
                        and m.joint(int(m.actuator_trnid[a, 0])).name in arm and m.actuator_gainprm[a, 0] > 0)
         links = tuple(b.name for b in spec.bodies
                       if b.name and b.explicitinertial and b.mass >= _MIN_LINK_KG and not b.name.startswith("motor")
-                      and not b.name.startswith(("spindle", "tool_", "base_mount")))
-        return cls(joints, tuple(j for j in joints if j.endswith("_flex")), servos, links)
+                      and not b.name.startswith(("spindle", "tool_", "base_mount")) and not b.name.endswith(_DISTAL))
+        # the links that bend: long ones, but not the first (a column on the first axis, whose
+        # compliance is its bearing's tilt)
+        first = m.body(int(m.jnt_bodyid[m.joint(robot.arm_joints[0]).id])).name
+        bending = tuple(b for b in links if b not in _descendants_up_to(spec, first, 2) and (
+            bending_child(spec, b) is not None or f"{bending_joints(b)[0]}" in joints))
+        return cls(joints, tuple(j for j in joints if j.endswith("_flex")), servos, links, bending)
 
 
 def _group(g: str, m, names: _Names) -> list:
@@ -399,6 +415,10 @@ def _group(g: str, m, names: _Names) -> list:
                             _carried(m, "base_mount"), "µrad/(kN·m)")]
     if g == "tilt":
         return [_tilt(f"{j}{_TILT}", g, m) for j in names.flex]
+    if g == "bending":
+        return [_bending(f"{b}{_BENDING}", g, m) for b in names.bending]
+    if g == "counterbalance":
+        return _counterbalance(g, m)
     # the tool group
     contact = [f"tool_contact_{a}" for a in ("x", "y", "rx", "ry")]
     if not all(c in names.joints for c in contact):
@@ -436,6 +456,8 @@ def _structural(robot, name: str) -> Parameter:
                            _carried(m, "base_mount"), "µm/kN")
     if name.endswith(_TILT):
         return _tilt(name, "structural", m)
+    if name.endswith(_BENDING):
+        return _bending(name, "structural", m)
     if name in ("spindle.radial", "spindle.tilt"):
         return pair("spindle", ("x", "y") if name.endswith("radial") else ("rx", "ry"), "stiffness",
                     "N/m" if name.endswith("radial") else "N·m/rad")
@@ -456,8 +478,8 @@ def _compliance(name, group, kind, targets, c0: float, carried: float, label: st
     """A compliance of nominal ``c0`` (rad/(N·m) or m/N) in units of :data:`COMPLIANCE_UNIT`, its
     prior half-normal from rigid to the freed range's end."""
     u0 = c0 / COMPLIANCE_UNIT
-    return Parameter(name, group, kind, targets, 0, c0, False, COMPLIANCE_UNIT, -u0, _WIDE_COMPLIANCE - u0,
-                     label, carried=carried)
+    return Parameter(name, group, kind, targets, 0, c0, False, COMPLIANCE_UNIT, -u0,
+                     WIDE_FORM.get(kind, _WIDE_COMPLIANCE) - u0, label, carried=carried)
 
 
 def _tilt(name: str, group: str, m) -> Parameter:
@@ -470,6 +492,50 @@ def _tilt(name: str, group: str, m) -> Parameter:
         raise InputError(f"the bearing of {joint} tilts unequally about {targets[0]} and {targets[1]}")
     return _compliance(name, group, "tilt", targets, _compliance_of(ks[0]),
                        _carried(m, m.body(int(m.jnt_bodyid[m.joint(targets[0]).id])).name), "µrad/(kN·m)")
+
+
+def _bending(name: str, group: str, m) -> Parameter:
+    """The bending compliance of the link ``name`` is of (``LINK.bending_compliance``): about the
+    two axes perpendicular to the link, both alike."""
+    targets = bending_joints(name[:-len(_BENDING)])
+    ks = [float(m.jnt_stiffness[m.joint(t).id]) for t in targets]
+    if not np.isclose(ks[0], ks[1], rtol=1e-6):
+        raise InputError(f"{name[:-len(_BENDING)]} bends unequally about {targets[0]} and {targets[1]}")
+    return _compliance(name, group, "bending", targets, _compliance_of(ks[0]),
+                       _carried(m, m.body(int(m.jnt_bodyid[m.joint(targets[0]).id])).name), "µrad/(kN·m)")
+
+
+def _counterbalance(group: str, m) -> list:
+    """A counterbalance on the second axis (:func:`~rmbench.robot.kinds.counterbalance_geometry`),
+    absent at the nominal: its stiffness, 0-20 MN/m in units of 0.1 MN/m, where its foot sits on
+    a circle about the axis (±60° from behind it, in degrees), how far up the link its head sits
+    (0.1-0.6 m, in mm about 0.35 m) and its compression at the zero
+    posture, 0-60 mm (a gas spring of 0.5-5 MN/m carries 2-20 kN: 1-40 mm); half-normal priors
+    from zero over those ranges, a normal one for the angle."""
+    if COUNTERBALANCE not in [m.tendon(t).name for t in range(m.ntendon)]:
+        raise InputError("the robot has no counterbalance tendon for the counterbalance group")
+    # the axis it balances: the joint of the body that carries the link its head is on
+    motor = int(m.body_parentid[m.site_bodyid[m.site(f"{COUNTERBALANCE}_head").id]])
+    joint = m.joint(int(m.body_jntadr[motor])).name
+    return [Parameter("counterbalance.stiffness", group, "spring", (COUNTERBALANCE,), 0, 0.0, False,
+                      1e5, 0.0, 200.0, "MN/m"),
+            # before the preload: its compression is taken from the spring's length with the foot
+            # where this puts it
+            Parameter("counterbalance.foot_angle", group, "foot", (f"{COUNTERBALANCE}_foot", joint), 0, 0.0,
+                      False, np.radians(1.0), -60.0, 60.0, "°"),
+            Parameter("counterbalance.head", group, "head", (f"{COUNTERBALANCE}_head",), 0, _CB_UP, False,
+                      1e-3, -250.0, 250.0, "mm"),
+            Parameter("counterbalance.preload", group, "preload", (COUNTERBALANCE,), 0, 0.0, False,
+                      1e-3, 0.0, 60.0, "mm")]
+
+
+def _descendants_up_to(spec, body: str, depth: int) -> set:
+    """``body`` and its descendants down to ``depth`` generations (a motor body and its link)."""
+    out, level = {body}, [spec.body(body)]
+    for _ in range(depth):
+        level = [c for b in level for c in b.bodies]
+        out |= {c.name for c in level}
+    return out
 
 
 def _base_tilt(m) -> float:

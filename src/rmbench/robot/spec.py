@@ -15,7 +15,7 @@ import numpy as np
 
 from rmbench.errors import ModelError
 
-__all__ = ["load_spec", "graft_tool", "copy_body", "spec_to_xml", "custom_numeric", "custom_text",
+__all__ = ["load_spec", "graft_tool", "copy_body", "move_body", "spec_to_xml", "custom_numeric", "custom_text",
            "set_custom_text", "TOOL_PREFIX"]
 
 TOOL_PREFIX = "tool_"
@@ -112,3 +112,26 @@ def copy_body(src, parent, prefix: str = "", pos=None, quat=None, *, strip: str 
         body.add_site(name=name(s), pos=s.pos, quat=s.quat, size=s.size, rgba=s.rgba)
     for child in src.bodies:
         copy_body(child, body, prefix, strip=strip)
+
+
+def move_body(spec: mujoco.MjSpec, body, parent, pos=None) -> None:
+    """Give ``body`` of ``spec`` (and all it carries) the new parent ``parent``, at ``pos`` in it
+    (default: its own pos, unchanged); its elements keep their names, and actuators keep their
+    joints. An ``MjSpec`` cannot reparent a body: its elements' names are first set aside, the
+    subtree copied (:func:`copy_body`) and the original deleted."""
+    old = "__moved"
+    for element in _subtree(body):
+        if element.name:
+            element.name += old
+    copy_body(body, parent, strip=old, pos=pos)
+    spec.delete(body)
+
+
+def _subtree(body):
+    """The body, its joints, geoms and sites, and those of all its descendants."""
+    yield body
+    yield from body.joints
+    yield from body.geoms
+    yield from body.sites
+    for child in body.bodies:
+        yield from _subtree(child)

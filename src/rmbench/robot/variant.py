@@ -30,7 +30,7 @@ import numpy as np
 
 from rmbench.errors import InputError, ModelError
 from rmbench.robot.load_stiffness import check_load_stiffness, set_load_stiffness
-from rmbench.robot.spec import copy_body, custom_text
+from rmbench.robot.spec import custom_text, move_body
 
 __all__ = ["Edit", "parse_edit", "apply_edit", "add_point_mass", "add_compliant_base", "make_variant", "compile_variant",
            "condensed", "with_tool_masses"]
@@ -175,12 +175,7 @@ def add_compliant_base(spec: mujoco.MjSpec, k_lateral: float, k_tilt: float, *,
             ("base_rz", mujoco.mjtJoint.mjJNT_HINGE, (0, 0, 1), k_torsion, mass)):
         base.add_joint(name=name, type=kind, axis=axis, stiffness=[k, 0, 0],
                        damping=[2 * damping_ratio * np.sqrt(k * m_eff), 0, 0])
-    old = "__moved"
-    for element in _subtree(arm):
-        if element.name:
-            element.name += old
-    copy_body(arm, base, strip=old)
-    spec.delete(arm)
+    move_body(spec, arm, base)
 
 
 def compile_variant(spec, robot, load_stiffness=None) -> mujoco.MjModel:
@@ -246,16 +241,6 @@ def make_variant(robot, edits=(), *, masses=(), compliant_base=None, load_stiffn
     previous = custom_text(spec, "rmbench_variant")
     set_custom_text(spec, "rmbench_variant", "; ".join(([previous] if previous else []) + log))
     return spec_to_xml(spec)
-
-
-def _subtree(body):
-    """The body, its joints, geoms and sites, and those of all its descendants."""
-    yield body
-    yield from body.joints
-    yield from body.geoms
-    yield from body.sites
-    for child in body.bodies:
-        yield from _subtree(child)
 
 
 def _find(elements, name):
