@@ -1,10 +1,11 @@
 """Specification of the regularised least squares every calibration shares (FRF and tracker data):
-a maximum a posteriori fit with a Gaussian prior per parameter, bounds, and its posterior account."""
+a maximum a posteriori fit with a Gaussian prior per parameter, bounds, an optional robust loss, and
+its posterior account."""
 
 import numpy as np
 import pytest
 
-from rmbench.calibrate.solver import Bounds, SolverOptions, identifiability, posterior, solve
+from rmbench.calibrate.solver import Bounds, SolverOptions, huber, identifiability, posterior, solve
 
 
 def _linear(a, y):
@@ -60,3 +61,30 @@ def test_a_model_short_of_the_noise_widens_its_intervals_by_the_reduced_chi2():
     np.testing.assert_allclose(misfit.sd, 2.0 * fits.sd)
     # identifiability is what the data say, not how well the model fits them
     np.testing.assert_allclose(misfit.ratio, fits.ratio)
+
+
+def test_hubers_residuals_are_the_residuals_within_the_threshold_and_linear_cost_beyond():
+    r = np.array([-10.0, -3.0, 0.5, 2.9, 40.0])
+    out, d = huber(r, 3.0)
+    np.testing.assert_array_equal(out[1:4], r[1:4])
+    np.testing.assert_array_equal(d[1:4], 1.0)
+    # beyond the threshold the cost is 2c|r| − c², and the residual keeps its sign
+    np.testing.assert_allclose(out[[0, 4]] ** 2, 2 * 3.0 * np.abs(r[[0, 4]]) - 9.0)
+    assert out[0] < 0 < out[4]
+    # and the derivative is that of the transformed residual: d r̃/dr = c / |r̃|
+    eps = 1e-6
+    np.testing.assert_allclose(d[[0, 4]], (huber(r + eps, 3.0)[0] - huber(r - eps, 3.0)[0])[[0, 4]] / (2 * eps),
+                               rtol=1e-6)
+
+
+def test_one_gross_error_pulls_a_robust_fit_as_little_as_one_at_the_threshold():
+    # the mean of 20 readings of 1.0 and one of 100: least squares moves by 99/21 ≈ 4.7, Huber's
+    # loss (threshold 3) by the threshold's share, 3/20 = 0.15
+    y = np.concatenate([np.ones(20), [100.0]])
+    a = np.ones((21, 1))
+    plain = solve(*_linear(a, y), np.zeros(1), prior_sd=[np.inf], options=SolverOptions(max_nfev=50))
+    robust = solve(*_linear(a, y), np.zeros(1), prior_sd=[np.inf], options=SolverOptions(max_nfev=50, robust=3.0))
+    assert plain.x[0] == pytest.approx(100 / 21 + 20 / 21, rel=1e-4)
+    assert robust.x[0] == pytest.approx(1.15, abs=1e-3)
+    # χ² is the data's own, unchanged by the loss
+    assert robust.chi2 == pytest.approx(20 * 0.15 ** 2 + 98.85 ** 2, rel=1e-4)
