@@ -5,8 +5,10 @@ and the full modes at Table B1's posture (``rmbench/gap/data/seed000_irb6660.csv
 posture is held out in turn (leave one posture out; Table B1's posture always stays in), the other
 three calibrate the model, and the held-out modes score it: per mode, the frequency error before
 and after, averaged over the same modes (those paired in both models; each average over its own
-paired set is printed beside it, as this bench reported before issue 79). Run for two parameter sets (the default four groups, and with the centres of mass,
-whose lateral components can make the robot asymmetric) and under both readings of posture 1's y
+paired set is printed beside it, as this bench reported before issue 79). Run for three parameter
+sets (the default four groups; with the centres of mass, whose lateral components can make the robot
+asymmetric; and with the model-form groups tilt, bending and counterbalance, issue 80) and under
+both readings of posture 1's y
 (the table's minus sign was lost in extraction: −200 mm, the reading the project uses, or +200 mm,
 which puts two different measurements at one posture).
 
@@ -15,7 +17,8 @@ Also reported: the first mode at the mirror postures (1800, ∓200, 0) — measu
 cannot determine.
 
 Writes ``bench/results/calibrate_real.json``; last line
-``{"real_f_mean_before", "real_f_mean_after", "mirror_hz", ...}`` (the default groups, reading −200).
+``{"real_f_mean_before", "real_f_mean_after", "mirror_hz", "real_same_modes_after", ...}`` (the
+default groups, reading −200; ``real_same_modes_after`` the form groups', reading −200).
 
 usage: python bench/calibrate_real.py [--workers 2]
 """
@@ -37,7 +40,9 @@ from rmbench.robot import Posture, Robot  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 GROUPS = {"default": ("joints", "damping", "servo", "masses"),
-          "with_com": ("joints", "damping", "servo", "masses", "com")}
+          "with_com": ("joints", "damping", "servo", "masses", "com"),
+          # issue 80: the model-form groups beside the default ones
+          "form": ("joints", "damping", "servo", "masses", "tilt", "bending", "counterbalance")}
 
 
 def folds(robot, data, groups, workers) -> dict:
@@ -119,12 +124,17 @@ def main(argv=None) -> None:
         "f_mean_after": out["y-200_default"]["f_mean_after"]}}, indent=1))
     d = out["y-200_default"]
     c = out["y-200_with_com"]
+    f = out["y-200_form"]
     print(json.dumps({"real_f_mean_before": d["f_mean_before"], "real_f_mean_after": d["f_mean_after"],
                       "real_same_modes": d["same_modes"],
                       "real_f_mean_after_with_com": c["f_mean_after"],
                       "real_f_mean_after_plus200": out["y+200_default"]["f_mean_after"],
                       "mirror_hz": {k: v["calibrated_first_hz"] for k, v in d["all_four"]["mirror"].items()},
-                      "mirror_hz_with_com": {k: v["calibrated_first_hz"] for k, v in c["all_four"]["mirror"].items()}}))
+                      "mirror_hz_with_com": {k: v["calibrated_first_hz"] for k, v in c["all_four"]["mirror"].items()},
+                      "real_same_modes_after": f["f_mean_after"], "real_same_modes_form": f["same_modes"],
+                      "real_same_modes_form_before": f["f_mean_before"],
+                      "real_form_plus200": out["y+200_form"]["f_mean_after"],
+                      "mirror_hz_form": {k: v["calibrated_first_hz"] for k, v in f["all_four"]["mirror"].items()}}))
 
 
 if __name__ == "__main__":

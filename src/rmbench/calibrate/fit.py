@@ -42,7 +42,7 @@ from rmbench.threads import one_blas_thread
 
 # Calibration, ParameterEstimate, mode_errors, error_summary (rmbench.calibrate.result) and the
 # identifiability thresholds are re-exported: callers import them from here
-__all__ = ["CalibrationSettings", "ParameterEstimate", "Calibration", "calibrate", "linearisation",
+__all__ = ["CalibrationSettings", "ParameterEstimate", "Calibration", "calibrate", "linearisation", "model_of",
            "mode_errors", "error_summary", "IDENTIFIABLE", "WEAK"]
 
 
@@ -185,6 +185,15 @@ def linearisation(robot, data, u, postures, settings: CalibrationSettings = Cali
         blocks[key] = (r[at:at + size], j[at:at + size])
         at += size
     return blocks, np.asarray(u, float) / sigma, tuple(params.names)
+
+
+def model_of(robot, data, settings: CalibrationSettings = CalibrationSettings()) -> ModalModel:
+    """The model a calibration of the nominal ``robot`` to ``data`` with ``settings`` fits (its
+    groups' and extra parameters, freed ones widened), at every posture of ``data``."""
+    rob, params = _parameters(robot, settings)
+    if settings.free:
+        params = params.freed(settings.free)
+    return ModalModel(rob, params, data.design, np.array([robot.ik(p).q for p in data.postures]), data.bands)
 
 
 def _fit(robot, data, held, settings, start, say) -> Calibration:

@@ -76,6 +76,7 @@ def _spread(data, k: int) -> list[int]:
 
 def cmd_calibrate(args) -> int:
     from rmbench.calibrate import CalibrationSettings, calibrate
+    from rmbench.calibrate.form import check_calibration
     from rmbench.robot.parameters import parse_groups
 
     groups = parse_groups(args.params)
@@ -89,9 +90,10 @@ def cmd_calibrate(args) -> int:
                          "carries none")
     held = _spread(data, args.heldout)
     say = None if args.json else (lambda msg: print(msg, flush=True))
-    cal = calibrate(robot, data, held=held, settings=CalibrationSettings(groups=groups, workers=args.workers,
-                                                                     frf=args.frf),
-                    progress=say)
+    settings = CalibrationSettings(groups=groups, workers=args.workers, frf=args.frf)
+    cal = calibrate(robot, data, held=held, settings=settings, progress=say)
+    # whether the ordinary parameters explain the held-out postures, or the model's form is wrong
+    form = check_calibration(robot, data, cal, settings)
     files = {}
     if out is not None:
         params_csv = out.with_name(out.stem + "_params.csv")
@@ -107,9 +109,12 @@ def cmd_calibrate(args) -> int:
         _report(cal, data, robot, report)
         files["report"] = str(report)
     if args.json:
-        print_json({**cal.to_json(), "files": files, "robot": robot.name, "data": data.source})
+        print_json({**cal.to_json(), "form": None if form is None else form.to_dict(), "files": files,
+                    "robot": robot.name, "data": data.source})
         return 0
     _print(cal)
+    if form is not None:
+        print(form.summary())
     for kind, path in files.items():
         print(f"wrote {path}" + (f"; use it with --robot {path}" if kind == "model" else ""))
     return 0

@@ -130,6 +130,10 @@ def cmd_diagnose(args) -> int:
     print(f"verdict: {dg.verdict} ({'calibrated' if dg.calibration is not None else 'nominal'} model's gap: "
           f"χ² {dg.nominal_chi2:.0f} over {dg.n_residuals} normalised residuals)")
     print(f"where: {dg.localisation}")
+    if dg.form is not None:
+        f = dg.form
+        print(f"form: {'wrong' if f['flagged'] else 'consistent'} at the held-out postures (frequencies χ² "
+              f"{f['chi2']:.4g} on {f['n']} modes, p {f['p']:.2g}, {f['beyond']} beyond 3σ)")
     for i, e in enumerate(dg.effects[:8]):
         mark = "*" if e.chosen else " "
         print(f" {mark}{i + 1}. {e.name}: {e.description}; held-out gap {e.heldout_before['gap']:.3g} -> "

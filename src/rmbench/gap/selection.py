@@ -28,9 +28,10 @@ from rmbench.errors import InputError
 __all__ = ["Verdict", "VERDICTS", "SearchSettings", "significant", "bic", "selection_weights", "confidences",
            "bootstrap_shrink", "parallel_groups"]
 
-Verdict = Literal["explained", "unexplained", "no significant gap"]
-"""What a diagnosis concludes: a model of the library explains the gap, none does, or the data
-show no gap beyond the noise."""
+Verdict = Literal["explained", "unexplained", "model form", "no significant gap"]
+"""What a diagnosis concludes: a model of the library explains the gap; none does; none does and the
+calibrated model's form is wrong (its ordinary parameters cannot explain the held-out
+frequencies, :mod:`rmbench.calibrate.form`); or the data show no gap beyond the noise."""
 
 VERDICTS: tuple = get_args(Verdict)
 

@@ -4,7 +4,7 @@ the gap shrinks once the effect is in the model (METHODS.md §11).
 ::
 
     dg = diagnose("irb6660", "measured.nc")           # or a UFF58 directory, or a Dataset
-    dg.verdict                                         # "explained" | "unexplained" | "no significant gap"
+    dg.verdict                     # "explained" | "unexplained" | "model form" | "no significant gap"
     dg.effects[0].name, dg.effects[0].shrink          # best first, held-out shrink of the gap
     dg.where.describe()                                # the nominal model's gap, by mode
     dg.save("diagnosis/")                              # figures, tables, the updated variant MJCF
@@ -90,7 +90,48 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
         from rmbench.gap.frf.confirmed import confirmed
 
         dg = confirmed(dg, problem, first, settings, say, t)
-    return dg
+    return with_form(dg, problem, first, say)
+
+
+def with_form(dg, problem, first, say):
+    """``dg`` with the first calibration's lack-of-fit test (:mod:`rmbench.calibrate.form`), and
+    the verdict "model form" where the test fails and no effect explains the gap: the ordinary
+    parameters cannot explain the held-out frequencies, whether or not the FRF noise test saw a
+    gap (a robot that rocks on its base can miss every mode by ten times the modal fit's error,
+    each residual below the FRF test's floors)."""
+    from rmbench.calibrate.form import check_calibration
+
+    t0 = time.perf_counter()
+    form = check_calibration(problem.robot, first.data, first.cal, first.settings)
+    if form is None:
+        return dg
+    say(form.summary())
+    verdict = "model form" if form.flagged and dg.verdict != "explained" else dg.verdict
+    notes, out, localisation = dg.notes, form.to_dict(), dg.localisation
+    if verdict != dg.verdict:
+        notes += (f"{form.summary()}: the verdict was {dg.verdict!r}",)
+    if verdict == "model form":
+        where = _located(problem, first)
+        say(where.summary())
+        out["located"] = where.to_dict()
+        localisation = f"{where.summary()}; {localisation}" if localisation else where.summary()
+    took = round(time.perf_counter() - t0, 3)
+    seconds = {**dg.seconds, "form": took, "total": round(dg.seconds.get("total", 0.0) + took, 3)}
+    return replace(dg, form=out, verdict=verdict, notes=notes, seconds=seconds, localisation=localisation)
+
+
+def _located(problem, first):
+    """Where the gap lies on the first calibration's model (:func:`rmbench.gap.frf.locate.locate`),
+    its postures as the calibration saw them: the training ones first, then the held-out."""
+    from rmbench.gap.frf.joint import Ordinary
+    from rmbench.gap.frf.locate import locate
+
+    order = list(problem.train) + list(problem.held)
+    blocks = {(i, b): first.ordinary.blocks[(p, b)] for i, p in enumerate(order) for b in first.data.bands
+              if (p, b) in first.ordinary.blocks}
+    n_train = len(problem.train)
+    return locate(first.robot, first.data, range(n_train), range(n_train, len(order)),
+                  Ordinary(blocks, first.ordinary.z, first.ordinary.names), first.settings)
 
 
 @one_blas_thread

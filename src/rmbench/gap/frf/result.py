@@ -69,7 +69,7 @@ class Diagnosis:
     Attributes
     ----------
     verdict : Verdict
-        ``"explained"``, ``"unexplained"`` or ``"no significant gap"``.
+        ``"explained"``, ``"unexplained"``, ``"model form"`` or ``"no significant gap"``.
     effects : tuple of EffectResult
         Best first: the chosen model's effects, then the other candidates by held-out score.
     where : GapMap
@@ -108,6 +108,10 @@ class Diagnosis:
     confirmation : dict or None
         With ``settings.confirm``: the null recalibration and each confirmed candidate's held-out
         χ², noise test and shrink against the null (:mod:`rmbench.gap.frf.confirm`).
+    form : dict or None
+        With ``settings.calibrate``: the calibrated model's lack-of-fit test at the held-out
+        postures (:meth:`rmbench.calibrate.form.FormCheck.to_dict`); where it fails and no effect
+        explains the gap, the verdict is "model form".
     """
 
     verdict: Verdict
@@ -129,6 +133,7 @@ class Diagnosis:
     calibration: dict | None = None
     calibrated_xml: str | None = None
     confirmation: dict | None = None
+    form: dict | None = None
 
     def __post_init__(self):
         if self.verdict not in VERDICTS:
@@ -145,7 +150,7 @@ class Diagnosis:
                 "nominal_peak_residual": self.nominal_peak,
                 "design_changes": list(self.design_changes),
                 "variant": variant_path, "seconds": self.seconds, "notes": list(self.notes),
-                "calibration": self.calibration, "confirmation": self.confirmation}
+                "calibration": self.calibration, "confirmation": self.confirmation, "form": self.form}
 
     def to_json(self, variant_path: str | None = None) -> dict:
         """:meth:`to_dict` (the name the CLI and older callers use)."""
@@ -162,6 +167,10 @@ class Diagnosis:
             lines.append(f"{'chosen' if e.chosen else 'candidate'} {e.name}: {e.description}; held-out shrink "
                          f"{e.shrink:.2f} [{lo:.2f}, {hi:.2f}], confidence {e.confidence:.2f}")
         lines.append(f"where: {self.localisation}")
+        if self.form is not None:
+            f = self.form
+            lines.append(f"form: {'wrong' if f['flagged'] else 'consistent'} at the held-out postures "
+                         f"(frequencies χ² {f['chi2']:.4g} on {f['n']} modes, p {f['p']:.2g}, {f['beyond']} beyond 3σ)")
         return "\n".join(lines)
 
     def plot(self, ax=None):

@@ -1,0 +1,200 @@
+"""Where a gap lies when no effect of the library names it: generic local augmentations of the
+calibrated model, each fitted with the ordinary parameters following, ranked by how much of the
+held-out gap it removes.
+
+The augmentations are the physics every robot of this class has somewhere and no data sheet
+states, one compliance at a time (:mod:`rmbench.robot.kinds`):
+
+- a **tilt** at each gearbox joint: a compliance about the two axes normal to the joint's (its
+  bearing, or whatever bends across the joint);
+- a **bending** of each long link: its distal half on a compliance about the two axes normal to
+  the link.
+
+Each candidate ``c`` enters the calibrated model at zero (rigid) and is fitted to first order on
+the training postures together with the ordinary parameters (as :mod:`rmbench.gap.frf.joint`
+fits a library effect: ``δz`` eliminated in closed form, the prior on it kept), its size at least
+zero. It is scored on the held-out postures with that fit, never refitted: the share of the
+held-out rms gap it removes against the same fit without it (``shrink``), and a weight ``exp(−χ²_held / 2)``
+over the candidates (Akaike-like: each adds one parameter). The result says where and what, not
+a name: "a compliance across j2", "lower_arm bending". A gap no candidate reduces (a resonance, a
+sensor) stays where it is: the localisation then says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Place", "Localisation", "candidates", "locate"]
+
+
+@dataclass(frozen=True)
+class Place:
+    """One generic augmentation, fitted.
+
+    Attributes
+    ----------
+    name : str
+        Its parameter (``j2_flex.tilt_compliance``, ``lower_arm.bending_compliance``).
+    where : str
+        The joint or link it acts at.
+    acts_like : str
+        What it is, in words.
+    size : float
+        Fitted compliance, rad/(N·m) (first order, from rigid).
+    shrink : float
+        Share of the calibrated model's held-out rms gap it removes (may be negative).
+    weight : float
+        Its evidence weight over the candidates (sums to 1).
+    """
+
+    name: str
+    where: str
+    acts_like: str
+    size: float
+    shrink: float
+    weight: float
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "where": self.where, "acts_like": self.acts_like, "size": self.size,
+                "shrink": self.shrink, "weight": self.weight}
+
+
+@dataclass(frozen=True)
+class Localisation:
+    """The ranked places of a gap.
+
+    Attributes
+    ----------
+    places : tuple of Place
+        Best first (lowest held-out χ²).
+    chi2_held : float
+        The held-out χ² of the calibrated model's residual with the ordinary parameters refitted
+        to first order and no candidate: the baseline each place's shrink is taken against.
+    """
+
+    places: tuple
+    chi2_held: float
+
+    @property
+    def found(self) -> bool:
+        """Whether the best place removes at least a quarter of the held-out rms gap."""
+        return bool(self.places) and self.places[0].shrink >= _FOUND
+
+    def summary(self) -> str:
+        """One line: where, what, how much, how sure."""
+        if not self.places:
+            return "no place to test"
+        p = self.places[0]
+        if not self.found:
+            return (f"no single compliance of a joint or link explains it (the best, {p.acts_like}, removes "
+                    f"{100 * p.shrink:.0f} % of the held-out gap): a resonance, a sensor or a distributed error")
+        return (f"localised at {p.where}: acts like {p.acts_like} of {p.size / 1e-9:.0f} µrad/(kN·m), removing "
+                f"{100 * p.shrink:.0f} % of the held-out gap (confidence {p.weight:.2f})")
+
+    def to_dict(self) -> dict:
+        return {"found": self.found, "summary": self.summary(), "chi2_held": self.chi2_held,
+                "places": [p.to_dict() for p in self.places]}
+
+
+_FOUND = 0.25       # a place that removes less of the held-out rms gap localises nothing
+_STEP = 20.0        # finite-difference step of a candidate compliance, µrad/(kN·m)
+
+
+def candidates(robot) -> tuple:
+    """The augmentations' parameter names for ``robot``: a tilt at each gearbox joint, a bending
+    of each long link (:mod:`rmbench.robot.parameters`' ``tilt`` and ``bending`` groups)."""
+    from rmbench.robot.parameters import parameter_set
+
+    _, params = parameter_set(robot, ("tilt", "bending"))
+    return tuple(params.names)
+
+
+def _words(name: str) -> tuple[str, str]:
+    target, field = name.split(".", 1)
+    if field == "tilt_compliance":
+        joint = target.removesuffix("_flex")
+        return joint, f"a compliance across {joint} (about the two axes normal to its own)"
+    return target, f"{target} bending (its distal half turning about the two axes normal to it)"
+
+
+def locate(calibrated, data, train, held, ordinary, settings) -> Localisation:
+    """Rank the generic augmentations of a calibrated model by the held-out gap each removes.
+
+    Parameters
+    ----------
+    calibrated : Robot
+        The calibrated model (the ordinary parameters at their fitted values).
+    data : ModalData
+        The measured modes, every posture the calibration saw or held out.
+    train, held : sequence of int
+        Posture indices into ``data``.
+    ordinary : Ordinary
+        The ordinary parameters linearised at the calibration (:class:`~rmbench.gap.frf.joint.Ordinary`),
+        keyed by posture index into ``data``.
+    settings : CalibrationSettings
+        The calibration's (its residual's step and workers).
+    """
+    from rmbench.calibrate.model import ModalModel
+    from rmbench.calibrate.problem import Problem
+    from rmbench.robot.parameters import ParameterSet, parameter_set
+
+    names = candidates(calibrated)
+    rob, params = parameter_set(calibrated, ("tilt", "bending"))
+    cands = ParameterSet([p for p in params if p.name in names])
+    q = np.array([calibrated.ik(p).q for p in data.postures])
+    mm = ModalModel(rob, cands, data.design, q, data.bands)
+    problem = Problem(mm, data, list(train) + list(held), settings)
+    # forward differences of whole solutions: at rigid, a compliance's hinge does not move in any
+    # mode, so the first-order (matrix) sensitivity the calibration uses reads zero there
+    steps = _STEP * np.ones(len(cands))
+    try:
+        base = np.zeros(len(cands))
+        stepped = [base + h * np.eye(len(cands))[i] for i, h in enumerate(steps)]
+        e, *rest = problem.residuals_many([base] + stepped)
+    finally:
+        problem.close()
+    g = np.column_stack([(r - e) / h for r, h in zip(rest, steps)])
+    k = len(ordinary.z)
+    rows_train, rows_held, J = [], [], []
+    at = 0
+    for (p, b), size in zip(problem.keys, problem.sizes):
+        block = ordinary.blocks.get((p, b))
+        J.append(block if block is not None and block.shape[0] == size else np.zeros((size, k)))
+        (rows_train if p in set(train) else rows_held).extend(range(at, at + size))
+        at += size
+    J = np.vstack(J)
+    tr, he = np.array(rows_train, int), np.array(rows_held, int)
+    gram = J[tr].T @ J[tr] + np.eye(k)
+    # the baseline: the same first-order fit with no candidate (the ordinary parameters alone
+    # follow), so that each candidate is judged by what it adds, not by the linearisation's drift
+    _, chi2_before = _fit_one(e, J, np.zeros(len(e)), ordinary.z, gram, tr, he)
+    places = []
+    for c, name in enumerate(names):
+        size, chi2_after = _fit_one(e, J, g[:, c], ordinary.z, gram, tr, he)
+        where, words = _words(name)
+        shrink = 1 - np.sqrt(chi2_after / chi2_before) if chi2_before > 0 else 0.0
+        places.append((chi2_after, Place(name, where, words, size * cands.params[c].unit, float(shrink), 0.0)))
+    places.sort(key=lambda x: x[0])
+    chi2 = np.array([x[0] for x in places])
+    w = np.exp(-(chi2 - chi2.min()) / 2)
+    w /= w.sum()
+    ranked = tuple(Place(p.name, p.where, p.acts_like, p.size, p.shrink, float(wi)) for (_, p), wi in zip(places, w))
+    return Localisation(ranked, chi2_before)
+
+
+def _fit_one(e, J, g, z, gram, tr, he) -> tuple[float, float]:
+    """``(θ, held-out χ²)`` of one candidate column ``g`` (per unit of its ``u``) fitted with the
+    ordinary parameters following to first order, ``θ ≥ 0``: the training residual
+    ``[e + J δz + g θ ; z + δz]`` is linear in ``(δz, θ)``, so ``δz`` is eliminated in closed form
+    and ``θ`` is a one-dimensional least squares."""
+    Jt = J[tr]
+    # δz(θ) = a + b θ
+    a = -np.linalg.solve(gram, Jt.T @ e[tr] + z)
+    b = -np.linalg.solve(gram, Jt.T @ g[tr])
+    r0 = np.concatenate([e[tr] + Jt @ a, z + a])
+    r1 = np.concatenate([g[tr] + Jt @ b, b])
+    theta = max(0.0, -float(r0 @ r1) / float(r1 @ r1)) if r1 @ r1 > 0 else 0.0
+    res = e[he] + J[he] @ (a + b * theta) + g[he] * theta
+    return theta, float(res @ res)
