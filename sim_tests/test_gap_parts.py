@@ -337,7 +337,7 @@ def test_a_diagnosis_reads_as_a_few_lines_and_its_json_is_unchanged_by_the_alias
     dg = Diagnosis(verdict="explained", effects=(effect,), where=where, where_after=None, localisation="j3",
                    equivalent=(), nominal_chi2=10.0, n_residuals=5, nominal_peak=3.0, variant_xml=None,
                    design_changes=(), train=(), held=(), models=(), seconds={})
-    assert VERDICTS == ("explained", "unexplained", "no significant gap")
+    assert VERDICTS == ("explained", "unexplained", "model form", "no significant gap")
     assert dg.summary().splitlines()[1].startswith("chosen joint_stiffness@j3_flex")
     assert dg.to_json("v.xml") == dg.to_dict("v.xml")
     with pytest.raises(ValueError, match="unknown verdict 'maybe'"):
