@@ -4,6 +4,7 @@ cannot explain the held-out frequencies and no effect of the library explains th
 says the model's form is wrong, whatever the FRF noise test said; an explained gap stays explained."""
 
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from types import SimpleNamespace
 
 import pytest
@@ -106,3 +107,23 @@ def test_model_form_says_where_it_lies(bent_campaign):
     located = dg.form["located"]
     assert located["places"][0]["where"] == "lower_arm" and located["found"]
     assert dg.localisation.startswith("localised at lower_arm")
+
+
+def test_the_figure_draws_where_model_form_lies_on_the_robot(bent_campaign, tmp_path):
+    from rmbench.gap.plot import plot_location
+
+    dg = with_form(_diagnosis("unexplained"), *bent_campaign, say=lambda msg: None)
+    path = plot_location(dg.form["located"], tmp_path / "form_location.png")
+    assert path.exists() and path.stat().st_size > 10_000      # a drawn figure, not an empty canvas
+
+
+def test_the_report_draws_where_model_form_lies(bent_campaign):
+    from rmbench.gap.frf.where import GapMap
+    from rmbench.report import Page
+    from rmbench.report.gap import gap_sections
+
+    dg = with_form(replace(_diagnosis("unexplained"), where=GapMap([], [], [])), *bent_campaign, say=lambda msg: None)
+    page = Page("form", {})
+    gap_sections(page, dg)
+    html = page.html()
+    assert "Model form: where the gap lies" in html and "lower_arm bending" in html

@@ -18,7 +18,7 @@ import numpy as np
 from rmbench.errors import InputError
 from rmbench.report.page import Page, arr, label
 
-__all__ = ["gap_sections", "read_diagnosis", "diagnosis_document"]
+__all__ = ["gap_sections", "read_diagnosis", "diagnosis_document", "form_section"]
 
 
 def diagnosis_document(dg) -> dict:
@@ -118,8 +118,38 @@ def _frf(page, doc) -> None:
         sec.text("Indistinguishable on these data: " + "; ".join(" = ".join(g) for g in doc["equivalent"]))
     for n in doc.get("notes", []):
         sec.text(str(n))
+    if (doc.get("form") or {}).get("located"):
+        form_section(page, doc["form"])
     if doc.get("modes"):
         _mode_maps(page, doc["modes"], doc.get("modes_after"))
+
+
+def form_section(page: Page, form: dict) -> None:
+    """Where a "model form" gap lies, on the robot seen from the side: its links grey, each
+    place's joint (a dot) or link (a thick segment) red by the share of the held-out gap it removes.
+    ``form``: :meth:`rmbench.calibrate.form.FormCheck.to_dict` with ``located``
+    (:meth:`rmbench.gap.frf.locate.Localisation.to_dict`)."""
+    located = form["located"]
+    sec = page.section("Model form: where the gap lies", str(located.get("summary", "")))
+    traces = [{"type": "scatter", "mode": "lines", "x": [x0, x1], "y": [z0, z1], "showlegend": False,
+               "hoverinfo": "skip", "line": {"color": "#aaa", "width": 5}} for x0, z0, x1, z1 in located.get("links", [])]
+    places = located.get("places", [])[:6]
+    best = max([_num(p.get("shrink"), 0.0) for p in places] + [1e-12])
+    for p in places[::-1]:
+        pts = np.asarray(p.get("at") or [], float).reshape(-1, 2)
+        if not len(pts):
+            continue
+        share = max(_num(p.get("shrink"), 0.0), 0.0) / best
+        colour = f"rgba(214, 39, 40, {0.2 + 0.8 * share:.2f})"
+        text = f"{p['where']}: {p['acts_like']}, removes {100 * _num(p.get('shrink')):.0f} % of the held-out gap"
+        traces.append({"type": "scatter", "mode": "markers" if len(pts) == 1 else "lines", "name": str(p["where"]),
+                       "x": pts[:, 0].tolist(), "y": pts[:, 1].tolist(), "text": [text] * len(pts),
+                       "hoverinfo": "text", "marker": {"size": 10 + 14 * share, "color": colour},
+                       "line": {"color": colour, "width": 4 + 10 * share}})
+    sec.figure({"data": traces, "layout": {"height": 420, "xaxis": {"title": {"text": "x (m)"}},
+                                           "yaxis": {"title": {"text": "z (m)"}, "scaleanchor": "x"}}},
+               caption=(f"The calibrated model at the zero posture, from the side. Held-out frequencies: χ² "
+                        f"{_num(form.get('chi2')):.4g} on {form.get('n')} modes, p {_num(form.get('p')):.2g}."))
 
 
 def _mode_table(rows):

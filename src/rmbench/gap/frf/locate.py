@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Place", "Localisation", "candidates", "locate"]
+__all__ = ["Place", "Localisation", "candidates", "locate", "locate_calibration"]
 
 
 @dataclass(frozen=True)
@@ -47,6 +47,9 @@ class Place:
         Share of the calibrated model's held-out rms gap it removes (may be negative).
     weight : float
         Its evidence weight over the candidates (sums to 1).
+    at : tuple of tuple of float
+        Where it is drawn, (x, z) in m at the zero posture: the joint's axis point, or the link's
+        two ends.
     """
 
     name: str
@@ -55,10 +58,11 @@ class Place:
     size: float
     shrink: float
     weight: float
+    at: tuple = ()
 
     def to_dict(self) -> dict:
         return {"name": self.name, "where": self.where, "acts_like": self.acts_like, "size": self.size,
-                "shrink": self.shrink, "weight": self.weight}
+                "shrink": self.shrink, "weight": self.weight, "at": [list(a) for a in self.at]}
 
 
 @dataclass(frozen=True)
@@ -72,10 +76,14 @@ class Localisation:
     chi2_held : float
         The held-out χ² of the calibrated model's residual with the ordinary parameters refitted
         to first order and no candidate: the baseline each place's shrink is taken against.
+    links : tuple of tuple of float
+        The robot's links at the zero posture seen from the side, ``(x0, z0, x1, z1)`` in m: what
+        a figure draws the places on.
     """
 
     places: tuple
     chi2_held: float
+    links: tuple = ()
 
     @property
     def found(self) -> bool:
@@ -95,11 +103,13 @@ class Localisation:
 
     def to_dict(self) -> dict:
         return {"found": self.found, "summary": self.summary(), "chi2_held": self.chi2_held,
-                "places": [p.to_dict() for p in self.places]}
+                "places": [p.to_dict() for p in self.places], "links": [list(x) for x in self.links]}
 
 
 _FOUND = 0.25       # a place that removes less of the held-out rms gap localises nothing
 _STEP = 20.0        # finite-difference step of a candidate compliance, µrad/(kN·m)
+_REFINE = 3         # candidates evaluated again on whole solutions
+_TRIAL = (50.0, 200.0, 800.0)     # their sizes where the first order says none, µrad/(kN·m)
 
 
 def candidates(robot) -> tuple:
@@ -153,9 +163,15 @@ def locate(calibrated, data, train, held, ordinary, settings) -> Localisation:
         base = np.zeros(len(cands))
         stepped = [base + h * np.eye(len(cands))[i] for i, h in enumerate(steps)]
         e, *rest = problem.residuals_many([base] + stepped)
+        g = np.column_stack([(r - e) / h for r, h in zip(rest, steps)])
+        return _ranked(problem, e, g, names, cands, ordinary, train, calibrated)
     finally:
         problem.close()
-    g = np.column_stack([(r - e) / h for r, h in zip(rest, steps)])
+
+
+def _ranked(problem, e, g, names, cands, ordinary, train, calibrated) -> Localisation:
+    """Each candidate fitted to first order, the best :data:`_REFINE` again on whole solutions
+    along their first-order direction, ranked by held-out χ²."""
     k = len(ordinary.z)
     rows_train, rows_held, J = [], [], []
     at = 0
@@ -170,18 +186,81 @@ def locate(calibrated, data, train, held, ordinary, settings) -> Localisation:
     # the baseline: the same first-order fit with no candidate (the ordinary parameters alone
     # follow), so that each candidate is judged by what it adds, not by the linearisation's drift
     _, chi2_before = _fit_one(e, J, np.zeros(len(e)), ordinary.z, gram, tr, he)
+    fits = [_fit_one(e, J, g[:, c], ordinary.z, gram, tr, he) for c in range(len(names))]
+    for c in np.argsort([chi2 for _, chi2 in fits])[:_REFINE]:
+        fits[c] = _refined(problem, c, fits[c][0], len(names), J, ordinary.z, gram, tr, he)
     places = []
-    for c, name in enumerate(names):
-        size, chi2_after = _fit_one(e, J, g[:, c], ordinary.z, gram, tr, he)
-        where, words = _words(name)
+    for c, (size, chi2_after) in enumerate(fits):
+        where, words = _words(names[c])
         shrink = 1 - np.sqrt(chi2_after / chi2_before) if chi2_before > 0 else 0.0
-        places.append((chi2_after, Place(name, where, words, size * cands.params[c].unit, float(shrink), 0.0)))
+        places.append((chi2_after, Place(names[c], where, words, size * cands.params[c].unit, float(shrink), 0.0)))
     places.sort(key=lambda x: x[0])
     chi2 = np.array([x[0] for x in places])
     w = np.exp(-(chi2 - chi2.min()) / 2)
     w /= w.sum()
-    ranked = tuple(Place(p.name, p.where, p.acts_like, p.size, p.shrink, float(wi)) for (_, p), wi in zip(places, w))
-    return Localisation(ranked, chi2_before)
+    links, at = _side_view(calibrated.model)
+    ranked = tuple(Place(p.name, p.where, p.acts_like, p.size, p.shrink, float(wi), at.get(p.where, ()))
+                   for (_, p), wi in zip(places, w))
+    return Localisation(ranked, chi2_before, links)
+
+
+def _side_view(model) -> tuple[tuple, dict]:
+    """The links of ``model`` at its zero posture seen from the side, ``(x0, z0, x1, z1)`` each
+    (m), and where each joint (``jN``: its axis point) and body (its origin and its first child's)
+    lies, ``{name: ((x, z), ...)}``."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    links, at = [], {}
+    for b in range(1, model.nbody):
+        parent = int(model.body_parentid[b])
+        if parent > 0:
+            links.append((float(data.xpos[parent, 0]), float(data.xpos[parent, 2]),
+                          float(data.xpos[b, 0]), float(data.xpos[b, 2])))
+        children = [c for c in range(model.nbody) if model.body_parentid[c] == b]
+        if children:
+            at[model.body(b).name] = ((float(data.xpos[b, 0]), float(data.xpos[b, 2])),
+                                      (float(data.xpos[children[0], 0]), float(data.xpos[children[0], 2])))
+    for j in range(model.njnt):
+        name = model.joint(j).name
+        if name.endswith("_flex"):
+            at[name.removesuffix("_flex")] = ((float(data.xanchor[j, 0]), float(data.xanchor[j, 2])),)
+    return tuple(links), at
+
+
+def locate_calibration(robot, data, cal, settings) -> Localisation:
+    """:func:`locate` for a :class:`~rmbench.calibrate.result.Calibration` ``cal`` of the nominal
+    ``robot`` to ``data`` with ``settings``, on its training and held-out postures (a diagnosis
+    that has its calibration's linearisation already passes it to :func:`locate` itself)."""
+    from rmbench.calibrate import linearisation
+    from rmbench.gap.frf.joint import Ordinary
+    from rmbench.robot import Robot
+
+    if not cal.held:
+        raise ValueError("a localisation needs held-out postures to score on")
+    blocks, z, names = linearisation(robot, data, cal.u, range(len(data.postures)), settings)
+    ordinary = Ordinary({key: J for key, (_, J) in blocks.items()}, z, names)
+    calibrated = Robot(cal.xml, name=robot.name, tool=robot.tool, spindle_rpm=robot.spindle_rpm)
+    return locate(calibrated, data, cal.train, cal.held, ordinary, settings)
+
+
+def _refined(problem, c: int, theta: float, k: int, J, z, gram, tr, he) -> tuple[float, float]:
+    """``(θ, held-out χ²)`` of candidate ``c`` evaluated on whole solutions at a few sizes about its
+    first-order one (a compliance's effect is far from linear at the sizes a form error reaches),
+    the ordinary parameters following each to first order; the size with the lowest training
+    objective (data and prior) kept, never the held-out one."""
+    sizes = [theta * f for f in (0.5, 1.0, 2.0, 4.0)] if theta > 0 else list(_TRIAL)
+    us = [np.eye(k)[c] * t for t in sizes]
+    best = None
+    for t, e in zip(sizes, problem.residuals_many(us)):
+        dz = -np.linalg.solve(gram, J[tr].T @ e[tr] + z)
+        train = e[tr] + J[tr] @ dz
+        objective = float(train @ train + (z + dz) @ (z + dz))
+        if best is None or objective < best[0]:
+            res = e[he] + J[he] @ dz
+            best = (objective, t, float(res @ res))
+    return best[1], best[2]
 
 
 def _fit_one(e, J, g, z, gram, tr, he) -> tuple[float, float]:
