@@ -15,7 +15,10 @@ Every visible robot is measured (a 16-posture campaign, ``--method``), diagnosed
 ordinary groups calibrated on 12 postures and 4 held out, and scored by ``truth.score``: named
 first (kind, place and size within 30 %), false attributions, "unexplained" strictly, form-only
 robots blamed, identifiability within 5 % both ways, coverage per class, the held-out frequency
-error of form-only robots, the time per robot, each rate with its Wilson 95 % interval.
+error of form-only robots, the time per robot, and (issue 80) the model-form flag on form-only
+robots and falsely on spread-only ones and the localisation of out-of-library effects; each rate
+with its Wilson 95 % interval. Since issue 80 "model form" counts as "unexplained" does (no
+library name); seed 80655 was scored before that.
 
 usage: python bench/blind_frf.py [--robots 45] [--seed S] [--method time] [--p-form 0.5]
                                  [--form-scale 3.0] [--workers 2] [--lines FILE] [--only 0,3]
@@ -142,8 +145,12 @@ def run_robot(i: int, *, seed: int, args) -> dict:
         kind, location = top.name.split("@", 1)
         named = {"kind": kind, "location": location, "name": top.name, "confidence": float(top.confidence),
                  "size": found_size(kind, top, acct), "params": top.params}
+    located = ((dg.form or {}).get("located") or {}).get("places")
     return {**head, "verdict": dg.verdict, "top": named,
             "ranked": [[e.name, e.confidence, e.shrink] for e in dg.effects[:5]],
+            "form_flag": None if dg.form is None else bool(dg.form["flagged"]),
+            "located": None if not located else [{"where": p["where"], "name": p["name"], "shrink": p["shrink"]}
+                                                 for p in located[:3]],
             "params": _scored_params(acct, real, effect), "f_err_after": _same_modes(acct["heldout_modes"]),
             "f_err_before": _same_modes(acct["heldout_modes"], "before"),
             "seconds": {"measure": round(t2 - t1, 1), "diagnose": round(t3 - t2, 1),

@@ -7,8 +7,8 @@ import pytest
 from _bench_path import bench_on_path
 
 with bench_on_path():
-    from truth.score import (LEAD, false_attribution, identifiable_within, named_first, rated, size_within,
-                             summary, unexplained_strict)
+    from truth.score import (LEAD, false_attribution, form_flagged, identifiable_within, localised_first,
+                             named_first, rated, size_within, summary, unexplained_strict)
 
 
 def _case(cls="in_library", hidden=("tool_contact_stiffness", "tool_contact", 3.5), verdict="explained",
@@ -103,8 +103,46 @@ def test_the_summary_holds_the_bench_line_keys_with_coverage_per_class():
     s = summary(cases, invisible=2)
     assert {"cases", "form_f_median_after", "form_f_p95_after", "named_first", "named_first_lo95",
             "false_attribution", "form_blamed", "unexplained_strict", "ident_all_within5", "coverage_by_class",
-            "invisible", "s_per_robot"} <= set(s)
+            "invisible", "s_per_robot", "form_flagged", "form_false_flag", "localised_first"} <= set(s)
     assert s["form_f_median_after"] == pytest.approx(0.03)
     assert s["coverage_by_class"]["form"][:2] == [1, 1]
     assert s["coverage_by_class"]["out_of_library"] == [0, 0, None, None, None]
     assert s["invisible"] == 2
+
+
+def _out(hidden, where, name, verdict="model form"):
+    c = _case(cls="out_of_library", hidden=hidden, verdict=verdict, top=None)
+    c["located"] = [{"where": where, "name": name}]
+    return c
+
+
+def test_model_form_names_no_library_effect_like_unexplained():
+    assert unexplained_strict(_case(cls="out_of_library", verdict="model form", top=None))
+    lead = ("added_mass", "wrist", LEAD, 5.0)
+    assert false_attribution(_case(hidden=("hose_resonator", "forearm", 10.0), verdict="model form", top=lead))
+
+
+def test_a_coupling_of_two_joints_is_localised_by_a_compliance_at_either():
+    hidden = ("tendon_coupling", "j2_flex+j3_flex", 0.5)
+    assert localised_first(_out(hidden, "j3", "j3_flex.tilt_compliance"))
+    assert not localised_first(_out(hidden, "j5", "j5_flex.tilt_compliance"))
+
+
+def test_a_joint_stands_for_the_link_it_drives_but_the_form_must_match():
+    # a hose on the forearm is a resonance: a compliance across j4 (the forearm's joint) is at the
+    # right place but names the wrong form
+    hose = ("hose_resonator", "forearm", 10.0)
+    assert not localised_first(_out(hose, "j4", "j4_flex.tilt_compliance"))
+    mass = ("offset_mass", "forearm", 12.0)
+    assert localised_first(_out(mass, "j4", "forearm.mass"))
+    assert not localised_first(_out(mass, "wrist", "wrist.mass"))
+
+
+def test_form_flags_count_on_form_only_robots_and_falsely_on_spread_only_ones():
+    form = _case(cls="form", hidden=None, verdict="model form", top=None)
+    form["form_flag"] = True
+    spread = _case(cls="spread", hidden=None, verdict="no significant gap", top=None)
+    spread["form_flag"] = False
+    assert form_flagged(form) and not form_flagged(spread)
+    s = summary([form, spread])
+    assert s["form_flagged"][:2] == [1, 1] and s["form_false_flag"][:2] == [0, 1]

@@ -15,7 +15,10 @@ A case is one real robot's outcome, as a plain dict the bench writes:
   centre of mass; its 95 % interval holding the truth);
 * ``f_err_after``: the held-out modes' |f error| after calibration (paired on the same modes as
   before); a robot's figure is their mean, as the real IRB6660's 4.4 % is counted;
-* ``seconds``: the whole diagnosis of the robot.
+* ``seconds``: the whole diagnosis of the robot;
+* ``form_flag`` (issue 80): whether the diagnosis's lack-of-fit test called the model's form wrong
+  (None where it ran none); ``located``: its ranked places, each ``{"where", "name"}`` (None where
+  it localised nothing).
 
 The rules (each a function here, each specified in ``sim_tests/test_truth_score.py``):
 
@@ -26,8 +29,16 @@ The rules (each a function here, each specified in ``sim_tests/test_truth_score.
   not hold it: "explained" by a kind or place other than the hidden one (or on a case with none),
   or "unexplained" with a lead of confidence ``LEAD`` or more on another kind. A right kind named
   at the wrong size is a miss, not a false attribution;
-* **unexplained, strictly** (:func:`unexplained_strict`): that verdict alone; "no significant gap"
-  is not a pass on an out-of-library effect the bench saw;
+* **unexplained, strictly** (:func:`unexplained_strict`): "unexplained", or "model form" (issue 80:
+  no library name, the model's form wrong); "no significant gap" is not a pass on an out-of-library
+  effect the bench saw. A confident wrong lead inside "model form" is a false attribution as inside
+  "unexplained";
+* **form flagged** (:func:`form_flagged`): the lack-of-fit test failed; its rate on form-only robots
+  and, falsely, on spread-only ones;
+* **localised first** (:func:`localised_first`): on an out-of-library robot, the first place of the
+  localisation is the joint or body carrying the effect (a joint also stands for the link it
+  drives), and of the effect's form: a compliance for a coupling of joints, a resonance for a
+  hose, a mass for an offset mass;
 * **identifiable within 5 %** over every calibrated parameter with a true value, and over those
   the calibration labelled identifiable (:func:`identifiable_within`);
 * **coverage** of the 95 % intervals per class (:func:`coverage`).
@@ -44,7 +55,8 @@ import numpy as np
 from _stats import wilson
 
 __all__ = ["CLASSES", "LEAD", "SIZE_TOL", "SIZE_SCALE", "rated", "size_within", "named_first",
-           "false_attribution", "unexplained_strict", "identifiable_within", "coverage", "summary"]
+           "false_attribution", "unexplained_strict", "form_flagged", "localised_first", "identifiable_within",
+           "coverage", "summary"]
 
 CLASSES = ("spread", "form", "in_library", "out_of_library")
 SIZE_TOL = 0.30       # a named size within ±30 % of the truth's
@@ -98,14 +110,47 @@ def false_attribution(case) -> bool:
     wrong = h is None or top["kind"] != h["kind"] or top["location"] != h["location"]
     if case["verdict"] == "explained":
         return wrong
-    if case["verdict"] == "unexplained":
+    if case["verdict"] in _NOT_NAMED:
         return (h is None or top["kind"] != h["kind"]) and top["confidence"] >= LEAD
     return False
 
 
+_NOT_NAMED = ("unexplained", "model form")
+
+
 def unexplained_strict(case) -> bool:
-    """The verdict "unexplained", and no other."""
-    return case["verdict"] == "unexplained"
+    """The verdict "unexplained" or "model form": no effect of the library named."""
+    return case["verdict"] in _NOT_NAMED
+
+
+def form_flagged(case) -> bool:
+    """The diagnosis's lack-of-fit test called the model's form wrong."""
+    return bool(case.get("form_flag"))
+
+
+# the form each out-of-library kind has (what a localisation must name), and the link each arm
+# joint drives (a joint's place stands for it)
+_FORM_OF = {"hose_resonator": "resonance", "offset_mass": "mass", "tendon_coupling": "compliance"}
+_LINK_OF = {"j1": "carousel", "j2": "lower_arm", "j3": "upper_arm", "j4": "forearm", "j5": "wrist", "j6": "flange"}
+
+
+def _form_of_place(name: str) -> str:
+    field = name.split(".", 1)[-1]
+    if field.endswith("compliance"):
+        return "compliance"
+    return "mass" if field == "mass" else "resonance" if "resonat" in field else field
+
+
+def localised_first(case) -> bool:
+    """The first place of the localisation carries the hidden effect, in the effect's form."""
+    h, located = case["hidden"], case.get("located")
+    if h is None or not located:
+        return False
+    first = located[0]
+    carriers = {part.removesuffix("_flex") for part in h["location"].split("+")}
+    where = first["where"]
+    at = where in carriers or _LINK_OF.get(where) in carriers
+    return bool(at and _form_of_place(first["name"]) == _FORM_OF.get(h["kind"]))
 
 
 def identifiable_within(cases, *, labelled: bool) -> list:
@@ -136,6 +181,9 @@ def summary(cases, invisible: int = 0) -> dict:
         "false_attribution": rated(false_attribution(c) for c in cases),
         "form_blamed": rated(c["verdict"] == "explained" for c in by["spread"] + by["form"]),
         "unexplained_strict": rated(unexplained_strict(c) for c in by["out_of_library"]),
+        "form_flagged": rated(form_flagged(c) for c in by["form"]),
+        "form_false_flag": rated(form_flagged(c) for c in by["spread"]),
+        "localised_first": rated(localised_first(c) for c in by["out_of_library"]),
         "ident_all_within5": rated(identifiable_within(cases, labelled=False)),
         "ident_labelled_within5": rated(identifiable_within(cases, labelled=True)),
         "coverage_by_class": {k: rated(coverage(v)) for k, v in by.items()},

@@ -176,3 +176,61 @@ def plot_location(located: dict, path) -> Path:
     fig.savefig(path, dpi=80)
     plt.close(fig)
     return Path(path)
+
+
+def plot_sources(dg, ax=None, *, n: int = 8):
+    """A tracker diagnosis ``dg`` (a :class:`~rmbench.gap.tracker.diagnosis.TrackerDiagnosis`):
+    the held-out rms pose error with each of the ``n`` best-ranked sources (the chosen model for a
+    chosen source, green, with its share of the error; the source alone otherwise, grey), against
+    the nominal's and the chosen model's, each with its 95 % bootstrap interval (shaded), and the
+    readings' noise. Returns the Axes."""
+    ax = _axes(ax)
+    shown = list(dg.sources[:n])
+    y = np.arange(len(shown))
+    ax.barh(y, [1e3 * s.heldout_after["rms"] for s in shown], color=["C2" if s.chosen else "C7" for s in shown])
+    for yi, s in zip(y, shown):
+        if s.chosen:
+            ax.text(0, yi, f" {100 * s.share:.0f} % of the error", va="center", fontsize=7)
+    for h, colour, name in ((dg.heldout_before, "C3", "nominal"), (dg.heldout_after, "C2", "chosen model")):
+        rms = 1e3 * h["rms"]
+        ax.axvline(rms, color=colour, lw=1, label=f"{name} {rms:.3f} mm")
+        if h.get("rms_interval"):
+            ax.axvspan(*(1e3 * np.asarray(h["rms_interval"])), color=colour, alpha=0.15)
+    ax.axvline(1e3 * dg.where.noise_rms, color="k", lw=0.6, ls="--", label="noise")
+    ax.set_yticks(y, [s.name for s in shown], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("held-out rms pose error (mm)")
+    ax.set_title(f"{dg.verdict}: chosen (green), alone (grey)")
+    ax.legend(fontsize=7)
+    return ax
+
+
+def plot_pose_errors(dg, path) -> Path:
+    """A tracker diagnosis: the nominal pose error over each joint's angle and over the workspace,
+    and the held-out rms and largest error before and after each ranked source."""
+    plt = _plt()
+    fig, (a0, a1, a2) = plt.subplots(1, 3, figsize=(15, 4.5))
+    w = dg.where
+    for k, (name, (edges, rms)) in enumerate((n, b) for n, b in w.bins.items() if not n.startswith("tcp_")):
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        a0.plot(np.degrees(mid), 1e3 * rms, "o-", ms=3, label=name, color=f"C{k % 10}")
+    a0.axhline(1e3 * w.noise_rms, color="k", lw=0.6, ls="--", label="noise")
+    a0.set_xlabel("joint angle (deg)")
+    a0.set_ylabel("rms pose error (mm)")
+    a0.set_title("nominal model, by joint angle")
+    a0.legend(fontsize=7)
+    for k, axis in enumerate("xyz"):
+        edges, rms = w.bins[f"tcp_{axis}"]
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        a1.plot(1e3 * mid, 1e3 * rms, "o-", ms=3, label=f"TCP {axis}", color=f"C{k}")
+    a1.axhline(1e3 * w.noise_rms, color="k", lw=0.6, ls="--")
+    a1.set_xlabel("TCP position in the base frame (mm)")
+    a1.set_ylabel("rms pose error (mm)")
+    a1.set_title("nominal model, over the workspace")
+    a1.legend(fontsize=7)
+    plot_sources(dg, a2)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

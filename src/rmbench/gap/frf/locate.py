@@ -169,26 +169,47 @@ def locate(calibrated, data, train, held, ordinary, settings) -> Localisation:
         problem.close()
 
 
+@dataclass(frozen=True)
+class _Following:
+    """The ordinary parameters following a candidate to first order: their sensitivity ``J``
+    (rows of the residual, per prior σ), calibrated values ``z`` (prior σ), the normal matrix of
+    the training rows ``gram`` (``JᵀJ + I``) and the training and held-out rows ``tr``, ``he``."""
+
+    J: np.ndarray
+    z: np.ndarray
+    gram: np.ndarray
+    tr: np.ndarray
+    he: np.ndarray
+
+    @classmethod
+    def of(cls, problem, ordinary, train) -> "_Following":
+        k = len(ordinary.z)
+        rows_train, rows_held, J = [], [], []
+        at = 0
+        for (p, b), size in zip(problem.keys, problem.sizes):
+            block = ordinary.blocks.get((p, b))
+            J.append(block if block is not None and block.shape[0] == size else np.zeros((size, k)))
+            (rows_train if p in set(train) else rows_held).extend(range(at, at + size))
+            at += size
+        J = np.vstack(J)
+        tr = np.array(rows_train, int)
+        return cls(J, np.asarray(ordinary.z, float), J[tr].T @ J[tr] + np.eye(k), tr, np.array(rows_held, int))
+
+    def step(self, e: np.ndarray) -> np.ndarray:
+        """``δz`` minimising the training rows' ``‖e + J δz‖² + ‖z + δz‖²``."""
+        return -np.linalg.solve(self.gram, self.J[self.tr].T @ e[self.tr] + self.z)
+
+
 def _ranked(problem, e, g, names, cands, ordinary, train, calibrated) -> Localisation:
     """Each candidate fitted to first order, the best :data:`_REFINE` again on whole solutions
     along their first-order direction, ranked by held-out χ²."""
-    k = len(ordinary.z)
-    rows_train, rows_held, J = [], [], []
-    at = 0
-    for (p, b), size in zip(problem.keys, problem.sizes):
-        block = ordinary.blocks.get((p, b))
-        J.append(block if block is not None and block.shape[0] == size else np.zeros((size, k)))
-        (rows_train if p in set(train) else rows_held).extend(range(at, at + size))
-        at += size
-    J = np.vstack(J)
-    tr, he = np.array(rows_train, int), np.array(rows_held, int)
-    gram = J[tr].T @ J[tr] + np.eye(k)
+    lin = _Following.of(problem, ordinary, train)
     # the baseline: the same first-order fit with no candidate (the ordinary parameters alone
     # follow), so that each candidate is judged by what it adds, not by the linearisation's drift
-    _, chi2_before = _fit_one(e, J, np.zeros(len(e)), ordinary.z, gram, tr, he)
-    fits = [_fit_one(e, J, g[:, c], ordinary.z, gram, tr, he) for c in range(len(names))]
+    _, chi2_before = _fit_one(e, np.zeros(len(e)), lin)
+    fits = [_fit_one(e, g[:, c], lin) for c in range(len(names))]
     for c in np.argsort([chi2 for _, chi2 in fits])[:_REFINE]:
-        fits[c] = _refined(problem, c, fits[c][0], len(names), J, ordinary.z, gram, tr, he)
+        fits[c] = _refined(problem, c, fits[c][0], len(names), lin)
     places = []
     for c, (size, chi2_after) in enumerate(fits):
         where, words = _words(names[c])
@@ -245,7 +266,7 @@ def locate_calibration(robot, data, cal, settings) -> Localisation:
     return locate(calibrated, data, cal.train, cal.held, ordinary, settings)
 
 
-def _refined(problem, c: int, theta: float, k: int, J, z, gram, tr, he) -> tuple[float, float]:
+def _refined(problem, c: int, theta: float, k: int, lin: _Following) -> tuple[float, float]:
     """``(θ, held-out χ²)`` of candidate ``c`` evaluated on whole solutions at a few sizes about its
     first-order one (a compliance's effect is far from linear at the sizes a form error reaches),
     the ordinary parameters following each to first order; the size with the lowest training
@@ -254,26 +275,26 @@ def _refined(problem, c: int, theta: float, k: int, J, z, gram, tr, he) -> tuple
     us = [np.eye(k)[c] * t for t in sizes]
     best = None
     for t, e in zip(sizes, problem.residuals_many(us)):
-        dz = -np.linalg.solve(gram, J[tr].T @ e[tr] + z)
-        train = e[tr] + J[tr] @ dz
-        objective = float(train @ train + (z + dz) @ (z + dz))
+        dz = lin.step(e)
+        train = e[lin.tr] + lin.J[lin.tr] @ dz
+        objective = float(train @ train + (lin.z + dz) @ (lin.z + dz))
         if best is None or objective < best[0]:
-            res = e[he] + J[he] @ dz
+            res = e[lin.he] + lin.J[lin.he] @ dz
             best = (objective, t, float(res @ res))
     return best[1], best[2]
 
 
-def _fit_one(e, J, g, z, gram, tr, he) -> tuple[float, float]:
+def _fit_one(e, g, lin: _Following) -> tuple[float, float]:
     """``(θ, held-out χ²)`` of one candidate column ``g`` (per unit of its ``u``) fitted with the
     ordinary parameters following to first order, ``θ ≥ 0``: the training residual
     ``[e + J δz + g θ ; z + δz]`` is linear in ``(δz, θ)``, so ``δz`` is eliminated in closed form
     and ``θ`` is a one-dimensional least squares."""
-    Jt = J[tr]
+    tr, he, Jt = lin.tr, lin.he, lin.J[lin.tr]
     # δz(θ) = a + b θ
-    a = -np.linalg.solve(gram, Jt.T @ e[tr] + z)
-    b = -np.linalg.solve(gram, Jt.T @ g[tr])
-    r0 = np.concatenate([e[tr] + Jt @ a, z + a])
+    a = lin.step(e)
+    b = -np.linalg.solve(lin.gram, Jt.T @ g[tr])
+    r0 = np.concatenate([e[tr] + Jt @ a, lin.z + a])
     r1 = np.concatenate([g[tr] + Jt @ b, b])
     theta = max(0.0, -float(r0 @ r1) / float(r1 @ r1)) if r1 @ r1 > 0 else 0.0
-    res = e[he] + J[he] @ (a + b * theta) + g[he] * theta
+    res = e[he] + lin.J[he] @ (a + b * theta) + g[he] * theta
     return theta, float(res @ res)
