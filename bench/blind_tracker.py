@@ -158,6 +158,7 @@ def run_robot(i: int, *, seed: int, args) -> dict:
                "size": found_size(s.kind, s.params), "params": s.params, "chosen": bool(s.chosen)}
     before, after = true_rms(dg.nominal_fitted), true_rms(dg.fitted)
     return {**head, "verdict": dg.verdict, "top": top,
+            "form_flag": None if dg.form is None else bool(dg.form["flagged"]),
             "chosen": [s.name for s in dg.chosen], "params": scored_params(dg.calibration, real.ordinary),
             "true_rms_before": before, "true_rms_after": after,
             # the form robots' figure, as an FRF robot's held-out |f error|: here the true rms pose

@@ -119,6 +119,37 @@ def _with_form(plain, kind):
     return replace(plain, xml=ET.tostring(root, encoding="unicode"), form=(error.to_dict(),))
 
 
+def _diagnosed(robot):
+    """The calibrated diagnosis of ``robot``'s noise-free readings over the bench's campaign, and
+    the readings ``(q, y, order, t)``."""
+    nominal = Robot.load("mh180")
+    q, order, previous = campaign(np.random.default_rng(5))
+    t = np.arange(len(q)) * 15.0
+    y = Reader(robot).positions(q, previous, t)
+    cov = default_covariance(nominal, q, y)
+    data = TrackerData(q, y, order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), t, tuple(nominal.arm_joints),
+                       covariance=cov)
+    return diagnose_tracker(nominal, data, settings=TrackerSettings(calibrate=True)), (q, y, order, t)
+
+
+@pytest.mark.slow
+def test_a_form_error_beyond_the_trackers_noise_is_called_model_form(plain):
+    # a reflector mount sagging 500 µm/g (ten times the bench's median) leaves the calibrated pose
+    # model far off at the held-out configurations; no source of the library explains it (the
+    # payload and gear harmonics it takes leave the gap). At the median size the same sag stays
+    # inside the tracker's noise model (25-40 µm at 3-5 m with the calibration's uncertainty
+    # carried): held-out χ² 45 on 750 residuals, and no test can call it
+    sag = {"kind": "reflector_sag", "location": "tool", "size": {"per_g": 500e-6}}
+    dg, _ = _diagnosed(replace(plain, form=(sag,)))
+    assert dg.verdict == "model form" and dg.form["flagged"]
+
+
+@pytest.mark.slow
+def test_the_spread_alone_passes_the_form_test(plain):
+    dg, _ = _diagnosed(plain)
+    assert not dg.form["flagged"] and dg.verdict == "no significant gap"
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("kind", FORM_KINDS)
 def test_calibrating_the_pose_model_does_not_remove_a_form_error(plain, kind):
@@ -127,15 +158,7 @@ def test_calibrating_the_pose_model_does_not_remove_a_form_error(plain, kind):
     # calibrated: a robot with the spread alone is matched to 2.5 µm rms at the held-out
     # configurations; a form error leaves more than the tracker's σ there, a systematic error that
     # the held-out readings' χ² (excess about n against a spread of √(2n)) sees at once
-    nominal = Robot.load("mh180")
-    robot = _with_form(plain, kind)
-    q, order, previous = campaign(np.random.default_rng(5))
-    t = np.arange(len(q)) * 15.0
-    y = Reader(robot).positions(q, previous, t)
-    cov = default_covariance(nominal, q, y)
-    data = TrackerData(q, y, order, np.sqrt(np.diagonal(cov, axis1=1, axis2=2)), t, tuple(nominal.arm_joints),
-                       covariance=cov)
-    dg = diagnose_tracker(nominal, data, settings=TrackerSettings(calibrate=True))
+    dg, (q, y, order, t) = _diagnosed(_with_form(plain, kind))
     held = np.isin(order, dg.held)
     e = y[held] - dg.fitted.position(q[held], t[held] / 3600.0)
     assert np.sqrt(np.mean(np.sum(e ** 2, axis=1))) > TRACKER_SIGMA

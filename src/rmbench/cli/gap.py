@@ -187,6 +187,10 @@ def _diagnose_readings(args) -> int:
               f"{1e3 * c['heldout_before']['rms']:.3f} -> {1e3 * c['heldout_after']['rms']:.3f} mm")
         if dg.verdict == "no significant gap":
             print("   the calibrated ordinary parameters account for the readings: no structural source is needed")
+        if dg.form is not None:
+            f = dg.form
+            print(f"form: {'wrong' if f['flagged'] else 'consistent'} at the held-out configurations (χ² "
+                  f"{f['chi2']:.4g} on {f['n']} residuals, p {f['p']:.2g})")
     for i, s in enumerate(dg.sources[:8]):
         mark = "*" if s.chosen else " "
         share = f", {100 * s.share:.0f} % of the error" if s.chosen else ""

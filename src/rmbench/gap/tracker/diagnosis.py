@@ -5,7 +5,8 @@ on training configurations and scored on held-out ones by ``χ²_held + k ln n_h
 added greedily (forward selection), since real robots carry several at once; confidences are
 bootstrap selection frequencies over the held-out configurations, a resample crediting its winner
 only where the winner leaves noise there; the verdict is "explained" when the best model's
-held-out residuals are noise.
+held-out residuals are noise. Calibrated, where the calibrated pose model fails the noise test at
+the held-out configurations and no source explains the readings, the verdict is "model form".
 
 1. **Where** (:class:`PoseErrorMap`): the nominal model's registered error per axis, the share of
    it above the noise, its rms over bins of each joint's angle, and how much of it each joint's
@@ -113,6 +114,13 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         library = [s for s in library if s.kind not in ORDINARY]
         start, calibration = _calibrated(eng, base, nominal_fit, settings, say)
     best, scored, verdict, more = _search(eng, library, start, base, p.e_all, settings, say)
+    form = _form(start, settings) if settings.calibrate else None
+    if form is not None and form["flagged"] and verdict == "unexplained":
+        # the calibrated ordinary parameters cannot explain the held-out readings (their own
+        # uncertainty carried there) and no source of the library does: the pose model's form
+        verdict = "model form"
+        more = list(more) + [f"model form: the calibrated pose model leaves held-out χ² {form['chi2']:.4g} on "
+                             f"{form['n']} residuals (p {form['p']:.2g}), and no source explains it"]
     # the prior's term spread over the held-out units, so a resample keeps it on average
     n_units = [3 * np.sum(data.location[eng.held] == u) for u in eng.held_units]
     weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
@@ -133,7 +141,7 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         models=tuple({"name": f.name, "k": f.k, "chi2_train": f.chi2_train, "n_train": f.n_train,
                       "chi2_held": f.chi2_held, "n_held": f.n_held, "score": f.score,
                       "weight": float(w)} for f, w in zip(scored, weights)),
-        calibration=calibration,
+        calibration=calibration, form=form,
         n_readings=len(data.q), train=tuple(int(u) for u in p.train_units),
         held=tuple(int(u) for u in p.held_units), seconds=time.perf_counter() - t0,
         notes=p.notes + tuple(more),
@@ -214,6 +222,17 @@ def _calibrated(eng: Engine, base: tuple, nominal: Fit, settings: TrackerSetting
     say(f"calibrated {sum(x.n_params for x in base)} ordinary parameters: held-out rms "
         f"{1e3 * calibration['heldout_before']['rms']:.3f} -> {1e3 * calibration['heldout_after']['rms']:.3f} mm")
     return start, calibration
+
+
+def _form(start: Fit, settings: TrackerSettings) -> dict:
+    """The calibrated pose model's lack of fit at the held-out configurations (issue 80): its
+    residuals there, each over the tracker's noise and the calibration's own uncertainty carried
+    there (:meth:`Engine.carry`), against the noise test at ``settings.p_noise``."""
+    from scipy.stats import chi2 as chi2_dist
+
+    flagged = significant(start.chi2_held, start.n_held, p=settings.p_noise, peak=start.peak_held)
+    return {"flagged": bool(flagged), "chi2": float(start.chi2_held), "n": int(start.n_held),
+            "p": float(chi2_dist.sf(start.chi2_held, start.n_held)), "peak": float(start.peak_held)}
 
 
 def _search(eng: Engine, library, start: Fit, base: tuple, e_all: np.ndarray, settings: TrackerSettings,

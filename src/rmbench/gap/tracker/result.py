@@ -109,6 +109,10 @@ class TrackerDiagnosis:
     calibration : dict or None
         With ``settings.calibrate``: each ordinary parameter's value, interval and
         identifiability, and the held-out error before and after the calibration alone.
+    form : dict or None
+        With ``settings.calibrate``: the calibrated pose model's lack-of-fit test at the held-out
+        configurations (``flagged``, ``chi2``, ``n``, ``p``, ``peak``); where it fails and no
+        source explains the readings, the verdict is "model form".
     fitted, nominal_fitted : FittedPose
         The chosen (else the nominal) model and the registered nominal one.
     """
@@ -130,6 +134,7 @@ class TrackerDiagnosis:
     seconds: float
     notes: tuple = field(default=())
     calibration: dict | None = None
+    form: dict | None = None
     fitted: FittedPose | None = field(default=None, repr=False, compare=False)
     nominal_fitted: FittedPose | None = field(default=None, repr=False, compare=False)
 
@@ -158,7 +163,8 @@ class TrackerDiagnosis:
                        "shrink_interval": list(self.shrink_interval),
                        "equivalent": [list(g) for g in self.equivalent], "absorbed": list(self.absorbed),
                        "models": list(self.models), "n_readings": self.n_readings,
-                       "seconds": self.seconds, "notes": list(self.notes), "calibration": self.calibration})
+                       "seconds": self.seconds, "notes": list(self.notes), "calibration": self.calibration,
+                       "form": self.form})
 
     def to_json(self) -> dict:
         """:meth:`to_dict` (the name the CLI and older callers use)."""
