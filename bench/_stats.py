@@ -128,6 +128,20 @@ def used_files(*modules: str) -> list:
     return [p for p in src.rglob("*.py") if p.relative_to(src).parts[0].removesuffix(".py") in top]
 
 
+def run_arguments(ap, *, robots: int, workers: bool = True) -> None:
+    """Add to the parser ``ap`` the options of a bench run over robots that :func:`keyed_run` and
+    :func:`cases_to_lines` read: ``--robots`` (default ``robots``), ``--seed``, ``--workers``
+    (where ``workers``), ``--lines``, ``--only`` and ``--scheduler``."""
+    ap.add_argument("--robots", type=int, default=robots)
+    ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
+    if workers:
+        ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--lines", default=None, help="JSON-lines file (default: keyed by seed and code)")
+    ap.add_argument("--only", default=None, help="comma-separated robot indices to run")
+    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="address of an existing dask scheduler: the robots run on its cluster, one a worker")
+
+
 def keyed_run(args, stem: str, bench_file: str, *, modules: tuple = (), extra: tuple = ()) -> None:
     """Fill ``args.seed`` (a fresh one unless given) and ``args.lines`` (unless given:
     ``bench/results/STEM_s<seed>_<digest>.jsonl``, resumed only by the same seed and the same code,

@@ -48,7 +48,7 @@ if str(HERE) not in sys.path:     # run as a script; imported, the importer put 
 
 import numpy as np  # noqa: E402
 
-from _stats import cases_to_lines, keyed_run  # noqa: E402
+from _stats import cases_to_lines, keyed_run, run_arguments  # noqa: E402
 from calibrate import diagnosed, measure, score_params, touched_by  # noqa: E402
 from truth import draw_real_robot  # noqa: E402
 from truth.score import summary  # noqa: E402
@@ -191,19 +191,13 @@ def bench_line(cases: list, seed: int) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--robots", type=int, default=45)
-    ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
+    run_arguments(ap, robots=45)
     ap.add_argument("--method", default="time", choices=("time", "linear"))
     ap.add_argument("--p-form", type=float, default=0.5, help="probability of each form kind on a robot")
     # 3: the scale at which form-only robots keep a held-out mean |f error| of 1-5 % after
     # calibration (bench/form_size.py: median 0.70 % at 1, seed 72232; 1.3 % at 3, seed 29064)
     ap.add_argument("--form-scale", type=float, default=3.0, help="of the form errors' stated size ranges")
     ap.add_argument("--groups", default=GROUPS, help="the ordinary groups the diagnosis calibrates")
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--lines", default=None, help="JSON-lines file (default: keyed by seed and code)")
-    ap.add_argument("--only", default=None, help="comma-separated robot indices to run")
-    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                    help="address of an existing dask scheduler: the robots run on its cluster, one a worker")
     args = ap.parse_args(argv)
     keyed_run(args, f"blind_frf_{args.method}_p{args.p_form:g}_x{args.form_scale:g}", __file__,
               modules=("rmbench.gap", "rmbench.calibrate", "rmbench.impact"), extra=TRUTH_FILES)

@@ -37,7 +37,7 @@ if str(HERE) not in sys.path:     # run as a script; imported, the importer put 
 
 import numpy as np  # noqa: E402
 
-from _stats import cases_to_lines, keyed_run  # noqa: E402
+from _stats import cases_to_lines, keyed_run, run_arguments  # noqa: E402
 from _tracker_truth import campaign  # noqa: E402
 from blind_frf import slot  # noqa: E402
 from truth.score import rated, summary  # noqa: E402
@@ -187,13 +187,8 @@ def bench_line(cases: list, seed: int) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--robots", type=int, default=45)
-    ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
+    run_arguments(ap, robots=45, workers=False)
     ap.add_argument("--p-form", type=float, default=0.5, help="probability of each form kind on a robot")
-    ap.add_argument("--lines", default=None, help="JSON-lines file (default: keyed by seed and code)")
-    ap.add_argument("--only", default=None, help="comma-separated robot indices to run")
-    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                    help="address of an existing dask scheduler: the robots run on its cluster, one a worker")
     args = ap.parse_args(argv)
     keyed_run(args, f"blind_tracker_p{args.p_form:g}", __file__, modules=("rmbench.gap", "rmbench.tracker"),
               extra=TRUTH_FILES)

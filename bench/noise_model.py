@@ -34,7 +34,7 @@ if str(HERE) not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from _stats import cases_to_lines, keyed_run, wilson  # noqa: E402
+from _stats import cases_to_lines, keyed_run, run_arguments, wilson  # noqa: E402
 from calibrate import measure  # noqa: E402
 from truth import draw_real_robot  # noqa: E402
 
@@ -108,13 +108,8 @@ def summary(cases: list) -> dict:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--robots", type=int, default=6)
-    ap.add_argument("--seed", type=int, default=None, help="default: a fresh one, printed")
+    run_arguments(ap, robots=6)
     ap.add_argument("--method", default="time", choices=("time", "linear"))
-    ap.add_argument("--workers", type=int, default=2)
-    ap.add_argument("--lines", default=None)
-    ap.add_argument("--only", default=None, help="comma-separated robot indices to run")
-    ap.add_argument("--scheduler", default=None, metavar="ADDRESS")
     args = ap.parse_args(argv)
     keyed_run(args, f"noise_model_{args.method}", __file__, modules=("rmbench.calibrate", "rmbench.impact"),
               extra=TRUTH_FILES)

@@ -43,6 +43,15 @@ def irb():
 
 
 @pytest.fixture(scope="session")
+def design():
+    """The seed's test design (sensors, hammer, bands), as the campaigns measure it."""
+    from rmbench.calibrate import TestDesign
+    from rmbench.impact import load_config
+
+    return TestDesign.from_config(load_config("seed_full"))
+
+
+@pytest.fixture(scope="session")
 def irb_op(irb):
     """The IRB6660 stand-in at the seed's first validation posture."""
     return irb.at(Posture.from_mm_deg(1800, -200, 0))

@@ -8,10 +8,9 @@ import json
 import numpy as np
 import pytest
 
-from rmbench.calibrate import (CalibrationSettings, MeasuredModes, ModalData, ModalModel, TestDesign,
-                               calibrate, read_modal_table)
+from rmbench.calibrate import (CalibrationSettings, MeasuredModes, ModalData, ModalModel, calibrate,
+                               read_modal_table)
 from rmbench.errors import InputError
-from rmbench.impact import load_config
 from rmbench.robot import Posture, Robot
 from rmbench.robot.parameters import ParameterSet, parameter_set, parse_groups
 
@@ -22,11 +21,6 @@ POSTURES = [Posture.from_mm_deg(1800, -200, 0), Posture.from_mm_deg(1500, 100, 4
             Posture.from_mm_deg(1700, 300, 60)]
 # the "real" robot: three gearboxes off their data sheet, by a plain edit of the MJCF text
 TRUE_STIFFNESS = {"j2_flex": 1.3, "j3_flex": 0.75, "j5_flex": 1.2}
-
-
-@pytest.fixture(scope="module")
-def design():
-    return TestDesign.from_config(load_config("seed_full"))
 
 
 @pytest.fixture(scope="module")

@@ -7,11 +7,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from rmbench.calibrate import CalibrationSettings, ModalData, ModalModel, SensorOffset, TestDesign, calibrate
+from rmbench.calibrate import CalibrationSettings, ModalData, ModalModel, SensorOffset, calibrate
 from rmbench.calibrate.design import sensor_parameter
 from rmbench.calibrate.model import spindle_parameter
 from rmbench.errors import InputError
-from rmbench.impact import load_config
 from rmbench.robot import Posture, Robot
 from rmbench.robot.parameters import ParameterSet
 
@@ -19,11 +18,6 @@ from _exact_modes import exact_modes
 from test_calibrate import POSTURES
 
 TURN = np.radians(6.0)       # a sensor turned about the tool axis, as the bench's largest draws
-
-
-@pytest.fixture(scope="module")
-def design():
-    return TestDesign.from_config(load_config("seed_full"))
 
 
 def test_a_sensor_parameter_moves_no_mode_only_what_the_sensor_reads(irb, design):

@@ -13,7 +13,7 @@ from rmbench.errors import InputError
 from rmbench.gap import Change, GapDataWarning, MeasuredModes, ModelBench, TestDesign, library, measured_data
 from rmbench.calibrate.design import SensorOffset
 from rmbench.calibrate.residual import UNPAIRED, hammer_leak, mode_residuals, overlap, pair
-from rmbench.impact import load_config, parse_config
+from rmbench.impact import parse_config
 from rmbench.robot import Posture, Robot
 from rmbench.robot.parameters import parameter_set
 
@@ -21,11 +21,6 @@ from rmbench.robot.parameters import parameter_set
 @pytest.fixture(scope="module")
 def robot():
     return Robot.load("irb6660", tool="dummy")
-
-
-@pytest.fixture(scope="module")
-def design():
-    return TestDesign.from_config(load_config("seed_full"))
 
 
 @pytest.fixture(scope="module")
