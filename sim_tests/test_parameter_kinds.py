@@ -1,8 +1,8 @@
 """Specification of the parameter kinds' registry (:mod:`rmbench.robot.kinds`): it covers every
 parameter a set holds, each kind writes a compiled model and a specification alike, a fast kind's
 matrix perturbation is the re-linearised model's change, and the model-form kinds (a bearing's
-tilt, a link's bending, a counterbalance) leave the model as it was at their nominal and change it
-as their physics says when asked."""
+tilt, a link's bending, a counterbalance, a resonator) leave the model as it was at their nominal
+and change it as their physics says when asked."""
 
 import copy
 
@@ -20,9 +20,10 @@ from rmbench.robot.parameters import GROUPS, Parameter, ParameterSet, parameter_
 POSTURE = Posture.from_mm_deg(1800, -200, 0)      # the irb_op fixture's
 TILT = "j2_flex.tilt_compliance"
 BEND = "lower_arm.bending_compliance"
+RING = ("upper_arm.resonator_mass", "upper_arm.resonance")
 # every group, and a parameter of each structural form: a compliance, a stiffness, a bearing tilt,
-# a link's bending, a body mass
-EVERY = ("base.lateral_compliance", "spindle.radial", "motor2.mass", TILT, BEND)
+# a link's bending, a body mass, a resonator's package and tuning
+EVERY = ("base.lateral_compliance", "spindle.radial", "motor2.mass", TILT, BEND) + RING
 _FIELDS = ("jnt_stiffness", "dof_damping", "actuator_gainprm", "actuator_biasprm", "body_mass", "body_inertia",
            "body_ipos", "tendon_stiffness", "tendon_lengthspring", "site_pos")
 
@@ -61,8 +62,9 @@ def test_registry_covers_every_kind_of_a_set(every):
 
 def test_fast_kinds_are_those_that_leave_the_equilibrium():
     # a mass or a centre of mass moves the equilibrium and the gravity stiffness, a counterbalance
-    # spring pushes the arm and acts through its posture's geometry: no C, K shortcut
-    assert set(FAST_KINDS) == set(KINDS) - {"mass", "com", "spring", "foot", "head", "preload"}
+    # spring pushes the arm and acts through its posture's geometry, a package's weight sags its
+    # springs: no C, K shortcut
+    assert set(FAST_KINDS) == set(KINDS) - {"mass", "com", "spring", "foot", "head", "preload", "resonator"}
 
 
 def test_parameter_of_unknown_kind_is_refused():
@@ -228,3 +230,27 @@ def test_a_counterbalance_moves_the_low_modes_by_posture(irb, balanced):
         free = robot.at(posture).linear.modes().f_n[:4]
         rise.append(np.max(np.abs(stiff / free - 1)))
     assert min(rise) > 0.002 and abs(rise[0] - rise[1]) > 0.2 * max(rise)
+
+
+@pytest.fixture(scope="module")
+def ringing(irb):
+    return parameter_set(irb, ("joints",), extra=RING)
+
+
+def test_an_absent_resonator_leaves_the_modes(irb_op, ringing):
+    robot, _ = ringing
+    n = len(irb_op.linear.modes().f_n)      # the absent package's own modes ring at 100 kHz
+    np.testing.assert_allclose(robot.at(POSTURE).linear.modes().f_n[:n], irb_op.linear.modes().f_n, rtol=1e-6)
+
+
+def test_a_package_on_springs_rings_at_its_tuning(irb_op, ringing):
+    # a 10 kg package tuned to 15 Hz on the upper arm: a new mode near 15 Hz (the arm moves with it
+    # and shifts it by a few per cent, the 13-17 Hz range), and none of the robot's modes rises
+    robot, params = ringing
+    u = np.zeros(len(params))
+    u[-2], u[-1] = params.params[-2].to_u(10.0), params.params[-1].to_u(15.0)
+    f = _with(robot, params, u).at(irb_op.q_cmd).modes("low").f_n
+    rigid = irb_op.modes("low").f_n
+    assert len(f) == len(rigid) + 1
+    assert np.any(np.abs(f / 15.0 - 1) < 0.13)
+    assert params.params[-2].value(u[-2]) == pytest.approx(10.0) and params.params[-1].value(u[-1]) == pytest.approx(15.0)

@@ -146,3 +146,14 @@ def test_form_flags_count_on_form_only_robots_and_falsely_on_spread_only_ones():
     assert form_flagged(form) and not form_flagged(spread)
     s = summary([form, spread])
     assert s["form_flagged"][:2] == [1, 1] and s["form_false_flag"][:2] == [0, 1]
+
+
+def test_a_hose_is_localised_by_a_resonance_on_its_link_within_ten_percent_of_its_tuning():
+    hose = _out(("hose_resonator", "upper_arm", 10.0), "upper_arm", "upper_arm.resonator")
+    hose["hidden"]["value"] = {"mass": 10.0, "f_hz": 18.0, "zeta": 0.05}
+    for f, named in ((18.0, True), (19.7, True), (20.5, False), (15.0, False)):
+        hose["located"][0]["frequency"] = f
+        assert localised_first(hose) is named, f
+    hose["located"][0]["where"] = "wrist"
+    hose["located"][0]["frequency"] = 18.0
+    assert not localised_first(hose)

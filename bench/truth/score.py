@@ -37,8 +37,8 @@ The rules (each a function here, each specified in ``sim_tests/test_truth_score.
   and, falsely, on spread-only ones;
 * **localised first** (:func:`localised_first`): on an out-of-library robot, the first place of the
   localisation is the joint or body carrying the effect (a joint also stands for the link it
-  drives), and of the effect's form: a compliance for a coupling of joints, a resonance for a
-  hose, a mass for an offset mass;
+  drives), and of the effect's form: a compliance for a coupling of joints, a resonance within
+  10 % of its frequency for a hose, a mass for an offset mass;
 * **identifiable within 5 %** over every calibrated parameter with a true value, and over those
   the calibration labelled identifiable (:func:`identifiable_within`);
 * **coverage** of the 95 % intervals per class (:func:`coverage`).
@@ -141,6 +141,9 @@ def _form_of_place(name: str) -> str:
     return "mass" if field == "mass" else "resonance" if "resonat" in field else field
 
 
+_RING_WITHIN = 0.10      # a resonance named within 10 % of the hidden package's tuning
+
+
 def localised_first(case) -> bool:
     """The first place of the localisation carries the hidden effect, in the effect's form."""
     h, located = case["hidden"], case.get("located")
@@ -150,7 +153,10 @@ def localised_first(case) -> bool:
     carriers = {part.removesuffix("_flex") for part in h["location"].split("+")}
     where = first["where"]
     at = where in carriers or _LINK_OF.get(where) in carriers
-    return bool(at and _form_of_place(first["name"]) == _FORM_OF.get(h["kind"]))
+    form = _form_of_place(first["name"])
+    if form == "resonance" and form == _FORM_OF.get(h["kind"]):
+        return bool(at and abs(float(first.get("frequency", 0.0)) / h["value"]["f_hz"] - 1) <= _RING_WITHIN)
+    return bool(at and form == _FORM_OF.get(h["kind"]))
 
 
 def identifiable_within(cases, *, labelled: bool) -> list:

@@ -19,6 +19,8 @@ kind             edits                                                       str
 ``foot``         where a counterbalance spring's foot sits about the axis    the spring   no
 ``head``         how far up the link a counterbalance spring's head sits    the spring   no
 ``preload``      a counterbalance spring's compression at the zero posture  the spring   no
+``resonator``    the mass of a package on springs at a body (its tuning kept) the package  no
+``resonance``    that package's frequency against the body held still        the package  yes
 ===============  ==========================================================  ===========  ==========
 
 A compliance (``base``, ``tilt``, ``bending``) is the inverse stiffness of its joints, 0 rigid
@@ -29,6 +31,11 @@ A counterbalance (``spring``, ``preload``) is a spatial tendon from the carousel
 second axis to the lower arm above it (:func:`counterbalance_geometry`), a linear spring absent at
 the nominal (stiffness 0): pushing the arm up, it adds a stiffness about the axis that follows the
 posture (its lever arm changes with the angle, and its preload acts through the geometry).
+
+A resonator (``resonator``, ``resonance``) is a package on three equal slide springs at a body's
+centre of mass (:func:`resonator_joints`), damped :data:`RESONATOR_ZETA` of critical: a hose, a
+cable chain, a valve pack, anything that rings on its own. Absent at the nominal, it is a
+:data:`RESONATOR_MASS` kg package tuned to :data:`RESONATOR_ABSENT_HZ`, far above every band.
 
 Only the kinds whose change enters the linearisation through C and K alone have a matrix
 perturbation (:attr:`Kind.perturb`): a mass or a centre of mass moves the equilibrium and the
@@ -46,7 +53,8 @@ import numpy as np
 from rmbench.errors import InputError
 
 __all__ = ["Kind", "KINDS", "RIGID", "COMPLIANCE_UNIT", "DAMPING_RATIO", "WIDE_FORM", "compliance_damping",
-           "tilt_joints", "bending_joints", "bending_child", "COUNTERBALANCE", "counterbalance_geometry"]
+           "tilt_joints", "bending_joints", "bending_child", "COUNTERBALANCE", "counterbalance_geometry",
+           "RESONATOR_ZETA", "RESONATOR_MASS", "RESONATOR_ABSENT_HZ", "resonator_body", "resonator_joints"]
 
 RIGID = 1e14                  # N/m or N·m/rad: a joint this stiff is rigid in every band
 COMPLIANCE_UNIT = 1e-9        # 1 µrad/(kN·m) in rad/(N·m) (1 µm/kN in m/N)
@@ -62,6 +70,9 @@ MIN_BENDING_LENGTH = 0.5      # m: a shorter link's bending is its joints' tilt
 COUNTERBALANCE = "counterbalance"     # the counterbalance spring's tendon
 _CB_BEHIND = 0.35             # m: the spring's foot behind the second axis, on the carousel
 _CB_UP = 0.35                 # m: its head up the lower arm from the axis
+RESONATOR_ZETA = 0.05         # a package's damping, of critical (a hose's rubber, a cable chain)
+RESONATOR_MASS = 0.01         # kg: an absent package's mass (a body with joints needs one)
+RESONATOR_ABSENT_HZ = 1e5     # an absent package's tuning: far above every band, it moves in no mode
 
 
 @dataclass(frozen=True)
@@ -142,6 +153,16 @@ def bending_child(spec, link: str):
     if len(children) != 1 or np.linalg.norm(children[0].pos) < MIN_BENDING_LENGTH:
         return None
     return children[0]
+
+
+def resonator_body(body: str) -> str:
+    """Name of the package body of a resonator at ``body`` (kinds ``resonator``, ``resonance``)."""
+    return f"{body}_resonator"
+
+
+def resonator_joints(body: str) -> tuple[str, str, str]:
+    """Names of the three slides a resonator's package at ``body`` rides on."""
+    return tuple(f"{body}_resonator_{a}" for a in "xyz")
 
 
 # --- joints' stiffness and damping ---------------------------------------------------------------
@@ -492,6 +513,87 @@ def _tendon(spec, p):
     raise InputError(f"the robot has no tendon {p.targets[0]!r} for {p.name}")
 
 
+# --- a resonator: a package on springs ----------------------------------------------------------
+
+def _add_resonator(spec, body: str) -> bool:
+    """A package at the centre of mass of ``body`` on three slides along the body's axes
+    (:func:`resonator_joints`), absent: :data:`RESONATOR_MASS` kg, taken from the link's, tuned
+    to :data:`RESONATOR_ABSENT_HZ`."""
+    name = resonator_body(body)
+    if spec.body(name) is not None:
+        return False
+    parent = spec.body(body)
+    if parent is None:
+        raise InputError(f"the robot has no body {body!r} for a resonator")
+    pos = spec.compile().body(body).ipos.copy()
+    if not parent.explicitinertial:
+        _make_inertial_explicit(spec, parent)
+    parent.mass = float(parent.mass) - RESONATOR_MASS    # at the link's centre: its mass and centre kept
+    package = parent.add_body(name=name, pos=pos)
+    package.explicitinertial = True
+    package.mass, package.ipos, package.iquat = RESONATOR_MASS, np.zeros(3), np.array([1.0, 0, 0, 0])
+    package.inertia = _package_inertia(RESONATOR_MASS)
+    k, c = _tuned(RESONATOR_MASS, RESONATOR_ABSENT_HZ)
+    for joint, axis in zip(resonator_joints(body), np.eye(3)):
+        package.add_joint(name=joint, type=mujoco.mjtJoint.mjJNT_SLIDE, axis=axis, pos=np.zeros(3),
+                          stiffness=[k, 0, 0], damping=[c, 0, 0])
+    return True
+
+
+def _package_inertia(mass: float) -> np.ndarray:
+    # a 4 cm sphere: the package's own rotation rings far above the bands
+    return np.full(3, 0.4 * mass * 0.04 ** 2)
+
+
+def _tuned(mass: float, f_hz: float) -> tuple[float, float]:
+    """Stiffness (N/m) and damping (N·s/m) of a package of ``mass`` kg ringing at ``f_hz``."""
+    w = 2 * np.pi * f_hz
+    return mass * w * w, 2 * RESONATOR_ZETA * mass * w
+
+
+def _resonator_model(model, p, x) -> None:
+    b = model.body(p.targets[0]).id
+    m_old, m = float(model.body_mass[b]), p.value(x)
+    model.body_mass[b], model.body_inertia[b] = m, _package_inertia(m)
+    for t in p.targets[1:]:     # stiffness and damping with the mass: the tuning kept
+        j = model.joint(t).id
+        model.jnt_stiffness[j] *= m / m_old
+        model.dof_damping[model.jnt_dofadr[j]] *= m / m_old
+
+
+def _resonator_spec(spec, p, x) -> None:
+    body = spec.body(p.targets[0])
+    m_old, m = float(body.mass), p.value(x)
+    body.mass, body.inertia = m, _package_inertia(m)
+    for t in p.targets[1:]:
+        j = spec.joint(t)
+        j.stiffness = [j.stiffness[0] * m / m_old, 0, 0]
+        j.damping = [j.damping[0] * m / m_old, 0, 0]
+
+
+def _resonance_model(model, p, x) -> None:
+    k, c = _tuned(float(model.body_mass[model.body(p.targets[0]).id]), p.value(x))
+    for t in p.targets[1:]:
+        j = model.joint(t).id
+        model.jnt_stiffness[j], model.dof_damping[model.jnt_dofadr[j]] = k, c
+
+
+def _resonance_spec(spec, p, x) -> None:
+    k, c = _tuned(float(spec.body(p.targets[0]).mass), p.value(x))
+    for t in p.targets[1:]:
+        j = spec.joint(t)
+        j.stiffness, j.damping = [k, 0, 0], [c, 0, 0]
+
+
+def _resonance_perturb(model, dofs, p, u_old, u_new, C, K) -> None:
+    m = float(model.body_mass[model.body(p.targets[0]).id])
+    (k0, c0), (k1, c1) = (_tuned(m, p.value(x)) for x in (u_old, u_new))
+    for t in p.targets[1:]:
+        d = dofs.index(t)
+        K[d, d] += k1 - k0
+        C[d, d] += c1 - c0
+
+
 _COMPLIANCE = dict(write_model=_compliance_model, write_spec=_compliance_spec, perturb=_compliance_perturb,
                    display=_per_unit, resolution=2 * COMPLIANCE_UNIT, wide=_compliance_wide,
                    gross=_compliance_gross, read_model=_compliance_read)
@@ -518,4 +620,8 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Kind("preload", _preload_model, _preload_spec, structure=_add_counterbalance,
          display=lambda value: 1e3 * value, resolution=5e-4, wide=lambda p: (0.0, 60.0),
          gross=lambda p: [0.0, 5.0, 20.0]),
+    Kind("resonator", _resonator_model, _resonator_spec, structure=_add_resonator, resolution=0.5,
+         wide=lambda p: (0.0, 40.0), gross=lambda p: [0.0, 5.0, 15.0]),
+    Kind("resonance", _resonance_model, _resonance_spec, structure=_add_resonator, perturb=_resonance_perturb,
+         wide=lambda p: (p.lower, p.upper), gross=lambda p: [p.lower, 0.5 * (p.lower + p.upper), p.upper]),
 )}

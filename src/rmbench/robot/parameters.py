@@ -31,7 +31,8 @@ tilt hinges) and its change of the linearised C and K are one registry entry per
 Structural parameters (:data:`STRUCTURAL`, ``extra=`` of :func:`parameter_set`) are in no group:
 the foundation's lateral compliance, the spindle bearings' radial and tilt stiffness, the tilt
 compliance of a joint's bearing (``JOINT.tilt_compliance``), a link's bending compliance
-(``LINK.bending_compliance``) and any body's mass. A gap diagnosis
+(``LINK.bending_compliance``), any body's mass, and a package on springs at a body, its mass and
+tuning (``BODY.resonator_mass``, ``BODY.resonance``: what a localisation tries). A gap diagnosis
 adds the ones a candidate effect edits and fits them with no prior
 (:meth:`ParameterSet.freed`), beside the ordinary ones: the same description and the same
 solver for every parameter.
@@ -46,7 +47,8 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.robot.kinds import (_CB_UP, COMPLIANCE_UNIT, COUNTERBALANCE, DAMPING_RATIO, KINDS, RIGID, Kind, _WIDE_LOG, _WIDE_MASS,
-                                 _WIDE_COMPLIANCE, WIDE_FORM, bending_child, bending_joints, tilt_joints)
+                                 _WIDE_COMPLIANCE, WIDE_FORM, bending_child, bending_joints, resonator_body,
+                                 resonator_joints, tilt_joints)
 
 __all__ = ["GROUPS", "OPTIONAL_GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet",
            "parameter_set", "parse_groups", "BASE_DAMPING_RATIO"]
@@ -64,6 +66,7 @@ STRUCTURAL = ("base.lateral_compliance", "spindle.radial", "spindle.tilt", "tool
               "tool_contact.rotation")
 _TILT = ".tilt_compliance"
 _BENDING = ".bending_compliance"
+_RESONATOR = (".resonator_mass", ".resonance")     # a package on springs at a body: its mass, its tuning
 _DISTAL = "_distal"          # a bent link's distal half: its mass is the link's, split at the nominal
 
 
@@ -292,7 +295,8 @@ def parameter_set(robot, groups=DEFAULT_GROUPS, extra=()) -> tuple["object", Par
         Of :data:`GROUPS` and :data:`OPTIONAL_GROUPS`.
     extra : sequence of str
         Further parameters by name, appended after the groups' (one a group already holds is not
-        repeated): :data:`STRUCTURAL`, ``BODY.mass`` or ``JOINT.tilt_compliance``.
+        repeated): :data:`STRUCTURAL`, ``BODY.mass``, ``JOINT.tilt_compliance``,
+        ``LINK.bending_compliance``, ``BODY.resonator_mass`` or ``BODY.resonance``.
         ``base.lateral_compliance`` mounts the robot on a foundation as the ``base`` group does.
 
     Returns
@@ -344,7 +348,8 @@ def _structures(robot, groups, extra) -> list:
     out += [("tilt", j) for j in dict.fromkeys(tilted)] + [("bending", b) for b in dict.fromkeys(bent)]
     if "counterbalance" in groups:
         out.append(("spring", robot.arm_joints[1]))
-    return out
+    rings = [n.rsplit(".", 1)[0] for n in extra if n.endswith(_RESONATOR)]
+    return out + [("resonator", b) for b in dict.fromkeys(rings)]
 
 
 def _with_structure(robot, structures):
@@ -434,8 +439,8 @@ def _group(g: str, m, names: _Names) -> list:
 
 
 def _structural(robot, name: str) -> Parameter:
-    """A parameter in no group (:data:`STRUCTURAL`, ``BODY.mass``, ``JOINT.tilt_compliance``), its
-    prior range the freed one."""
+    """A parameter in no group (:data:`STRUCTURAL`, ``BODY.mass``, ``JOINT.tilt_compliance``,
+    ``LINK.bending_compliance``, a resonator's), its prior range the freed one."""
     m = robot.model
     joints = [m.joint(j).name for j in range(m.njnt)]
 
@@ -458,6 +463,8 @@ def _structural(robot, name: str) -> Parameter:
         return _tilt(name, "structural", m)
     if name.endswith(_BENDING):
         return _bending(name, "structural", m)
+    if name.endswith(_RESONATOR):
+        return _resonator(name, m)
     if name in ("spindle.radial", "spindle.tilt"):
         return pair("spindle", ("x", "y") if name.endswith("radial") else ("rx", "ry"), "stiffness",
                     "N/m" if name.endswith("radial") else "N·m/rad")
@@ -470,8 +477,26 @@ def _structural(robot, name: str) -> Parameter:
             raise InputError(f"the robot has no body {body!r} for {name}")
         return Parameter(name, "structural", "mass", (body,), 0, float(m.body(body).mass[0]), True, 1.0,
                          *_WIDE_MASS, "kg")
-    raise InputError(f"unknown structural parameter {name!r}; one of {', '.join(STRUCTURAL)}, BODY.mass "
-                     f"or JOINT{_TILT}")
+    raise InputError(f"unknown structural parameter {name!r}; one of {', '.join(STRUCTURAL)}, BODY.mass, "
+                     f"JOINT{_TILT}, LINK{_BENDING}, BODY{_RESONATOR[0]} or BODY{_RESONATOR[1]}")
+
+
+_RESONANCE_HZ = (2.0, 200.0)     # a package's tuning, freed: what rings in a robot's low band and above
+
+
+def _resonator(name: str, m) -> Parameter:
+    """The mass (kg, from absent to 40 kg) or the tuning (Hz, log-scaled, 2-200 Hz freed) of a
+    package on springs at a body (``BODY.resonator_mass``, ``BODY.resonance``): a hose, a cable
+    chain (:func:`~rmbench.robot.kinds.resonator_joints`)."""
+    body, field = name.rsplit(".", 1)
+    targets = (resonator_body(body),) + resonator_joints(body)
+    mass = float(m.body(targets[0]).mass[0])
+    if field == "resonator_mass":
+        return Parameter(name, "structural", "resonator", targets, 0, mass, False, 1.0, 0.0, 40.0 - mass, "kg")
+    k = float(m.jnt_stiffness[m.joint(targets[1]).id])
+    f = float(np.sqrt(k / mass) / (2 * np.pi))
+    return Parameter(name, "structural", "resonance", targets, 0, f, True, 1.0,
+                     float(np.log(_RESONANCE_HZ[0] / f)), max(0.0, float(np.log(_RESONANCE_HZ[1] / f))), "Hz")
 
 
 def _compliance(name, group, kind, targets, c0: float, carried: float, label: str) -> Parameter:

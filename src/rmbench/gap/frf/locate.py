@@ -8,7 +8,11 @@ states, one compliance at a time (:mod:`rmbench.robot.kinds`):
 - a **tilt** at each gearbox joint: a compliance about the two axes normal to the joint's (its
   bearing, or whatever bends across the joint);
 - a **bending** of each long link: its distal half on a compliance about the two axes normal to
-  the link.
+  the link;
+- a **resonator** on each link: a package on springs at its centre of mass (a hose, a cable
+  chain), tuned to a frequency at which the calibrated model leaves measured modes without a
+  partner at the training postures (a package rings at much the same frequency in every posture,
+  the robot's own modes do not), a few masses tried on whole solutions.
 
 Each candidate ``c`` enters the calibrated model at zero (rigid) and is fitted to first order on
 the training postures together with the ordinary parameters (as :mod:`rmbench.gap.frf.joint`
@@ -16,8 +20,9 @@ fits a library effect: ``δz`` eliminated in closed form, the prior on it kept),
 zero. It is scored on the held-out postures with that fit, never refitted: the share of the
 held-out rms gap it removes against the same fit without it (``shrink``), and a weight ``exp(−χ²_held / 2)``
 over the candidates (Akaike-like: each adds one parameter). The result says where and what, not
-a name: "a compliance across j2", "lower_arm bending". A gap no candidate reduces (a resonance, a
-sensor) stays where it is: the localisation then says so.
+a name: "a compliance across j2", "lower_arm bending", "a resonance at 18 Hz on upper_arm". A gap
+no candidate reduces (a sensor, a distributed error) stays where it is: the localisation then
+says so.
 """
 
 from __future__ import annotations
@@ -42,7 +47,7 @@ class Place:
     acts_like : str
         What it is, in words.
     size : float
-        Fitted compliance, rad/(N·m) (first order, from rigid).
+        Fitted compliance, rad/(N·m) (first order, from rigid); a resonator's package mass, kg.
     shrink : float
         Share of the calibrated model's held-out rms gap it removes (may be negative).
     weight : float
@@ -50,6 +55,8 @@ class Place:
     at : tuple of tuple of float
         Where it is drawn, (x, z) in m at the zero posture: the joint's axis point, or the link's
         two ends.
+    frequency : float
+        A resonator's tuning against its link held still, Hz (0 for a compliance).
     """
 
     name: str
@@ -59,10 +66,17 @@ class Place:
     shrink: float
     weight: float
     at: tuple = ()
+    frequency: float = 0.0
+
+    @property
+    def what(self) -> str:
+        """``"compliance"`` or ``"resonance"``."""
+        return "resonance" if self.frequency > 0 else "compliance"
 
     def to_dict(self) -> dict:
         return {"name": self.name, "where": self.where, "acts_like": self.acts_like, "size": self.size,
-                "shrink": self.shrink, "weight": self.weight, "at": [list(a) for a in self.at]}
+                "frequency": self.frequency, "shrink": self.shrink, "weight": self.weight,
+                "at": [list(a) for a in self.at]}
 
 
 @dataclass(frozen=True)
@@ -96,9 +110,10 @@ class Localisation:
             return "no place to test"
         p = self.places[0]
         if not self.found:
-            return (f"no single compliance of a joint or link explains it (the best, {p.acts_like}, removes "
-                    f"{100 * p.shrink:.0f} % of the held-out gap): a resonance, a sensor or a distributed error")
-        return (f"localised at {p.where}: acts like {p.acts_like} of {p.size / 1e-9:.0f} µrad/(kN·m), removing "
+            return (f"no single compliance or resonator of a joint or link explains it (the best, {p.acts_like}, "
+                    f"removes {100 * p.shrink:.0f} % of the held-out gap): a sensor or a distributed error")
+        size = f"{p.size:.1f} kg" if p.what == "resonance" else f"{p.size / 1e-9:.0f} µrad/(kN·m)"
+        return (f"localised at {p.where}: acts like {p.acts_like} of {size}, removing "
                 f"{100 * p.shrink:.0f} % of the held-out gap (confidence {p.weight:.2f})")
 
     def to_dict(self) -> dict:
@@ -110,6 +125,9 @@ _FOUND = 0.25       # a place that removes less of the held-out rms gap localise
 _STEP = 20.0        # finite-difference step of a candidate compliance, µrad/(kN·m)
 _REFINE = 3         # candidates evaluated again on whole solutions
 _TRIAL = (50.0, 200.0, 800.0)     # their sizes where the first order says none, µrad/(kN·m)
+_PACKAGES = (2.0, 5.0, 12.0)      # kg: a resonator's masses tried (a hose or cable chain: 3-20 kg)
+_TUNINGS = 2                      # at most this many frequencies tried
+_SAME_RING = 0.1                  # unpartnered modes within 10 % of each other ring at one frequency
 
 
 def candidates(robot) -> tuple:
@@ -119,6 +137,16 @@ def candidates(robot) -> tuple:
 
     _, params = parameter_set(robot, ("tilt", "bending"))
     return tuple(params.names)
+
+
+def resonators(robot) -> tuple:
+    """The links a resonator is tried on (those the ``masses`` group calibrates), and their
+    parameter names ``LINK.resonator_mass``, ``LINK.resonance`` in that order."""
+    from rmbench.robot.parameters import parameter_set
+
+    _, params = parameter_set(robot, ("masses",))
+    links = tuple(n.rsplit(".", 1)[0] for n in params.names)
+    return links, tuple(f"{b}.{f}" for b in links for f in ("resonator_mass", "resonance"))
 
 
 def _words(name: str) -> tuple[str, str]:
@@ -164,9 +192,74 @@ def locate(calibrated, data, train, held, ordinary, settings) -> Localisation:
         stepped = [base + h * np.eye(len(cands))[i] for i, h in enumerate(steps)]
         e, *rest = problem.residuals_many([base] + stepped)
         g = np.column_stack([(r - e) / h for r, h in zip(rest, steps)])
-        return _ranked(problem, e, g, names, cands, ordinary, train, calibrated)
+        lin = _Following.of(problem, ordinary, train)
+        tunings = _tunings(problem, e, data, train)
+        fits = _fitted(problem, e, g, cands, lin)
     finally:
         problem.close()
+    # resonators on a model of their own (their packages' slides would slow every evaluation
+    # above), only where some measured modes lack a partner
+    rings = _ringing(calibrated, data, list(train) + list(held), settings, lin, tunings) if tunings else []
+    return _ranked(fits, names, cands, rings, calibrated)
+
+
+def _tunings(problem, e, data, train) -> list:
+    """Frequencies (Hz) at which measured modes of the training postures have no partner in the
+    calibrated model (a residual's slot at :data:`~rmbench.calibrate.residual.UNPAIRED`),
+    grouped within :data:`_SAME_RING`, those found at the most postures first (at least two):
+    where a package rings."""
+    from rmbench.calibrate.residual import UNPAIRED
+
+    found, at = [], 0
+    for (p, b), size in zip(problem.keys, problem.sizes):
+        meas = data.modes[p][b]
+        if p in set(train):
+            first = e[at:at + 4 * len(meas)].reshape(len(meas), 4)[:, 0]
+            found += [(float(f), p) for f in np.asarray(meas.f_n)[np.isclose(first, UNPAIRED)]]
+        at += size
+    found.sort()
+    groups = []
+    for f, p in found:
+        if groups and f <= groups[-1][0][0] * (1 + _SAME_RING):
+            groups[-1].append((f, p))
+        else:
+            groups.append([(f, p)])
+    groups = [g for g in groups if len({p for _, p in g}) >= 2]
+    groups.sort(key=lambda g: -len({p for _, p in g}))
+    return [float(np.median([f for f, _ in g])) for g in groups[:_TUNINGS]]
+
+
+def _ringing(calibrated, data, postures, settings, lin, tunings) -> list:
+    """``(link, f, mass, held-out χ²)`` of a resonator on each link at each tuning, the mass of
+    :data:`_PACKAGES` with the lowest training objective, on whole solutions with the ordinary
+    parameters following to first order."""
+    from rmbench.calibrate.model import ModalModel
+    from rmbench.calibrate.problem import Problem
+    from rmbench.robot.parameters import ParameterSet, parameter_set
+
+    links, rings = resonators(calibrated)
+    rob, params = parameter_set(calibrated, ("masses",), extra=rings)
+    cands = ParameterSet([p for p in params if p.name in rings])
+    q = np.array([calibrated.ik(p).q for p in data.postures])
+    trials, us = [], []
+    for k, b in enumerate(links):
+        for f in tunings:
+            for m in _PACKAGES:
+                u = np.zeros(len(cands))
+                u[2 * k], u[2 * k + 1] = cands.params[2 * k].to_u(m), cands.params[2 * k + 1].to_u(f)
+                trials.append((b, f, m))
+                us.append(u)
+    problem = Problem(ModalModel(rob, cands, data.design, q, data.bands), data, postures, settings)
+    try:
+        residuals = problem.residuals_many(us)
+    finally:
+        problem.close()
+    best = {}
+    for (b, f, m), r in zip(trials, residuals):
+        objective, chi2 = _followed(r, lin)
+        if (b, f) not in best or objective < best[(b, f)][0]:
+            best[(b, f)] = (objective, m, chi2)
+    return [(b, f, m, chi2) for (b, f), (_, m, chi2) in best.items()]
 
 
 @dataclass(frozen=True)
@@ -200,28 +293,42 @@ class _Following:
         return -np.linalg.solve(self.gram, self.J[self.tr].T @ e[self.tr] + self.z)
 
 
-def _ranked(problem, e, g, names, cands, ordinary, train, calibrated) -> Localisation:
-    """Each candidate fitted to first order, the best :data:`_REFINE` again on whole solutions
-    along their first-order direction, ranked by held-out χ²."""
-    lin = _Following.of(problem, ordinary, train)
-    # the baseline: the same first-order fit with no candidate (the ordinary parameters alone
-    # follow), so that each candidate is judged by what it adds, not by the linearisation's drift
+
+def _fitted(problem, e, g, cands, lin) -> tuple:
+    """The held-out χ² with no candidate (the ordinary parameters alone following) and
+    ``[(size, held-out χ²)]`` of each compliance candidate: fitted to first order, the best
+    :data:`_REFINE` again on whole solutions along their first-order direction."""
+    # the baseline: the same first-order fit with no candidate, so that each candidate is judged
+    # by what it adds, not by the linearisation's drift
     _, chi2_before = _fit_one(e, np.zeros(len(e)), lin)
-    fits = [_fit_one(e, g[:, c], lin) for c in range(len(names))]
+    fits = [_fit_one(e, g[:, c], lin) for c in range(len(cands))]
     for c in np.argsort([chi2 for _, chi2 in fits])[:_REFINE]:
-        fits[c] = _refined(problem, c, fits[c][0], len(names), lin)
+        fits[c] = _refined(problem, c, fits[c][0], len(cands), lin)
+    return chi2_before, fits
+
+
+def _ranked(fitted, names, cands, rings, calibrated) -> Localisation:
+    """The places of the compliance candidates ``fitted`` (:func:`_fitted`) and the resonators
+    ``rings`` (:func:`_ringing`), ranked by held-out χ²."""
+    chi2_before, fits = fitted
+
+    def shrink(chi2_after):
+        return float(1 - np.sqrt(chi2_after / chi2_before)) if chi2_before > 0 else 0.0
+
     places = []
     for c, (size, chi2_after) in enumerate(fits):
         where, words = _words(names[c])
-        shrink = 1 - np.sqrt(chi2_after / chi2_before) if chi2_before > 0 else 0.0
-        places.append((chi2_after, Place(names[c], where, words, size * cands.params[c].unit, float(shrink), 0.0)))
+        places.append((chi2_after, Place(names[c], where, words, size * cands.params[c].unit, shrink(chi2_after), 0.0)))
+    for b, f, m, chi2_after in rings:
+        places.append((chi2_after, Place(f"{b}.resonator", b, f"a resonance at {f:.1f} Hz (a package on springs)",
+                                         m, shrink(chi2_after), 0.0, frequency=f)))
     places.sort(key=lambda x: x[0])
     chi2 = np.array([x[0] for x in places])
     w = np.exp(-(chi2 - chi2.min()) / 2)
     w /= w.sum()
     links, at = _side_view(calibrated.model)
-    ranked = tuple(Place(p.name, p.where, p.acts_like, p.size, p.shrink, float(wi), at.get(p.where, ()))
-                   for (_, p), wi in zip(places, w))
+    ranked = tuple(Place(p.name, p.where, p.acts_like, p.size, p.shrink, float(wi), at.get(p.where, ()),
+                         p.frequency) for (_, p), wi in zip(places, w))
     return Localisation(ranked, chi2_before, links)
 
 
@@ -275,13 +382,19 @@ def _refined(problem, c: int, theta: float, k: int, lin: _Following) -> tuple[fl
     us = [np.eye(k)[c] * t for t in sizes]
     best = None
     for t, e in zip(sizes, problem.residuals_many(us)):
-        dz = lin.step(e)
-        train = e[lin.tr] + lin.J[lin.tr] @ dz
-        objective = float(train @ train + (lin.z + dz) @ (lin.z + dz))
+        objective, chi2 = _followed(e, lin)
         if best is None or objective < best[0]:
-            res = e[lin.he] + lin.J[lin.he] @ dz
-            best = (objective, t, float(res @ res))
+            best = (objective, t, chi2)
     return best[1], best[2]
+
+
+def _followed(e, lin: _Following) -> tuple[float, float]:
+    """``(training objective, held-out χ²)`` of a whole solution's residual ``e`` with the ordinary
+    parameters following to first order (data and prior on the training rows)."""
+    dz = lin.step(e)
+    train = e[lin.tr] + lin.J[lin.tr] @ dz
+    res = e[lin.he] + lin.J[lin.he] @ dz
+    return float(train @ train + (lin.z + dz) @ (lin.z + dz)), float(res @ res)
 
 
 def _fit_one(e, g, lin: _Following) -> tuple[float, float]:
