@@ -37,6 +37,14 @@ def _readings(robot, hidden, *, n=120, repeats=2, seed=0, timed=True):
                        t if timed else None, tuple(robot.arm_joints), covariance=cov)
 
 
+@pytest.fixture(scope="module")
+def j3_offset(mh180):
+    """Readings of an MH180 whose j3 is 1 mrad off, and their diagnosis: made once, read by the
+    tests of what is found and of the result's JSON (a diagnosis is deterministic)."""
+    data = _readings(mh180, (HiddenSource("joint_offset", "j3", (1e-3,)),))
+    return data, diagnose_tracker(mh180, data)
+
+
 def test_library_offers_every_kind_once_per_place(chain, mh180):
     lib = source_library(chain, 1.0 / nominal_stiffness(mh180), harmonics=2, drive="time", masses=True)
     assert {s.kind for s in lib} == set(SOURCE_KINDS)
@@ -120,11 +128,10 @@ def test_a_source_in_the_pose_model_moves_the_tcp_as_the_simulator_does(chain, m
     np.testing.assert_allclose(p_model, p_sim, atol=1e-9)   # 1 nm: the compliance's fixed point
 
 
-def test_a_hidden_joint_offset_is_found_with_its_value(mh180):
+def test_a_hidden_joint_offset_is_found_with_its_value(j3_offset):
     """1 mrad at j3 moves the TCP by ~1 mm: found alone, its value within 3 % (the noise of 240
     readings of 0.1 mm), the held-out residual down to the noise."""
-    data = _readings(mh180, (HiddenSource("joint_offset", "j3", (1e-3,)),))
-    dg = diagnose_tracker(mh180, data)
+    _, dg = j3_offset
     assert dg.verdict == "explained"
     assert [s.name for s in dg.chosen] == ["joint_offset@j3"]
     assert dg.chosen[0].params["offset"] == pytest.approx(1e-3, rel=0.03)
@@ -151,8 +158,8 @@ def test_the_base_registration_takes_up_the_first_joints_offset(mh180):
     assert "joint_offset@j1" in dg.absorbed
 
 
-def test_json_has_the_frf_diagnosis_shape(mh180, tmp_path):
-    dg = diagnose_tracker(mh180, _readings(mh180, (HiddenSource("joint_offset", "j3", (1e-3,)),)))
+def test_json_has_the_frf_diagnosis_shape(j3_offset, tmp_path):
+    _, dg = j3_offset
     d = dg.to_json()
     assert {"verdict", "effects", "where", "variant"} <= set(d)
     assert {"name", "location", "params", "heldout_before", "heldout_after", "shrink",

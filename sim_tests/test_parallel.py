@@ -26,10 +26,14 @@ def _fail_on_three(x):
 
 @pytest.fixture(scope="module")
 def cluster():
+    """Two single-threaded worker processes, without dask's statistical profiler (it samples each
+    worker's stack every 10 ms, a diagnostic these tests never read: CPU taken from the cases)."""
+    import dask
     from dask.distributed import LocalCluster
 
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=50) as c:
+    with dask.config.set({"distributed.worker.profile.enabled": False}), \
+            LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                         silence_logs=50) as c:
         yield c.scheduler_address
 
 
@@ -119,26 +123,50 @@ def test_tracker_blind_cases_on_a_dask_cluster_write_the_lines_of_a_run_here(clu
 CALIBRATION_BENCH = Path(__file__).resolve().parents[1] / "bench" / "calibrate.py"
 
 
-def _calibration_bench(tmp_path, name, *extra) -> tuple:
+def _calibration_bench(tmp_path, name, *extra):
     """The calibration bench's smallest run (one rigid robot, its 16-posture campaign in the
-    frequency domain, the joints alone calibrated, checked at 16 unseen postures), as a command: bench/ never on this process's
-    path (its control.py would shadow python-control). Its own cache folder, so the campaign is
-    measured where the case runs. Its JSON-lines file and its last printed line."""
+    frequency domain, the joints alone calibrated, checked at 16 unseen postures), started as a
+    command: bench/ never on this process's path (its control.py would shadow python-control). Its
+    own cache folder, so the campaign is measured where the case runs. The started process: its
+    ``finish()`` waits for it and gives its JSON-lines file and its last printed line."""
     lines = tmp_path / f"{name}.jsonl"
-    run = subprocess.run([sys.executable, str(CALIBRATION_BENCH), "--robots", "1", "--seed", "1", "--plain",
-                          "--method", "linear", "--groups", "joints", "--unseen", "16", "--lines", str(lines),
-                          "--cache", str(tmp_path / f"{name}_cache"), *extra],
-                         env={**os.environ, "OMP_NUM_THREADS": "1"}, capture_output=True, text=True, check=True)
-    return lines, json.loads(run.stdout.strip().splitlines()[-1])
+    out, err = tmp_path / f"{name}.out", tmp_path / f"{name}.err"
+    with open(out, "w") as fo, open(err, "w") as fe:
+        run = subprocess.Popen([sys.executable, str(CALIBRATION_BENCH), "--robots", "1", "--seed", "1", "--plain",
+                                "--method", "linear", "--groups", "joints", "--unseen", "16", "--lines", str(lines),
+                                "--cache", str(tmp_path / f"{name}_cache"), *extra],
+                               env={**os.environ, "OMP_NUM_THREADS": "1"}, stdout=fo, stderr=fe)
+
+    def finish() -> tuple:
+        try:
+            code = run.wait()
+        except BaseException:       # interrupted here: the command goes too
+            run.kill()
+            run.wait()
+            raise
+        if code:
+            raise subprocess.CalledProcessError(code, run.args, out.read_text(), err.read_text())
+        return lines, json.loads(out.read_text().strip().splitlines()[-1])
+
+    run.finish = finish
+    return run
 
 
 @pytest.mark.slow
 def test_the_calibration_bench_on_a_dask_cluster_writes_the_lines_of_a_run_here(cluster, tmp_path):
     from dask.distributed import Client, get_task_stream
 
-    local_lines, local_last = _calibration_bench(tmp_path, "local")
-    with Client(cluster) as client, get_task_stream(client) as stream:
-        remote_lines, remote_last = _calibration_bench(tmp_path, "remote", "--scheduler", cluster)
+    # the run here goes on beside the cluster's (its own process, files and cache): the cluster
+    # does not wait idle through it
+    local = _calibration_bench(tmp_path, "local")
+    try:
+        with Client(cluster) as client, get_task_stream(client) as stream:
+            remote_lines, remote_last = _calibration_bench(tmp_path, "remote", "--scheduler", cluster).finish()
+    except BaseException:
+        local.kill()
+        local.wait()
+        raise
+    local_lines, local_last = local.finish()
     # the robot ran on the cluster (one case, one task of its workers), and was calibrated in both
     assert [t["key"].startswith("_single_threaded") for t in stream.data] == [True]
     assert local_last["cases"] == 1

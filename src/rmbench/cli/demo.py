@@ -298,6 +298,9 @@ def _demo_predict(out: Path, workers, page) -> None:
     for k in range(guess.sizes["mode"]):
         f, s = (guess[v].sel(param="f_n").values[0, k] for v in ("modal", "modal_std"))
         b = guess.mode_band.values[k]
+        if not np.isfinite(f):      # a slot of the dataset no training posture's fit filled
+            print(f"  mode {k} ({b}): no training posture's fit holds this mode: nothing to learn or predict")
+            continue
         cand = exact_f[(exact_band == b) & np.isfinite(exact_f)]
         near = cand[np.argmin(np.abs(cand - f))] if len(cand) else np.nan
         print(f"  mode {k} ({b}): f_n {f:8.3f} ± {s:.3f} Hz; nearest exact mode {near:8.3f} Hz "

@@ -143,12 +143,13 @@ class Kinematics:
 
     def _newton(self, target, q, tol, max_iter):
         for _ in range(max_iter):
-            err = pin.log6(self.fk(q).actInv(target)).vector
+            delta = self.fk(q).actInv(target)   # one forward kinematics for the error and its Jacobian
+            err = pin.log6(delta).vector
             if np.linalg.norm(err) < tol:
                 # wrap into (-π, π] where that stays within limits, for a canonical branch
                 return q
             j = self.jacobian(q) @ np.eye(len(q))
-            jl = pin.Jlog6(self.fk(q).actInv(target))
+            jl = pin.Jlog6(delta)
             jj = jl @ j
             # the minimum-norm Gauss-Newton step: on a redundant arm (Panda) it has no component
             # along the self-motion. Solving the damped normal equations instead moved the arm along

@@ -255,7 +255,7 @@ class SerialChain:
         mass = np.cumsum(self.masses[::-1])[::-1]                   # Σ_{b ≥ i} m_b
         lever = s - mass[None, :, None] * origins
         force = np.array([0.0, 0.0, -GRAVITY])
-        tau = np.einsum("mni,mni->mn", axes, np.cross(lever, force))
+        tau = np.einsum("mni,mni->mn", axes, _cross(lever, force))
         return tau.reshape(q.shape[:-1] + (self.n_joint,))
 
     def _configs(self, q) -> np.ndarray:
@@ -273,8 +273,40 @@ def skew(v: np.ndarray) -> np.ndarray:
     return out
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of 3-vectors (a (..., 3), b (3,)), the same operations in the same
+    order (the same result to the bit) without its axis handling, which cost more than the
+    products on the chain's few hundred configurations."""
+    cp = np.empty(np.broadcast_shapes(a.shape, b.shape), np.result_type(a, b))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    cp0, cp1, cp2 = cp[..., 0], cp[..., 1], cp[..., 2]
+    np.multiply(a1, b2, out=cp0)
+    tmp = np.empty_like(cp0)
+    np.multiply(a2, b1, out=tmp)
+    cp0 -= tmp
+    np.multiply(a2, b0, out=cp1)
+    np.multiply(a0, b2, out=tmp)
+    cp1 -= tmp
+    np.multiply(a0, b1, out=cp2)
+    np.multiply(a1, b0, out=tmp)
+    cp2 -= tmp
+    return cp
+
+
+_AXIS_TERMS: dict = {}   # axis bytes -> (I, [axis]x, [axis]x²): a chain turns about a few fixed axes
+
+
 def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """Rotations about a fixed unit axis by each angle (Rodrigues), shape (m, 3, 3)."""
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    key = np.asarray(axis, float).tobytes()
+    terms = _AXIS_TERMS.get(key)
+    if terms is None:
+        k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+        terms = (np.eye(3), k, k @ k)
+        if len(_AXIS_TERMS) >= 64:
+            _AXIS_TERMS.clear()
+        _AXIS_TERMS[key] = terms
+    eye, k, kk = terms
     s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
-    return np.eye(3) + s * k + (1.0 - c) * (k @ k)
+    return eye + s * k + (1.0 - c) * kk

@@ -56,6 +56,9 @@ class ModelBench:
         self._modes: OrderedDict = OrderedDict()
         self._frfs: OrderedDict = OrderedDict()
         self._cache = cache
+        # the last view built: the search asks for a model's modes and then its FRF at the same
+        # posture and band, with the very same change objects (one eigen-analysis for both)
+        self._last_view: tuple | None = None
 
     @classmethod
     def commanded(cls, robot: Robot, design, postures) -> "ModelBench":
@@ -151,6 +154,16 @@ class ModelBench:
     def _view(self, change: Change, p: int, band: str, delta: Change | None = None) -> AsTested:
         """A changed model at a posture as the design, with the change's sensor offsets, tests it
         (``delta``'s parameters as a perturbation of its linearisation)."""
+        last = self._last_view
+        if (last is not None and last[0] is change and last[1] == p and last[2] == band
+                and last[3] is delta):
+            return last[4]
+        view = self._new_view(change, p, band, delta)
+        # the change objects are held with the view, so their identities stay theirs
+        self._last_view = (change, p, band, delta, view)
+        return view
+
+    def _new_view(self, change: Change, p: int, band: str, delta: Change | None) -> AsTested:
         op = self.operating_point(change, band, p)
         offsets = change.offsets + (delta.offsets if delta is not None else ())
         design = self.design.with_offsets(offsets) if offsets else self.design

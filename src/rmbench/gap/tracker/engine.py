@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from rmbench.gap.selection import bic, parallel_groups
 from rmbench.gap.tracker.data import TrackerData
-from rmbench.gap.tracker.sources import PoseModel, Source
+from rmbench.gap.tracker.sources import PoseModel, Source, remember
 from rmbench.tracker.chain import skew
 
 __all__ = ["Fit", "Engine", "stepped", "signatures", "pruned"]
@@ -59,6 +59,8 @@ class Engine:
 
     def __init__(self, model: PoseModel, data: TrackerData, train: np.ndarray, held: np.ndarray):
         self.model, self.data = model, data
+        self._recent = {}          # the last few positions and columns (see positions, columns)
+        self._fits = {}            # the fits made (see fit)
         self.train, self.held = train, held          # reading indices
         self.white = data.whitening()
         if data.covariance is not None:   # the base frame's covariance turned into the tracker's
@@ -84,8 +86,24 @@ class Engine:
             off += s.n_params
         return np.array(res), (np.array(rows) if rows else np.zeros((0, n)))
 
-    def positions(self, sources, values, idx) -> np.ndarray:
-        return self.model.positions(self.data.q[idx], sources, values, drive=self.data.drive(idx))
+    def positions(self, sources, values, idx, *, keep: bool = True) -> np.ndarray:
+        """The model's positions at readings ``idx`` (read-only). The last few asked with
+        ``keep`` are kept: the solver asks for the residual at a point and then, after the
+        columns' finite differences (not kept), for the registration's columns at the same
+        point, which need the same positions."""
+        if not keep:
+            return self.model.positions(self.data.q[idx], sources, values, drive=self.data.drive(idx))
+        return self._kept(("positions", _key(sources, values, idx)),
+                          lambda: self.model.positions(self.data.q[idx], sources, values, drive=self.data.drive(idx)))
+
+    def _kept(self, key, compute) -> np.ndarray:
+        """``compute()``, read-only, or the same array where it was asked with ``key`` lately."""
+        out = self._recent.get(key)
+        if out is None:
+            out = compute()
+            out.flags.writeable = False
+            remember(self._recent, key, out, 8)
+        return out
 
     def residual(self, sources, values, rot, trans, idx) -> np.ndarray:
         """Normalised residuals (reading − model) / σ, shape (len(idx), 3)."""
@@ -98,8 +116,14 @@ class Engine:
 
     def columns(self, sources, values, rot, idx, *, of=None) -> np.ndarray:
         """∂(model position)/∂(parameter) / σ for the parameters of ``of`` (default: all of
-        ``sources``), by central differences, shape (3 len(idx), n_params)."""
-        of = sources if of is None else of
+        ``sources``), by central differences, shape (3 len(idx), n_params), read-only. The last
+        few are kept: a calibration's carry, its account and the first screening all ask for
+        the calibrated model's columns at the training readings."""
+        key = ("columns", _key(sources, values, idx), np.asarray(rot, float).tobytes(),
+               None if of is None else tuple(s.name for s in of))
+        return self._kept(key, lambda: self._columns(sources, values, rot, idx, sources if of is None else of))
+
+    def _columns(self, sources, values, rot, idx, of) -> np.ndarray:
         cols = []
         w = self.white[idx]
         for s in of:
@@ -108,7 +132,8 @@ class Engine:
                 h = 1e-3 * s.parameters[k].unit      # 1e-3 of the parameter's u
                 vp, vm = stepped(sources, values, s, k, h, k_src)
                 srcs = sources if k_src is not None else tuple(sources) + (s,)
-                dp = (self.positions(srcs, vp, idx) - self.positions(srcs, vm, idx)) @ rot.T / (2 * h)
+                dp = (self.positions(srcs, vp, idx, keep=False)
+                      - self.positions(srcs, vm, idx, keep=False)) @ rot.T / (2 * h)
                 cols.append(np.einsum("nij,nj->ni", w, dp).ravel())
         return np.column_stack(cols) if cols else np.zeros((3 * len(idx), 0))
 
@@ -130,12 +155,24 @@ class Engine:
         """The sources and the base registration fitted together on the training readings, with
         the prior of the calibrated parameters: the calibration stage's regularised least squares
         (:func:`rmbench.calibrate.solver.solve`), in x = (source values, registration translation
-        and small rotation about the start's)."""
-        from rmbench.calibrate.solver import SolverOptions, solve
-
+        and small rotation about the start's). A fit asked again from the same start, with the
+        same priors and held-out whitening, is the one already made (the shares' account refits
+        the last pruning's models)."""
         sources = tuple(sources)
         values = [np.zeros(s.n_params) for s in sources] if start is None else \
             [np.array(v, float) for v in start]
+        key = (tuple(s.name for s in sources), tuple(v.tobytes() for v in values), iterations,
+               self.prior_sd(sources).tobytes())
+        made = self._fits.get(key)
+        if made is not None and made[0] is self.held_chol:
+            return made[1]
+        fit = self._fit(sources, values, iterations)
+        remember(self._fits, key, (self.held_chol, fit), 256)
+        return fit
+
+    def _fit(self, sources: tuple, values: list, iterations: int) -> Fit:
+        from rmbench.calibrate.solver import SolverOptions, solve
+
         rot0, trans0 = self.register(sources, values)
         idx = self.train
         sizes = np.cumsum([0] + [s.n_params for s in sources])
@@ -240,6 +277,13 @@ class Engine:
             res = r - jac @ x
             out.append((float(res @ res), s, x[: s.n_params]))
         return sorted(out, key=lambda c: c[0])
+
+
+def _key(sources, values, idx) -> tuple:
+    """What the model's positions at readings ``idx`` depend on, as a dictionary key."""
+    idx = np.asarray(idx)
+    return (idx.dtype.str, idx.shape, idx.tobytes(),
+            tuple((s.name, np.asarray(v, float).tobytes()) for s, v in zip(sources, values)))
 
 
 def stepped(sources, values, s, k, h, k_src):
