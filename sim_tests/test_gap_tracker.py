@@ -7,6 +7,7 @@ import pytest
 
 from rmbench.errors import InputError
 from rmbench.gap.tracker.sources import SOURCE_KINDS, PoseModel, source_library
+from rmbench.gap.tracker.data import repeat_scale
 from rmbench.gap.tracker.diagnosis import TrackerData, default_covariance, diagnose_tracker
 from rmbench.gap.cases.tracker_blind import HiddenSource, TrueRobot
 from rmbench.robot import Robot
@@ -482,3 +483,19 @@ def test_cli_report_is_drawn_from_the_diagnosis_and_saves_nothing_without_out(mh
     assert main(["gap", "diagnose", "--readings", str(path), "--report", str(report)]) == 0
     assert f"wrote {report}" in capsys.readouterr().out
     assert "Tracker gap diagnosis: explained" in report.read_text()
+
+
+def test_the_repeats_measure_the_noise_and_not_a_pose_error():
+    # 250 configurations read twice, noise twice the stated σ, each configuration off by its own
+    # pose error of 5 σ: the error is the same at both readings and cancels about their mean; the
+    # estimate has 750 degrees of freedom, so the scale is known to about 3 %
+    rng = np.random.default_rng(1)
+    location = np.concatenate([rng.permutation(250), rng.permutation(250)])
+    pose_error = 5.0 * rng.standard_normal((250, 3))
+    r = pose_error[location] + 2.0 * rng.standard_normal((500, 3))
+    scale, dof = repeat_scale(r, location)
+    assert dof == 750 and scale == pytest.approx(2.0, rel=0.1)
+
+
+def test_readings_never_repeated_leave_the_stated_noise():
+    assert repeat_scale(np.ones((10, 3)), np.arange(10)) == (1.0, 0)

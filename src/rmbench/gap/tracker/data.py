@@ -10,7 +10,7 @@ import numpy as np
 from rmbench.errors import InputError
 
 __all__ = ["TrackerData", "tracker_data", "default_covariance", "default_sigma", "check_readings",
-           "split_readings"]
+           "split_readings", "repeat_scale"]
 
 
 @dataclass(frozen=True)
@@ -142,3 +142,40 @@ def split_readings(data: TrackerData, heldout: float):
     train = np.flatnonzero(np.isin(data.location, train_units))
     held = np.flatnonzero(np.isin(data.location, held_units))
     return train, held, train_units, held_units
+
+
+def repeat_scale(residuals: np.ndarray, location: np.ndarray) -> tuple[float, int]:
+    """The readings' noise measured on their repeats, as a factor on the assumed noise.
+
+    A configuration read more than once (a campaign's repeats, minutes or hours apart) is the
+    same pose each time: whatever a model misses that depends on the configuration alone (a link
+    that bends, a mount that sags) is the same in each of its readings and cancels about their
+    mean, while the noise does not. The pooled spread of the normalised residuals about each
+    configuration's mean, ``Σ |r − r̄_c|² / (3 Σ (n_c − 1))``, is the noise's variance in units of
+    the assumed one. What changes between a configuration's readings besides the noise (a drift
+    in time, a backlash after another approach) adds to it.
+
+    Parameters
+    ----------
+    residuals : ndarray, shape (n, 3)
+        Normalised residuals (reading − model) / σ of every reading.
+    location : ndarray of int, shape (n,)
+        Each reading's configuration label.
+
+    Returns
+    -------
+    scale : float
+        The noise's standard deviation over the assumed one (1.0 where no configuration is read
+        twice).
+    dof : int
+        Degrees of freedom of the estimate, ``3 Σ (n_c − 1)`` (0: none).
+    """
+    r = np.asarray(residuals, float).reshape(len(location), -1)
+    labels, inverse, counts = np.unique(np.asarray(location), return_inverse=True, return_counts=True)
+    dof = int(r.shape[1] * np.sum(counts - 1))
+    if dof == 0:
+        return 1.0, 0
+    mean = np.zeros((len(labels), r.shape[1]))
+    np.add.at(mean, inverse, r)
+    mean /= counts[:, None]
+    return float(np.sqrt(np.sum((r - mean[inverse]) ** 2) / dof)), dof
