@@ -255,9 +255,10 @@ def test_tracker_recall_counts_every_hidden_source_not_only_the_large_ones():
     assert s["recall"] == 0.5 and s["recall_major"] == 1.0
 
 
-def _softer_with_reflector_offset(mh180, offset):
+def _softer_with_reflector_offset(mh180, offset, payload=0.0):
     """Readings of an MH180 whose every flexible joint is 20 % softer (its MJCF edited, not the
-    pose model) and whose reflector sits ``offset`` (m, tool frame) off, by the tracker simulator."""
+    pose model), whose reflector sits ``offset`` (m, tool frame) off and which carries an
+    unmodelled ``payload`` (kg) at the TCP, by the tracker simulator."""
     import dataclasses
     import re
 
@@ -268,11 +269,12 @@ def _softer_with_reflector_offset(mh180, offset):
     truth = Robot(xml, name="mh180", tool=mh180.tool)
     rng = np.random.default_rng(3)
     zero = ErrorDistribution(offset_sd=0, length_sd=0, twist_sd=0, tool_sd=0, stiffness_sd=0, mass_sd=0,
-                             payload=(0, 0), gear_amplitude=(0.0,))
+                             payload=(payload, payload), gear_amplitude=(0.0,))
     sim = TrackerSimulator.from_robot(truth, rng, distribution=zero)
     tw = sim.hidden.twists.copy()
     tw[-1, :3] = offset
-    sim = dataclasses.replace(sim, hidden=dataclasses.replace(sim.hidden, twists=tw), true_chain=sim.nominal.perturbed(tw))
+    sim = dataclasses.replace(sim, hidden=dataclasses.replace(sim.hidden, twists=tw), 
+                              true_chain=sim.nominal.perturbed(tw).with_payload(payload, sim.nominal.tool_translation))
     q = np.repeat(sobol_points(250, *MH180_JOINT_BOX, rng), 2, axis=0)
     y = sim.measure(q, rng)
     cov = default_covariance(mh180, q, y)
@@ -293,6 +295,24 @@ def test_calibrating_first_leaves_the_reflector_offset_alone_on_a_softer_robot(m
     assert dg.chosen[0].params["dx"] == pytest.approx(0.002, abs=1e-4)
     fractions = [p["value"] for p in dg.calibration["params"] if p["name"].startswith("gravity_compliance")]
     assert len(fractions) == 5 and all(abs(f - 0.2) < 0.1 for f in fractions)
+
+
+def test_beside_a_named_payload_the_compliances_are_those_of_the_final_model_and_cover_the_truth(mh180):
+    """A payload loads every joint as a softer gearbox does, so the calibration alone takes 20 kg
+    up as compliances 0.33-0.56 (truth +0.20). Once the payload is named, the compliances the
+    diagnosis reports are those fitted beside it: each 95 % interval covers +0.20, and as the
+    payload and the compliances trade along the same gravity torques, none is labelled
+    identifiable (an interval within 5 % of the stiffness)."""
+    from rmbench.gap.tracker.diagnosis import TrackerSettings
+
+    data = _softer_with_reflector_offset(mh180, [0.0, 0.0, 0.0], payload=20.0)
+    dg = diagnose_tracker(mh180, data, settings=TrackerSettings(calibrate=True))
+    assert [s.name for s in dg.chosen] == ["payload@tool"]
+    assert dg.calibration["with"] == ["payload@tool"]
+    rows = [p for p in dg.calibration["params"] if p["name"].startswith("gravity_compliance")]
+    assert len(rows) == 5
+    assert all(p["interval"][0] <= 0.2 <= p["interval"][1] for p in rows)
+    assert not any(p["identifiability"] == "identifiable" for p in rows)
 
 
 def test_readings_take_no_calibration_groups_in_one_line(mh180, tmp_path, capsys):

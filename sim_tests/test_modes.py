@@ -44,4 +44,5 @@ def test_to_dict_lists_coordinates_as_re_im_pairs(irb_op):
     d = irb_op.modes("low").to_dict()[0]
     assert set(d) >= {"f_n", "zeta", "phiL", "phiR"}
     assert set(d["phiR"]) == {"1X", "1Y", "1aX", "1aY"}
-    assert d["phiL"]["1aY"] == [1.0, pytest.approx(0.0, abs=1e-12)]
+    # normalised to 1 + 0j at the drive point: exact up to one rounding (BLAS kernels differ by CPU)
+    assert d["phiL"]["1aY"] == [pytest.approx(1.0, abs=1e-12), pytest.approx(0.0, abs=1e-12)]

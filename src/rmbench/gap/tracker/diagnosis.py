@@ -114,6 +114,11 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         library = [s for s in library if s.kind not in ORDINARY]
         start, calibration = _calibrated(eng, base, nominal_fit, settings, say)
     best, scored, verdict, more = _search(eng, library, start, base, p.e_all, settings, say)
+    if calibration is not None and len(best.sources) > len(base):
+        # the ordinary parameters as the model the diagnosis ends with holds them: beside the
+        # sources it chose, which the calibration alone had taken up in part (a payload in the
+        # gravity compliances)
+        calibration = {**calibration, **_account(eng, best)}
     form = _form(eng, start, settings) if settings.calibrate else None
     if form is not None and form["flagged"] and verdict == "unexplained":
         # the calibrated ordinary parameters cannot explain the held-out readings (their own
@@ -219,7 +224,9 @@ def _calibrated(eng: Engine, base: tuple, nominal: Fit, settings: TrackerSetting
     start = eng.fit(base, iterations=8)
     eng.carry(start)
     start = eng.score(start.sources, start.values, start.rotation, start.translation)
-    calibration = _calibration(eng, start, nominal, settings.bootstrap)
+    calibration = {**_account(eng, start), "heldout_before": _heldout(eng, nominal, settings.bootstrap),
+                   "heldout_after": _heldout(eng, start, settings.bootstrap),
+                   "chi2_train_per_n": start.chi2_train / max(start.n_train, 1)}
     say(f"calibrated {sum(x.n_params for x in base)} ordinary parameters: held-out rms "
         f"{1e3 * calibration['heldout_before']['rms']:.3f} -> {1e3 * calibration['heldout_after']['rms']:.3f} mm")
     return start, calibration
@@ -357,11 +364,32 @@ def _prior_sd(source: Source, settings: TrackerSettings) -> np.ndarray:
     return np.array([settings.compliance_sd])
 
 
-def _calibration(eng: Engine, fit: Fit, nominal: Fit, n_boot: int) -> dict:
-    """The calibration's account: each ordinary parameter's value, 95 % interval (Gauss-Newton
-    covariance with the prior, widened by √(χ²/dof) where the model does not reach the noise)
-    and identifiability (posterior over prior σ: below 0.3 the data carry most of what is known,
-    below 0.7 they narrow the prior), and the held-out error before and after."""
+# SI resolution that matters per (kind, field): a stiffness within 5 % (``1 + x`` for a compliance
+# fraction), a length within 5 mm, an angle within 0.1° (the calibration stage's sensor angle),
+# a link mass within 5 %
+_RESOLUTION = {("link_geometry", "length"): 5e-3, ("link_geometry", "twist"): float(np.radians(0.1)),
+               ("joint_offset", "offset"): float(np.radians(0.1)), ("link_mass", "fraction"): 0.05}
+
+
+def _resolved(source: Source, field: str, value: float, half_width: float) -> bool:
+    """Whether a 95 % half-width fixes a parameter to the resolution that matters (:data:`_RESOLUTION`)."""
+    if source.kind == "gravity_compliance":
+        return half_width <= 0.05 * abs(1.0 + value)
+    return half_width <= _RESOLUTION.get((source.kind, field), np.inf)
+
+
+def _account(eng: Engine, fit: Fit) -> dict:
+    """The calibration's account in ``fit`` (the calibration alone, or the model the diagnosis
+    ends with: the calibration and the sources it chose, fitted together): each ordinary
+    parameter's value, 95 % interval and identifiability.
+
+    The interval is the Gauss-Newton covariance with the prior, the structural sources freed
+    beside the ordinary ones, widened by √(χ²/dof) where the model does not reach the noise on
+    its training readings and further to the held-out χ² per residual where that is larger (a
+    model error the fit took up in part on its own configurations shows on the others), as the
+    FRF calibration's account (:func:`rmbench.calibrate.account.account`) does. Identifiable: the
+    posterior below 0.3 of the prior σ and the interval within the resolution that matters
+    (:func:`_resolved`); weak below 0.7."""
     from rmbench.calibrate.solver import identifiability, posterior
 
     idx = eng.train
@@ -369,22 +397,26 @@ def _calibration(eng: Engine, fit: Fit, nominal: Fit, n_boot: int) -> dict:
                      eng.registration_columns(fit.sources, fit.values, fit.rotation, idx)])
     sd_prior = eng.prior_sd(fit.sources)
     k = len(sd_prior)
-    # the registration has no prior: the data always fix it
-    prior = np.concatenate([1.0 / sd_prior ** 2, np.zeros(6)])
-    post = posterior(jac, prior, fit.chi2_train, fit.n_train, reference=np.concatenate([sd_prior, np.ones(6)]))
-    sd = post.sd[:k]
+    finite = np.isfinite(sd_prior)
+    # the registration and the structural sources have no prior: the data fix them or nothing does
+    prior = np.concatenate([np.where(finite, 1.0 / np.where(finite, sd_prior, 1.0) ** 2, 0.0), np.zeros(6)])
+    ref = np.concatenate([np.where(finite, sd_prior, 1.0), np.ones(6)])
+    post = posterior(jac, prior, fit.chi2_train, fit.n_train, reference=ref)
+    widening = float(np.sqrt(max(1.0, fit.chi2_held / max(fit.n_held, 1) / post.scale)))
+    sd = post.sd[:k] * widening
     rows, off = [], 0
     for s, v in zip(fit.sources, fit.values):
-        for i, p in enumerate(s.parameters):
-            ratio = float(post.ratio[off + i])
-            x = float(np.atleast_1d(v)[i])
-            rows.append({"name": p.name, "value": x, "prior_sd": float(sd_prior[off + i]),
-                         "interval": [x - 1.96 * float(sd[off + i]), x + 1.96 * float(sd[off + i])],
-                         "posterior_over_prior": ratio, "identifiability": identifiability(ratio)})
+        if s.kind in ORDINARY:
+            for i, p in enumerate(s.parameters):
+                ratio = float(post.ratio[off + i])
+                x, half = float(np.atleast_1d(v)[i]), 1.96 * float(sd[off + i])
+                field = p.name.rpartition(".")[2]
+                rows.append({"name": p.name, "value": x, "prior_sd": float(sd_prior[off + i]),
+                             "interval": [x - half, x + half], "posterior_over_prior": ratio,
+                             "identifiability": identifiability(ratio, resolved=_resolved(s, field, x, half))})
         off += s.n_params
-    return {"params": rows, "n_params": k, "heldout_before": _heldout(eng, nominal, n_boot),
-            "heldout_after": _heldout(eng, fit, n_boot),
-            "chi2_train_per_n": fit.chi2_train / max(fit.n_train, 1)}
+    return {"params": rows, "n_params": int(np.sum(finite)), "widening": widening,
+            "with": [s.name for s in fit.sources if s.kind not in ORDINARY]}
 
 
 def _heldout(eng: Engine, fit: Fit, n_boot: int, seed: int = 0) -> dict:

@@ -107,8 +107,10 @@ class TrackerDiagnosis:
     seconds : float
     notes : tuple of str
     calibration : dict or None
-        With ``settings.calibrate``: each ordinary parameter's value, interval and
-        identifiability, and the held-out error before and after the calibration alone.
+        With ``settings.calibrate``: each ordinary parameter's value, 95 % interval and
+        identifiability (``params``) as the final model holds them, beside the sources it chose
+        (``with``), the intervals' ``widening`` to the held-out lack of fit, and the held-out
+        error before and after the calibration alone.
     form : dict or None
         With ``settings.calibrate``: the calibrated pose model's lack-of-fit test at the held-out
         configurations (``flagged``, ``chi2``, ``n``, ``p``, ``peak``); where it fails and no
