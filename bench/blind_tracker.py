@@ -157,8 +157,11 @@ def run_robot(i: int, *, seed: int, args) -> dict:
         top = {"kind": s.kind, "location": s.location, "name": s.name, "confidence": float(s.confidence),
                "size": found_size(s.kind, s.params), "params": s.params, "chosen": bool(s.chosen)}
     before, after = true_rms(dg.nominal_fitted), true_rms(dg.fitted)
+    located = ((dg.form or {}).get("located") or {}).get("places")
     return {**head, "verdict": dg.verdict, "top": top,
             "form_flag": None if dg.form is None else bool(dg.form["flagged"]),
+            "located": None if not located else [{"where": p["where"], "name": p["name"], "shrink": p["shrink"],
+                                                  "size": p["size"]} for p in located[:3]],
             "chosen": [s.name for s in dg.chosen], "params": scored_params(dg.calibration, real.ordinary),
             "true_rms_before": before, "true_rms_after": after,
             # the form robots' figure, as an FRF robot's held-out |f error|: here the true rms pose

@@ -157,3 +157,13 @@ def test_a_hose_is_localised_by_a_resonance_on_its_link_within_ten_percent_of_it
     hose["located"][0]["where"] = "wrist"
     hose["located"][0]["frequency"] = 18.0
     assert not localised_first(hose)
+
+
+def test_a_tracker_backlash_is_localised_by_its_joints_lost_motion_and_a_one_sided_stiffness_by_a_compliance():
+    backlash = ("backlash", "j3", 2e-4)
+    assert localised_first(_out(backlash, "j3", "j3.lost_motion"))
+    assert not localised_first(_out(backlash, "j3", "j3.directional_compliance"))
+    assert not localised_first(_out(backlash, "j4", "j4.lost_motion"))
+    one_sided = ("directional_stiffness", "j5", 1.8)
+    assert localised_first(_out(one_sided, "j5", "j5.directional_compliance"))
+    assert not localised_first(_out(one_sided, "j5", "j5.lost_motion"))

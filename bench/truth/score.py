@@ -130,7 +130,10 @@ def form_flagged(case) -> bool:
 
 # the form each out-of-library kind has (what a localisation must name), and the link each arm
 # joint drives (a joint's place stands for it)
-_FORM_OF = {"hose_resonator": "resonance", "offset_mass": "mass", "tendon_coupling": "compliance"}
+_FORM_OF = {"hose_resonator": "resonance", "offset_mass": "mass", "tendon_coupling": "compliance",
+            # the tracker's: a backlash is a lost motion, a stiffness that differs with the
+            # torque's side a compliance
+            "backlash": "lost_motion", "directional_stiffness": "compliance"}
 _LINK_OF = {"j1": "carousel", "j2": "lower_arm", "j3": "upper_arm", "j4": "forearm", "j5": "wrist", "j6": "flange"}
 
 

@@ -57,6 +57,9 @@ class Place:
         two ends.
     frequency : float
         A resonator's tuning against its link held still, Hz (0 for a compliance).
+    form : str
+        What it is where neither a compliance nor a resonance (a tracker's ``"lost motion"``,
+        rad); empty otherwise.
     """
 
     name: str
@@ -67,16 +70,17 @@ class Place:
     weight: float
     at: tuple = ()
     frequency: float = 0.0
+    form: str = ""
 
     @property
     def what(self) -> str:
-        """``"compliance"`` or ``"resonance"``."""
-        return "resonance" if self.frequency > 0 else "compliance"
+        """``"compliance"``, ``"resonance"`` or the place's own :attr:`form`."""
+        return self.form or ("resonance" if self.frequency > 0 else "compliance")
 
     def to_dict(self) -> dict:
         return {"name": self.name, "where": self.where, "acts_like": self.acts_like, "size": self.size,
                 "frequency": self.frequency, "shrink": self.shrink, "weight": self.weight,
-                "at": [list(a) for a in self.at]}
+                "at": [list(a) for a in self.at], "what": self.what}
 
 
 @dataclass(frozen=True)
@@ -110,9 +114,10 @@ class Localisation:
             return "no place to test"
         p = self.places[0]
         if not self.found:
-            return (f"no single compliance or resonator of a joint or link explains it (the best, {p.acts_like}, "
+            return (f"no single augmentation of a joint or link explains it (the best, {p.acts_like}, "
                     f"removes {100 * p.shrink:.0f} % of the held-out gap): a sensor or a distributed error")
-        size = f"{p.size:.1f} kg" if p.what == "resonance" else f"{p.size / 1e-9:.0f} µrad/(kN·m)"
+        size = {"resonance": f"{p.size:.1f} kg", "compliance": f"{p.size / 1e-9:.0f} µrad/(kN·m)"}.get(
+            p.what, f"{abs(p.size) * 1e6:.0f} µrad")
         return (f"localised at {p.where}: acts like {p.acts_like} of {size}, removing "
                 f"{100 * p.shrink:.0f} % of the held-out gap (confidence {p.weight:.2f})")
 

@@ -6,7 +6,9 @@ added greedily (forward selection), since real robots carry several at once; con
 bootstrap selection frequencies over the held-out configurations, a resample crediting its winner
 only where the winner leaves noise there; the verdict is "explained" when the best model's
 held-out residuals are noise. Calibrated, where the calibrated pose model fails the noise test at
-the held-out configurations and no source explains the readings, the verdict is "model form".
+the held-out configurations and no source explains the readings, the verdict is "model form";
+where no name fits ("model form" or "unexplained"), :mod:`.locate` says at which joint the gap
+lies and what it acts like (a lost motion, a compliance that differs with the torque's side).
 
 1. **Where** (:class:`PoseErrorMap`): the nominal model's registered error per axis, the share of
    it above the noise, its rms over bins of each joint's angle, and how much of it each joint's
@@ -39,6 +41,7 @@ from rmbench.gap.selection import SearchSettings, bootstrap_shrink, selection_we
 from rmbench.gap.tracker.data import (TrackerData, check_readings, default_covariance, default_sigma,
                                       repeat_scale, split_readings, tracker_data)
 from rmbench.gap.tracker.engine import Engine, Fit, pruned, signatures
+from rmbench.gap.tracker.locate import locate
 from rmbench.gap.tracker.result import FittedPose, SourceResult, TrackerDiagnosis
 from rmbench.gap.tracker.sources import ORDINARY, PoseModel, Source, source_library
 from rmbench.gap.tracker.where import PoseErrorMap, pose_error_map
@@ -127,6 +130,12 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         more = list(more) + [f"model form: the calibrated pose model leaves held-out χ² {form['chi2']:.4g} on "
                              f"{form['n']} residuals (p {form['p']:.2g}; the noise as its repeats measure it, "
                              f"{form['noise_scale']:.2f} × the stated), and no source explains it"]
+    if form is not None and verdict in ("model form", "unexplained"):
+        # no name fits: where the gap lies, as a joint's lost motion or one-sided compliance
+        located = locate(eng, start)
+        form = {**form, "located": located.to_dict()}
+        more = list(more) + [located.summary()]
+        say(located.summary())
     # the prior's term spread over the held-out units, so a resample keeps it on average
     n_units = [3 * np.sum(data.location[eng.held] == u) for u in eng.held_units]
     weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
