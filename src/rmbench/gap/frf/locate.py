@@ -116,8 +116,8 @@ class Localisation:
         if not self.found:
             return (f"no single augmentation of a joint or link explains it (the best, {p.acts_like}, "
                     f"removes {100 * p.shrink:.0f} % of the held-out gap): a sensor or a distributed error")
-        size = {"resonance": f"{p.size:.1f} kg", "compliance": f"{p.size / 1e-9:.0f} µrad/(kN·m)"}.get(
-            p.what, f"{abs(p.size) * 1e6:.0f} µrad")
+        size = {"resonance": f"{p.size:.1f} kg", "compliance": f"{p.size / 1e-9:.0f} µrad/(kN·m)",
+                "growth": f"{p.size * 1e6:.1f} µm per hour or kelvin"}.get(p.what, f"{abs(p.size) * 1e6:.0f} µrad")
         return (f"localised at {p.where}: acts like {p.acts_like} of {size}, removing "
                 f"{100 * p.shrink:.0f} % of the held-out gap (confidence {p.weight:.2f})")
 

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.gap.selection import SearchSettings, bootstrap_shrink, selection_weights, significant
+from rmbench.gap.selection import SearchSettings, bic, bootstrap_shrink, selection_weights, significant
 from rmbench.gap.tracker.data import (TrackerData, check_readings, default_covariance, default_sigma,
                                       repeat_scale, split_readings, tracker_data)
 from rmbench.gap.tracker.engine import Engine, Fit, pruned, signatures
@@ -122,25 +122,15 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
         # sources it chose, which the calibration alone had taken up in part (a payload in the
         # gravity compliances)
         calibration = {**calibration, **_account(eng, best)}
-    form = _form(eng, start, settings) if settings.calibrate else None
-    if form is not None and form["flagged"] and verdict == "unexplained":
-        # the calibrated ordinary parameters cannot explain the held-out readings (their own
-        # uncertainty carried there) and no source of the library does: the pose model's form
-        verdict = "model form"
-        more = list(more) + [f"model form: the calibrated pose model leaves held-out χ² {form['chi2']:.4g} on "
-                             f"{form['n']} residuals (p {form['p']:.2g}; the noise as its repeats measure it, "
-                             f"{form['noise_scale']:.2f} × the stated), and no source explains it"]
-    if form is not None and verdict in ("model form", "unexplained"):
-        # no name fits: where the gap lies, as a joint's lost motion or one-sided compliance
-        located = locate(eng, start)
-        form = {**form, "located": located.to_dict()}
-        more = list(more) + [located.summary()]
-        say(located.summary())
+    form, rival = None, False
+    if settings.calibrate:
+        verdict, form, rival, more = _form_and_place(eng, start, best, base, verdict, more, settings, say)
     # the prior's term spread over the held-out units, so a resample keeps it on average
     n_units = [3 * np.sum(data.location[eng.held] == u) for u in eng.held_units]
     weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
                                  for f in scored], n_units, [f.k for f in scored], n_boot=settings.bootstrap)
-    conf = _adequate_confidences(scored, n_units, settings)
+    # a source a generic joint augmentation beats held out is no confident answer
+    conf = {} if rival else _adequate_confidences(scored, n_units, settings)
     chosen = best if best.sources else None
     before = _heldout(eng, nominal_fit, settings.bootstrap)
     after = _heldout(eng, best, settings.bootstrap) if chosen is not None else before
@@ -241,6 +231,61 @@ def _calibrated(eng: Engine, base: tuple, nominal: Fit, settings: TrackerSetting
     return start, calibration
 
 
+def _form_and_place(eng: Engine, start: Fit, best: Fit, base: tuple, verdict: str, notes, settings: TrackerSettings,
+                    say) -> tuple:
+    """The calibrated diagnosis's form test and localisation: ``(verdict, form, rivalled, notes)``.
+
+    A library explanation is first set against the joints' generic augmentations
+    (:func:`~rmbench.gap.tracker.locate.locate`, fitted on the calibration): where one of them
+    scores better held out (BIC, one parameter beside the calibration's), the library's name is
+    not given ("unexplained", ``rivalled``). Then, "unexplained" where the calibrated pose model
+    fails the form test (:func:`_form`) becomes "model form", and where no name fits the
+    localisation is the verdict's content (``form["located"]``)."""
+    form, notes, rivalled = _form(eng, start, settings), list(notes), False
+    located = locate(eng, start) if verdict in ("model form", "unexplained", "explained") else None
+    if verdict == "explained" and located is not None and located.places:
+        top = located.places[0]
+        # what the place removes beyond the same first-order fit without it, from the calibration
+        chi2 = start.chi2_held - located.chi2_held * (1.0 - (1.0 - top.shrink) ** 2)
+        if bic(chi2 + start.chi2_prior, start.k + 1, start.n_held) < best.score:
+            rivalled, verdict = True, "unexplained"
+            named = " + ".join(s.name for s in best.sources[len(base):])
+            notes.append(f"{top.acts_like} at {top.where} explains the held-out readings better than "
+                         f"{named} (held-out χ² {chi2:.4g} against {best.chi2_held:.4g}): no source of the "
+                         f"library is named")
+    if form["flagged"] and verdict == "unexplained":
+        # the calibrated ordinary parameters cannot explain the held-out readings (their own
+        # uncertainty carried there) and no source of the library does: the pose model's form
+        verdict = "model form"
+        notes.append(f"model form: the calibrated pose model leaves held-out χ² {form['chi2']:.4g} on "
+                     f"{form['n']} residuals (p {form['p']:.2g}; the noise as its repeats measure it, "
+                     f"{form['noise_scale']:.2f} × the stated), and no source explains it")
+    if located is not None and verdict in ("model form", "unexplained"):
+        form = {**form, "located": located.to_dict()}
+        notes.append(located.summary())
+        say(located.summary())
+    return verdict, form, rivalled, notes
+
+
+def _noise_scale(eng: Engine, start: Fit) -> tuple[float, float, int]:
+    """``(scale, measured, dof)``: the noise over the stated as the readings' repeats measure it
+    about the calibrated model ``start`` (:func:`~rmbench.gap.tracker.data.repeat_scale`), and
+    the scale the noise tests use, never below 1."""
+    every = np.arange(len(eng.data.q))
+    r = eng.residual(start.sources, start.values, start.rotation, start.translation, every)
+    measured, dof = repeat_scale(r, eng.data.location)
+    # never below the stated noise: repeats minutes apart miss what a tracker's data sheet covers
+    # and they do not (its slow drift, the reflector's reseating), and noise-free readings would
+    # make any error a wrong form
+    return max(1.0, measured), measured, dof
+
+
+def _above(fit: Fit, settings: TrackerSettings, scale: float = 1.0) -> bool:
+    """Whether ``fit``'s held-out residuals are above the noise (:func:`significant` at
+    ``settings.p_noise``), the noise ``scale`` × the stated."""
+    return significant(fit.chi2_held / scale ** 2, fit.n_held, p=settings.p_noise, peak=fit.peak_held / scale)
+
+
 def _form(eng: Engine, start: Fit, settings: TrackerSettings) -> dict:
     """The calibrated pose model's lack of fit at the held-out configurations (issue 80): its
     residuals there, each over the tracker's noise and the calibration's own uncertainty carried
@@ -250,15 +295,9 @@ def _form(eng: Engine, start: Fit, settings: TrackerSettings) -> dict:
     as noisy as their stated σ are not a wrong model."""
     from scipy.stats import chi2 as chi2_dist
 
-    every = np.arange(len(eng.data.q))
-    r = eng.residual(start.sources, start.values, start.rotation, start.translation, every)
-    measured, dof = repeat_scale(r, eng.data.location)
-    # never below the stated noise: repeats minutes apart miss what a tracker's data sheet covers
-    # and they do not (its slow drift, the reflector's reseating), and noise-free readings would
-    # make any error a wrong form
-    scale = max(1.0, measured)
+    scale, measured, dof = _noise_scale(eng, start)
     chi2, peak = start.chi2_held / scale ** 2, start.peak_held / scale
-    flagged = significant(chi2, start.n_held, p=settings.p_noise, peak=peak)
+    flagged = _above(start, settings, scale)
     return {"flagged": bool(flagged), "chi2": float(chi2), "n": int(start.n_held),
             "p": float(chi2_dist.sf(chi2, start.n_held)), "peak": float(peak),
             "noise_scale": scale, "noise_measured": measured, "noise_dof": dof}
@@ -297,16 +336,15 @@ def _search(eng: Engine, library, start: Fit, base: tuple, e_all: np.ndarray, se
             say(f"{len(step_best.sources)} source(s): {step_best.name}")
             if step_best.score >= best.score:
                 break
-            if base and not significant(best.chi2_held, best.n_held, p=settings.p_noise, peak=best.peak_held) \
-                    and not _decisive(best, step_best, len(free), settings.p_noise):
+            if base and not _above(best, settings) and not _decisive(best, step_best, len(free), settings.p_noise):
                 break
             best = step_best
-            if not significant(best.chi2_held, best.n_held, p=settings.p_noise, peak=best.peak_held):
+            if not _above(best, settings):
                 break
         if len(best.sources) > len(base):
             # each chosen source dropped in turn, refitted: a source the others made redundant goes
             best = pruned(eng, best, scored, base)
-        noise = not significant(best.chi2_held, best.n_held, p=settings.p_noise, peak=best.peak_held)
+        noise = not _above(best, settings)
         if len(best.sources) > len(base):
             verdict = "explained" if noise else "unexplained"
         else:   # no source helps held out: a gap only if the held-out postures show one
@@ -337,7 +375,7 @@ def _adequate_confidences(scored, n_units, settings: TrackerSettings, seed: int 
     if chi2.shape[1] < 4 or n_boot < 1:     # too few units to resample: the whole sample's test
         winner = int(np.argmin([f.score for f in scored]))
         f = scored[winner]
-        ok = not significant(f.chi2_held, f.n_held, p=settings.p_noise, peak=f.peak_held)
+        ok = not _above(f, settings)
         return {n: float(ok) for n in f.names}
     rng = np.random.default_rng(seed)
     out: dict[str, float] = {}

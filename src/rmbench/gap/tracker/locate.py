@@ -9,7 +9,10 @@ spring at a fixed zero:
 * **a compliance that depends on the torque's side** (``jN.directional_compliance``,
   rad/(N·m)): ``Δθ = c · |τ_N|`` with ``τ_N`` the gravity torque about the joint; beside the
   calibrated (symmetric) compliance it makes the joint softer on one side than on the other
-  (a preloaded or worn gear, a counterbalance acting one way).
+  (a preloaded or worn gear, a counterbalance acting one way);
+* **a link that grows** (``jN.growth``, m per hour or kelvin), where the readings carry time
+  stamps or temperatures: the placement of joint N lengthens with the drive (a thermal gradient
+  along one link, where a thermal drift scales the whole robot).
 
 Each is fitted to first order on top of the calibrated pose model, with the ordinary parameters
 (under their priors) and the base registration following, on the training readings; the places
@@ -21,12 +24,13 @@ gap it removes against the same first-order fit without it, and its weight is ``
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 from rmbench.gap.frf.locate import Localisation, Place
 from rmbench.gap.tracker.engine import Engine, Fit
 from rmbench.gap.tracker.sources import Source
 
-__all__ = ["locate", "approach", "lost_motion_and_side"]
+__all__ = ["locate", "approach", "augmentations"]
 
 
 def approach(data) -> np.ndarray:
@@ -40,12 +44,15 @@ def approach(data) -> np.ndarray:
     return out
 
 
-def lost_motion_and_side(model, data) -> dict:
-    """Each joint's two augmentations as a joint-angle change per reading and per unit of their
-    parameter: ``{(name, words): (joint, (n,) array)}``, ``name`` as ``jN.lost_motion`` or
-    ``jN.directional_compliance``."""
+def augmentations(model, data) -> dict:
+    """Each joint's augmentations as a change per reading and per unit of their parameter:
+    ``{(name, words): (joint, (n,) array)}``. ``jN.lost_motion`` and
+    ``jN.directional_compliance`` change the joint's angle (rad per unit); ``jN.growth`` the
+    length of the joint's placement (m per unit), where the readings carry a drive (hours or
+    kelvin)."""
     steps = approach(data)
     torque = np.abs(model.chain.gravity_torque(np.asarray(data.q, float)))
+    drive = data.drive()
     out = {}
     for j, name in enumerate(model.chain.names):
         if np.any(steps[:, j]):
@@ -54,7 +61,13 @@ def lost_motion_and_side(model, data) -> dict:
         if model.compliance[j] * np.max(torque[:, j], initial=0.0) > 1e-9:
             out[(f"{name}.directional_compliance", "a compliance that differs with the torque's side")] = \
                 (j, torque[:, j])
+        if drive is not None and j > 0 and np.ptp(drive) > 0:
+            out[(f"{name}.growth", f"a link that grows with the {data.drive_kind} (a thermal gradient)")] = \
+                (j, np.asarray(drive, float))
     return out
+
+
+_FORMS = {"lost_motion": "lost motion", "growth": "growth"}     # else a compliance
 
 
 def _per_reading(column: np.ndarray, factor: np.ndarray) -> np.ndarray:
@@ -81,10 +94,22 @@ def locate(eng: Engine, start: Fit) -> Localisation:
     value = np.concatenate([np.atleast_1d(v) for v in start.values] or [np.zeros(0)])
     r_t = eng.residual(*args, start.translation, train).ravel()
     r_h = eng.residual(*args, start.translation, held).ravel()
+    if eng.held_chol is not None:
+        # the held-out residuals as the search scores them: whitened by the calibration's own
+        # uncertainty carried there too (Engine.carry), so a place's χ² compares with a model's
+        r_h, base_h = (solve_triangular(eng.held_chol, x, lower=True, check_finite=False) for x in (r_h, base_h))
+
+    def held_white(g):
+        return g if eng.held_chol is None else solve_triangular(eng.held_chol, g, lower=True, check_finite=False)
 
     def offset_column(j, idx):
         # the joint's zero offset moves the TCP as any small turn of the joint does
         s = Source.of("joint_offset", eng.model.chain.names[j], joint=j)
+        return eng.columns(*args, idx, of=(s,))[:, 0]
+
+    def growth_column(j, idx):
+        # the placement's length, as a link that grows does
+        s = Source.of("link_geometry", eng.model.chain.names[j], joint=j)
         return eng.columns(*args, idx, of=(s,))[:, 0]
 
     def chi2_held(g_t=None, g_h=None):
@@ -100,9 +125,10 @@ def locate(eng: Engine, start: Fit) -> Localisation:
 
     chi2_before, _ = chi2_held()
     fitted = []
-    for (name, words), (j, factor) in lost_motion_and_side(eng.model, eng.data).items():
-        g_t = _per_reading(offset_column(j, train), factor[train])
-        g_h = _per_reading(offset_column(j, held), factor[held])
+    for (name, words), (j, factor) in augmentations(eng.model, eng.data).items():
+        column = growth_column if name.endswith("growth") else offset_column
+        g_t = _per_reading(column(j, train), factor[train])
+        g_h = held_white(_per_reading(column(j, held), factor[held]))
         chi2, size = chi2_held(g_t, g_h)
         fitted.append((chi2, name, words, size))
     if not fitted:
@@ -113,6 +139,6 @@ def locate(eng: Engine, start: Fit) -> Localisation:
     w /= w.sum()
     places = tuple(Place(name, name.split(".")[0], words, size,
                          float(1 - np.sqrt(c / chi2_before)) if chi2_before > 0 else 0.0, float(wi),
-                         form="lost motion" if name.endswith("lost_motion") else "")
+                         form=_FORMS.get(name.rpartition(".")[2], ""))
                    for (c, name, words, size), wi in zip(fitted, w))
     return Localisation(places, chi2_before)
