@@ -7,8 +7,8 @@ import pytest
 from _bench_path import bench_on_path
 
 with bench_on_path():
-    from truth.score import (LEAD, false_attribution, form_flagged, identifiable_within, localised_first,
-                             named_first, rated, size_within, summary, unexplained_strict)
+    from truth.score import (LEAD, attributed, false_attribution, form_flagged, identifiable_within,
+                             localised_first, named_first, rated, size_within, summary, unexplained_strict)
 
 
 def _case(cls="in_library", hidden=("tool_contact_stiffness", "tool_contact", 3.5), verdict="explained",
@@ -72,6 +72,27 @@ def test_a_weak_lead_inside_unexplained_is_not_an_attribution():
               top=("added_mass", "forearm", LEAD - 0.01, 10.0))
     assert not false_attribution(c)
     assert unexplained_strict(c)
+
+
+def test_a_confident_right_lead_beside_a_model_form_is_named_first():
+    # a real robot carries a library effect and a form error at once: naming the effect, at its
+    # place and size, beside the gap no effect closes is the answer the user needs
+    c = _case(hidden=("thermal_drift", "time", 3.0e-5), verdict="model form",
+              top=("thermal_drift", "time", LEAD, 3.3e-5))
+    assert named_first(c)
+    assert not unexplained_strict(c)
+
+
+def test_a_weak_right_lead_beside_a_model_form_is_not_named():
+    c = _case(hidden=("thermal_drift", "time", 3.0e-5), verdict="model form",
+              top=("thermal_drift", "time", LEAD - 0.01, 3.3e-5))
+    assert not named_first(c)
+
+
+def test_a_confident_lead_on_a_form_only_robot_blames_it():
+    c = _case(cls="form", hidden=None, verdict="model form", top=("thermal_drift", "time", LEAD, 3.0e-5))
+    assert attributed(c)
+    assert summary([c])["form_blamed"][:2] == [1, 1]
 
 
 def test_no_significant_gap_is_not_unexplained():

@@ -22,17 +22,22 @@ A case is one real robot's outcome, as a plain dict the bench writes:
 
 The rules (each a function here, each specified in ``sim_tests/test_truth_score.py``):
 
-* **named first** (:func:`named_first`): verdict "explained", the first named effect of the hidden
-  kind at its location, its size within ``SIZE_TOL`` (±30 %) of the truth's: a ratio's factor
-  against the true factor, an added quantity against the true one;
+* **named first** (:func:`named_first`): the first named effect of the hidden kind at its location,
+  its size within ``SIZE_TOL`` (±30 %) of the truth's (a ratio's factor against the true factor,
+  an added quantity against the true one), named: the verdict "explained", or a lead of confidence
+  ``LEAD`` or more inside "unexplained" or "model form" (a library effect named beside a gap no
+  effect closes, as a real robot that also differs in form gives; scored so after tracker seed
+  96533, as a wrong such lead already counted as a false attribution);
 * **false attribution** (:func:`false_attribution`): an effect named on a case whose truth does
   not hold it: "explained" by a kind or place other than the hidden one (or on a case with none),
   or "unexplained" with a lead of confidence ``LEAD`` or more on another kind. A right kind named
   at the wrong size is a miss, not a false attribution;
 * **unexplained, strictly** (:func:`unexplained_strict`): "unexplained", or "model form" (issue 80:
-  no library name, the model's form wrong); "no significant gap" is not a pass on an out-of-library
-  effect the bench saw. A confident wrong lead inside "model form" is a false attribution as inside
-  "unexplained";
+  no library name, the model's form wrong), with no lead of confidence ``LEAD`` or more; "no
+  significant gap" is not a pass on an out-of-library effect the bench saw. A confident wrong lead
+  inside "model form" is a false attribution as inside "unexplained";
+* **blamed** (:func:`attributed`): a robot with no hidden effect given one, by "explained" or by a
+  confident lead (the form-only and spread-only robots' rate);
 * **form flagged** (:func:`form_flagged`): the lack-of-fit test failed; its rate on form-only robots
   and, falsely, on spread-only ones;
 * **localised first** (:func:`localised_first`): on an out-of-library robot, the first place of the
@@ -56,7 +61,7 @@ import numpy as np
 
 from _stats import wilson
 
-__all__ = ["CLASSES", "LEAD", "SIZE_TOL", "SIZE_SCALE", "rated", "size_within", "named_first",
+__all__ = ["CLASSES", "LEAD", "SIZE_TOL", "SIZE_SCALE", "rated", "size_within", "attributed", "named_first",
            "false_attribution", "unexplained_strict", "form_flagged", "localised_first", "identifiable_within",
            "coverage", "summary"]
 
@@ -98,9 +103,17 @@ def _same_effect(case) -> bool:
     return h is not None and top is not None and top["kind"] == h["kind"] and top["location"] == h["location"]
 
 
+def attributed(case) -> bool:
+    """An effect named: the verdict "explained", or a lead of confidence ``LEAD`` or more inside
+    "unexplained" or "model form"."""
+    top = case["top"]
+    return top is not None and (case["verdict"] == "explained"
+                                or (case["verdict"] in _NOT_NAMED and top["confidence"] >= LEAD))
+
+
 def named_first(case) -> bool:
-    """The hidden effect named first, explained, at its place and size (see the module)."""
-    return (case["verdict"] == "explained" and _same_effect(case)
+    """The hidden effect named first at its place and size (see the module)."""
+    return (attributed(case) and _same_effect(case)
             and size_within(case["hidden"]["kind"], case["hidden"]["size"], case["top"].get("size")))
 
 
@@ -121,8 +134,8 @@ _NOT_NAMED = ("unexplained", "model form")
 
 
 def unexplained_strict(case) -> bool:
-    """The verdict "unexplained" or "model form": no effect of the library named."""
-    return case["verdict"] in _NOT_NAMED
+    """The verdict "unexplained" or "model form" and no effect of the library named."""
+    return case["verdict"] in _NOT_NAMED and not attributed(case)
 
 
 def form_flagged(case) -> bool:
@@ -193,7 +206,7 @@ def summary(cases, invisible: int = 0) -> dict:
         "form_f_p95_after": round(float(np.percentile(form_f, 95)), 5) if form_f else None,
         "named_first": named[2], "named_first_lo95": named[3], "named_first_rate": named,
         "false_attribution": rated(false_attribution(c) for c in cases),
-        "form_blamed": rated(c["verdict"] == "explained" for c in by["spread"] + by["form"]),
+        "form_blamed": rated(attributed(c) for c in by["spread"] + by["form"]),
         "unexplained_strict": rated(unexplained_strict(c) for c in by["out_of_library"]),
         "form_flagged": rated(form_flagged(c) for c in by["form"]),
         "form_false_flag": rated(form_flagged(c) for c in by["spread"]),

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Place", "Localisation", "candidates", "locate", "locate_calibration"]
+__all__ = ["FOUND", "Place", "Localisation", "candidates", "locate", "locate_calibration"]
 
 
 @dataclass(frozen=True)
@@ -106,7 +106,7 @@ class Localisation:
     @property
     def found(self) -> bool:
         """Whether the best place removes at least a quarter of the held-out rms gap."""
-        return bool(self.places) and self.places[0].shrink >= _FOUND
+        return bool(self.places) and self.places[0].shrink >= FOUND
 
     def summary(self) -> str:
         """One line: where, what, how much, how sure."""
@@ -126,7 +126,7 @@ class Localisation:
                 "places": [p.to_dict() for p in self.places], "links": [list(x) for x in self.links]}
 
 
-_FOUND = 0.25       # a place that removes less of the held-out rms gap localises nothing
+FOUND = 0.25       # a place that removes less of the held-out rms gap localises nothing
 _STEP = 20.0        # finite-difference step of a candidate compliance, µrad/(kN·m)
 _REFINE = 3         # candidates evaluated again on whole solutions
 _TRIAL = (50.0, 200.0, 800.0)     # their sizes where the first order says none, µrad/(kN·m)

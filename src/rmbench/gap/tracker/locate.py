@@ -1,6 +1,6 @@
 """Where a tracker gap lies when no source of the library explains it (issue 80, item 3).
 
-Two generic augmentations of each joint, the common ways a real gearbox departs from a linear
+Three generic augmentations of each joint, the common ways a real joint departs from a linear
 spring at a fixed zero:
 
 * **lost motion** (``jN.lost_motion``, rad): the joint stops short by the same angle on the side

@@ -33,7 +33,10 @@ class SourceResult:
         chosen); the chosen shares sum to the model's reduction.
     confidence : float
         Share of bootstrap resamples of the held-out configurations whose winning model holds it
-        and leaves noise (low inside an "unexplained" verdict, whose best model does not).
+        and leaves noise. Inside "unexplained" or "model form" (no model leaves noise), a chosen
+        source whose held-out drop added alone to the calibration is decisive and that no joint's
+        generic augmentation beats is named beside the gap: its share of the resamples won by a
+        model holding it; 0 for the others.
     heldout_after : dict
         Held-out ``rms`` and ``max`` pose error (m) of the model with this source (the chosen
         model for a chosen source, the source alone otherwise).
