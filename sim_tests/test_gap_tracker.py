@@ -97,8 +97,13 @@ def test_a_sources_parameters_are_parameter_records_scaled_as_the_engine_steps_t
         for k, p in enumerate(s.parameters):
             v = [np.zeros(s.n_params) for _ in range(2)]
             v[0][k], v[1][k] = p.value(1e-3), p.value(-1e-3)
-            diff = (model.positions(q, (s,), (v[0],)) - model.positions(q, (s,), (v[1],))) / (2e-3 * p.unit)
-            np.testing.assert_allclose(cols[:, k], (diff / 1e-4).ravel(), rtol=1e-12, atol=1e-9)
+            ahead, behind = model.positions(q, (s,), (v[0],)), model.positions(q, (s,), (v[1],))
+            forward = (ahead - model.positions(q)) / (1e-3 * p.unit)
+            np.testing.assert_allclose(cols[:, k], (forward / 1e-4).ravel(), rtol=1e-12, atol=1e-9)
+            # the forward step's error against central differences: the column changes over a
+            # whole unit u (tens of µm at the TCP), the step is 1e-3 u
+            central = (ahead - behind) / (2e-3 * p.unit)
+            np.testing.assert_allclose(cols[:, k], (central / 1e-4).ravel(), rtol=1e-6, atol=1e-6 * np.abs(cols[:, k]).max())
             assert np.max(np.abs(cols[:, k])) * p.unit > 1.0     # one u moves the TCP beyond the noise
 
 
