@@ -14,11 +14,12 @@
 Signals in SI (N, m, m/s²); frequencies in Hz. Sign convention ``u = K y`` (hinfsyn's).
 """
 
-from rmbench.control.axes import AxesDesign, controller_order, design_axes, plant_order
+from rmbench.control.axes import AxesDesign, design_axes
 from rmbench.control.analysis import closed_loop_matrix, is_stable, peak_near, reduction, sensitivity
 from rmbench.control.closed_loop import Hardware, LoopDiverged, LoopRecord, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import CONTROLLER_VERSION, Controller
-from rmbench.control.design import Design, DesignError, design, generalized_plant, modify, robust_design
+from rmbench.control.design import (Design, DesignError, controller_order, design, generalized_plant, modify,
+                                    plant_order, robust_design)
 from rmbench.control.experiments import (cluster, eccentric_test, reduction_at, settle_time, sine_sweep,
                                          excitation_frequencies)
 from rmbench.control.identify import ModeFit, fit_mode, fit_modes, measure_accelerance, measured_plant, plant_from_frf

@@ -10,23 +10,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from rmbench.control.controller import Controller
-from rmbench.control.design import design
+from rmbench.control.design import controller_order, design, plant_order
 from rmbench.control.identify import measured_plant
 from rmbench.control.plant import parse_axes, robot_plant
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError
 
-__all__ = ["AxesDesign", "design_axes", "plant_order", "controller_order"]
-
-
-def plant_order(n_axes: int) -> int:
-    """States of the reduced robot plant of a design over ``n_axes`` proof-mass axes."""
-    return 14 + 10 * (n_axes - 1)
-
-
-def controller_order(n_axes: int) -> int:
-    """States of the controller of a design over ``n_axes`` proof-mass axes."""
-    return 12 + 8 * (n_axes - 1)
+__all__ = ["AxesDesign", "design_axes"]
 
 
 @dataclass(frozen=True)

@@ -32,7 +32,8 @@ from rmbench.control.plant import Plant
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError, RmbenchError
 
-__all__ = ["DesignError", "Design", "generalized_plant", "design", "modify", "robust_design"]
+__all__ = ["DesignError", "Design", "generalized_plant", "design", "modify", "robust_design", "plant_order",
+           "controller_order"]
 
 
 class DesignError(RmbenchError):
@@ -60,6 +61,16 @@ class Design:
     gamma: float
     plant: Plant
     weights: Weights
+
+
+def plant_order(n_axes: int) -> int:
+    """States of the reduced robot plant of a design over ``n_axes`` proof-mass axes."""
+    return 14 + 10 * (n_axes - 1)
+
+
+def controller_order(n_axes: int) -> int:
+    """States of the controller of a design over ``n_axes`` proof-mass axes."""
+    return 12 + 8 * (n_axes - 1)
 
 
 def generalized_plant(plant: Plant, weights: Weights, mode_hz=None) -> ct.StateSpace:

@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from rmbench.control.axes import plant_order
+from rmbench.control.design import plant_order
 from rmbench.control.identify import measure_accelerance_matrix, plant_from_frf_matrix
 from rmbench.control.plant import AXES, Plant, ReactionMass, reaction_mass, robot_plant
 from rmbench.control.schedule import grid_posture

@@ -27,7 +27,7 @@ import numpy as np
 
 from rmbench.control.analysis import closed_loop_matrix
 from rmbench.control.controller import CONTROLLER_VERSION, Controller, write_npz
-from rmbench.control.design import design
+from rmbench.control.design import controller_order, design
 from rmbench.control.plant import Plant, first_strong_mode
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError
@@ -235,8 +235,6 @@ def design_schedule(plants, grid, joints, q_ref, *, hold: int | None = None, wei
     Each design targets, on each axis, the plant's lowest strong resonance
     (:func:`~rmbench.control.plant.first_strong_mode`), so that one mode is followed over the grid.
     """
-    from rmbench.control.axes import controller_order
-
     grid = tuple(np.asarray(g, float) for g in grid)
     plants = list(plants)
     axes = plants[0].axes if plants else ()
