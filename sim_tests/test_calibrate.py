@@ -447,7 +447,7 @@ def test_a_freed_size_is_searched_jointly_with_the_ordinary_gross_starts(irb):
     assert z[t] * sigma[t] == pytest.approx(20.0)
 
 
-@pytest.mark.parametrize("rank, factor", [(0, 0.85), (1, 1.0), (99, 1.4)])
+@pytest.mark.parametrize("rank, factor", [(0, 0.85), (1, 1.0), (99, 1.4)], ids=["first", "second", "past-the-last"])
 def test_a_start_rank_picks_the_gross_start_of_that_place_by_the_coarse_residual(irb, rank, factor):
     """The coarse residual does not rank the basins a fit ends in, so a fit can begin at the next
     gross starts; past the last, at the last (toy residual: least at gearboxes × 0.9, so the

@@ -47,7 +47,7 @@ def test_run_sweep_prints_reduction_json(cli, siso_file):
     (["control", "design", "--set", "k_z=1", "--out", "x.npz"], "k_z"),
     (["control", "run", "missing.npz"], "missing.npz"),
     (["control", "tune", "missing.toml"], "missing.toml"),
-])
+], ids=["unknown-axis", "zero-k_u", "k_z-set", "missing-controller", "missing-config"])
 def test_bad_input_is_one_line_and_exit_2(cli, tmp_path, monkeypatch, argv, words):
     monkeypatch.chdir(tmp_path)
     code, _, err = cli(*argv)

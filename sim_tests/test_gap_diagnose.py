@@ -167,7 +167,8 @@ def test_a_negative_number_of_confirmations_is_a_one_line_error(tmp_path, capsys
 @pytest.mark.parametrize("option, value, message", [("--heldout", "1.5", "heldout must be between 0 and 1"),
                                                      ("--p-noise", "0", "p_noise must be between 0 and 1"),
                                                      ("--refine", "0", "refine must be 1 or more"),
-                                                     ("--bootstrap", "-5", "bootstrap must be 0 or more")])
+                                                     ("--bootstrap", "-5", "bootstrap must be 0 or more")],
+                         ids=["heldout", "p-noise", "refine", "bootstrap"])
 def test_a_search_setting_out_of_range_is_a_one_line_error(tmp_path, capsys, option, value, message):
     code = main(["gap", "diagnose", "--data", str(tmp_path / "x.nc"), option, value])
     err = capsys.readouterr().err

@@ -344,7 +344,8 @@ def test_a_moving_cut_stays_on_its_smooth_stretch_and_holds_where_the_stretch_is
 
 
 @pytest.mark.parametrize("kw, message", [({"schedule": "best", "depth": 1e-3}, "unknown schedule"),
-                                         ({"depth": 0.0}, "depth of cut must be > 0")])
+                                         ({"depth": 0.0}, "depth of cut must be > 0")],
+                         ids=["unknown-schedule", "zero-depth"])
 def test_milling_a_schedule_refuses_an_unknown_schedule_or_depth(irb, kw, message):
     from rmbench.path import mill_schedule
 

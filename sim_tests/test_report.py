@@ -255,7 +255,8 @@ def test_page_is_written_whole_or_not_at_all(tmp_path):
     (["report", "{modal}", "--out", "{out}", "--posture", "99"], "outside"),
     (["report", "{notnc}", "--out", "{out}"], "not a readable netCDF"),
     (["lobes", "--benchmark", "--report", "{dir}/l.txt"], "must name an .html file"),
-])
+], ids=["missing-file", "png-out", "missing-folder", "runs-on-campaign", "folder-without-diagnosis",
+        "posture-outside", "not-netcdf", "lobes-txt-report"])
 def test_bad_input_gets_one_line(cli, files, argv, message, tmp_path):
     (tmp_path / "notnc.nc").write_text("hello")
     fmt = {"missing": tmp_path / "missing.nc", "out": tmp_path / "r.html", "dir": tmp_path,

@@ -98,7 +98,7 @@ def test_lowest_envelope_takes_the_smaller_depth():
     ({"immersion": 0.0}, "immersion"),
     ({"immersion": 1.5}, "immersion"),
     ({"k_t": -1.0}, "K_t"),
-])
+], ids=["no-teeth", "no-immersion", "immersion-over-one", "negative-k_t"])
 def test_bad_cutting_conditions_are_named(kwargs, match):
     base = {"k_t": 6e8, "k_n": 2e8, "teeth": 2, "immersion": 0.5}
     with pytest.raises(InputError, match=match):
