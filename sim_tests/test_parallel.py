@@ -132,9 +132,10 @@ def _calibration_bench(tmp_path, name, *extra):
     lines = tmp_path / f"{name}.jsonl"
     out, err = tmp_path / f"{name}.out", tmp_path / f"{name}.err"
     with open(out, "w") as fo, open(err, "w") as fe:
+        # one process each: the two runs and the other test worker already share the two cores
         run = subprocess.Popen([sys.executable, str(CALIBRATION_BENCH), "--robots", "1", "--seed", "1", "--plain",
-                                "--method", "linear", "--groups", "joints", "--unseen", "16", "--lines", str(lines),
-                                "--cache", str(tmp_path / f"{name}_cache"), *extra],
+                                "--workers", "1", "--method", "linear", "--groups", "joints", "--unseen", "16",
+                                "--lines", str(lines), "--cache", str(tmp_path / f"{name}_cache"), *extra],
                                env={**os.environ, "OMP_NUM_THREADS": "1"}, stdout=fo, stderr=fe)
 
     def finish() -> tuple:
