@@ -33,7 +33,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/campaign_speed.py | tee bench/results/campaign_speed.txt
 	$(BIN)/python bench/user_wait.py | tee bench/results/user_wait.txt
 	$(BIN)/python bench/identify_speed.py | tee bench/results/identify_speed.txt
-	$(BIN)/python bench/control.py | tee bench/results/control.txt
+	$(BIN)/python bench/control_loop.py | tee bench/results/control_loop.txt
 	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
 	$(BIN)/python bench/modal_vs_sdypy.py | tee bench/results/modal_vs_sdypy.txt
 	$(BIN)/python bench/modal_robustness.py | tee bench/results/modal_robustness.txt

@@ -17,7 +17,7 @@ draws them, a compliant foundation on every other one; ``_control_truth.py``, pl
    (Sobol) postures inside the grid: reduction of the acceleration sensitivity peak at the first
    strong mode of each axis (the seed's Fig. 9 figure), closed-loop stability, the loop margin
    (smallest singular value of I − K G), the largest amplification above twice the mode (dB, as
-   ``bench/control.py``),
+   ``bench/control_loop.py``),
    and stroke and force at a 10 N disturbance sine at the mode.
 
 5. **Moving**: the arm moves across the grid (J2 −8 → 18°, J3 −8 → 28°, cosine speed profile, 12 s)
@@ -47,9 +47,6 @@ import time
 import warnings
 from pathlib import Path
 
-# python-control is ``import control``; this folder holds bench/control.py: look here last
-_HERE = Path(__file__).resolve().parent
-sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != _HERE] + [str(_HERE)]
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-# loaded by path, not by putting bench/ on sys.path: bench/control.py would then shadow
-# python-control for every later test in the same process
+# loaded by path, not by putting bench/ on sys.path: no bench script then shadows a library
+# module for the later tests in the same process
 _spec = importlib.util.spec_from_file_location("bench_stats", Path(__file__).resolve().parents[1] / "bench" / "_stats.py")
 _stats = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(_stats)

@@ -126,7 +126,7 @@ CALIBRATION_BENCH = Path(__file__).resolve().parents[1] / "bench" / "calibrate.p
 def _calibration_bench(tmp_path, name, *extra):
     """The calibration bench's smallest run (one rigid robot, its 16-posture campaign in the
     frequency domain, the joints alone calibrated, checked at 16 unseen postures), started as a
-    command: bench/ never on this process's path (its control.py would shadow python-control). Its
+    command: bench/ never on this process's path (none of its scripts may shadow a library). Its
     own cache folder, so the campaign is measured where the case runs. The started process: its
     ``finish()`` waits for it and gives its JSON-lines file and its last printed line."""
     lines = tmp_path / f"{name}.jsonl"

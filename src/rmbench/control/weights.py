@@ -16,7 +16,7 @@ Per axis, with ``ω0 = 2π f0`` the robot mode the axis targets:
 
 The defaults were chosen on the MH180 stand-in's reference posture (tangential mode 5.9 Hz) for
 ≥ 80 % reduction, ≤ 3 dB amplification above twice the mode, ≤ 10 mm stroke at a 20 N
-disturbance and a stable controller (``bench/control.py`` measures them in closed loop).
+disturbance and a stable controller (``bench/control_loop.py`` measures them in closed loop).
 
 Units: gains make each weighted output dimensionless per newton of disturbance.
 """

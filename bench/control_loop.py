@@ -18,7 +18,7 @@
 
 Last line: one JSON object with the headline figures.
 
-usage: python bench/control.py [--workers 2] [--plots bench/results]
+usage: python bench/control_loop.py [--workers 2] [--plots bench/results]
 """
 
 from __future__ import annotations
@@ -26,14 +26,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import time
 import warnings
 from pathlib import Path
 
-# this file is named control.py, as the issue asks: keep its folder off the path, or
-# ``import control`` (python-control) would find it
-sys.path[:] = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
