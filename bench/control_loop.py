@@ -52,6 +52,24 @@ def amplification_db(open_ds, closed_ds, axis, f_above):
     return float(20 * np.log10(np.max(c[sel] / o[sel])))
 
 
+def timed(run, controllers: dict) -> tuple[dict, float]:
+    """``({name: run(controller)}, seconds)``: each controller's run (None: uncontrolled) and the
+    wall time of them all."""
+    t0 = time.perf_counter()
+    out = {name: run(k) for name, k in controllers.items()}
+    return out, time.perf_counter() - t0
+
+
+def controlled(runs: dict):
+    """``(name, run)`` of each controlled run, in order (the uncontrolled one is the reference)."""
+    return [(name, ds) for name, ds in runs.items() if name != "uncontrolled"]
+
+
+def effort(ds) -> str:
+    """A run's largest stroke used (% of the stage's) and actuator force (N), as the tables print them."""
+    return f"{100 * float(ds.stroke_used.max()):6.0f}% {float(ds.force_max.max()):8.1f}"
+
+
 def zeta_near(op, f0):
     m = op.linear.modes()
     return float(m.zeta[np.argmin(np.abs(m.f_n - f0))])
@@ -103,51 +121,42 @@ def main():
         kw = dict(scheduler=client)
         # 1. single axis --------------------------------------------------------------------
         f_sweep = excitation_frequencies([(f_t, z_t), (f_a, z_a)], 2.0, 40.0)
-        t0 = time.perf_counter()
-        sw = {name: sine_sweep(op, k, "tangential", f_sweep, **kw)
-              for name, k in (("uncontrolled", None), ("H-infinity", d_t.controller),
-                              ("modified", d_t_mod.controller), ("measured plant, all modes", d_meas.controller),
-                              ("measured plant, one mode", d_meas1.controller))}
-        t_sweep = time.perf_counter() - t0
+        sw, t_sweep = timed(lambda k: sine_sweep(op, k, "tangential", f_sweep, **kw),
+                            {"uncontrolled": None, "H-infinity": d_t.controller, "modified": d_t_mod.controller,
+                             "measured plant, all modes": d_meas.controller,
+                             "measured plant, one mode": d_meas1.controller})
         print(f"\n1. Single axis, 20 N sine on the tangential disturbance coil, {len(f_sweep)} frequencies "
               f"2-40 Hz ({t_sweep:.0f} s)")
         print(f"  {'controller':<24} {'reduction':>9} {'amp >2f0 dB':>11} {'stroke':>7} {'force N':>8} {'sat.':>5} "
               f"{'end-stop runs':>13}")
         single = {}
-        for name, ds in sw.items():
-            if name == "uncontrolled":
-                continue
+        for name, ds in controlled(sw):
             red = reduction_at(sw["uncontrolled"], ds, "tangential", f_t)
             amp = amplification_db(sw["uncontrolled"], ds, "tangential", 2 * f_t)
             single[name] = (red, amp)
-            print(f"  {name:<24} {100 * red:8.1f}% {amp:11.2f} {100 * float(ds.stroke_used.max()):6.0f}% "
-                  f"{float(ds.force_max.max()):8.1f} {float(ds.saturated.max()):5.2f} {int((ds.end_stop > 0).sum()):13d}")
+            print(f"  {name:<24} {100 * red:8.1f}% {amp:11.2f} {effort(ds)} "
+                  f"{float(ds.saturated.max()):5.2f} {int((ds.end_stop > 0).sum()):13d}")
         print("  seed: 75.2 % at 5.72 Hz (modified controller); target >= 80 %, <= 3 dB above 2 f0, "
               "stroke <= 12.5 mm, force <= 180 N")
         plot_sensitivity(sw, plots / "control_fig9_single_axis.png", title="single axis: 20 N sine sweep")
 
         # 2. eccentric mass ---------------------------------------------------------------------
         speeds = excitation_frequencies([(f_t, z_t), (f_a, z_a)], 2.0, 20.0)
-        t0 = time.perf_counter()
-        ecc = {name: eccentric_test(op, k, speeds, **kw)
-               for name, k in (("uncontrolled", None), ("two SISO loops", pair), ("SISO, seed process", pair_seed),
-                               ("MIMO", d_mimo.controller))}
-        t_ecc = time.perf_counter() - t0
+        ecc, t_ecc = timed(lambda k: eccentric_test(op, k, speeds, **kw),
+                           {"uncontrolled": None, "two SISO loops": pair, "SISO, seed process": pair_seed,
+                            "MIMO": d_mimo.controller})
         print(f"\n2. Eccentric mass (m e = 0.01 kg m), {len(speeds)} speeds 2-20 Hz ({t_ecc:.0f} s)")
         print(f"  {'controller':<18} {'tangential':>10} {'axial':>8} {'amp >1.5f_a dB (t/a)':>19} {'stroke':>7} "
               f"{'force N':>8} {'runs at an end stop':>19}")
         ecc_red = {}
-        for name, ds in ecc.items():
-            if name == "uncontrolled":
-                continue
+        for name, ds in controlled(ecc):
             rt = reduction_at(ecc["uncontrolled"], ds, "tangential", f_t)
             ra = reduction_at(ecc["uncontrolled"], ds, "axial", f_a)
             at = amplification_db(ecc["uncontrolled"], ds, "tangential", 1.5 * f_a)
             aa = amplification_db(ecc["uncontrolled"], ds, "axial", 1.5 * f_a)
             out = ds.freq.values[ds.end_stop.values > 0]
             ecc_red[name] = (rt, ra)
-            print(f"  {name:<18} {100 * rt:9.1f}% {100 * ra:7.1f}% {at:9.2f}/{aa:<9.2f} "
-                  f"{100 * float(ds.stroke_used.max()):6.0f}% {float(ds.force_max.max()):8.1f} "
+            print(f"  {name:<18} {100 * rt:9.1f}% {100 * ra:7.1f}% {at:9.2f}/{aa:<9.2f} {effort(ds)} "
                   f"{', '.join(f'{f:g}' for f in out) + ' Hz' if len(out) else 'none':>19}")
         print("  seed (two SISO loops): 58.7 % tangential at 6.0 Hz, 27.8 % axial at 12.3 Hz, an increase "
               "at 13.9 Hz; target MIMO >= 70 % on both")
