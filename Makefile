@@ -8,7 +8,7 @@ STAMP := $(VENV)/.installed-stamp
 # once); each keeps its BLAS and torch pools to its share
 TEST_WORKERS ?= auto
 
-.PHONY: demo test bench bench-summary install clean
+.PHONY: demo test bench bench-summary docs install clean
 
 install: $(STAMP)
 
@@ -51,9 +51,16 @@ bench: $(STAMP)
 	$(BIN)/python bench/report.py | tee bench/results/report.txt
 	$(BIN)/python bench/summary.py
 
-# bench/README.md: the last JSON line of every bench/results/*.txt as tables (standard library only)
+# bench/README.md: an index of the benches (how each runs, its results file), no figures (standard library only)
 bench-summary: $(STAMP)
 	$(BIN)/python bench/summary.py
+
+# the API reference from the docstrings (docs/api, sphinx autodoc + napoleon), any warning an error;
+# -E: every page read afresh, so an unchanged page's warnings are not hidden by the cache
+docs: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	$(BIN)/python -m sphinx -E -W --keep-going -q -b html docs/api docs/_build/html
+	@echo "API reference: docs/_build/html/index.html"
 
 clean:
 	rm -rf $(VENV) rmbench_demo

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import gzip
 import hashlib
 import json
 import subprocess
@@ -60,6 +61,17 @@ def ship_bench_modules() -> None:
             cloudpickle.register_pickle_by_value(module)
 
 
+def open_lines(path, mode: str = "r"):
+    """A bench's JSON-lines file, opened as text for reading (``"r"``) or appending (``"a"``):
+    gzip-compressed where its name ends in ``.gz`` (a finished run's lines kept compressed in
+    ``bench/results/``; appending adds a gzip member, which readers take as one stream), plain
+    otherwise."""
+    path = Path(path)
+    if path.suffix == ".gz":
+        return gzip.open(path, mode + "t", encoding="utf-8")
+    return open(path, mode)
+
+
 def resumed_cases(lines: Path, seed: int) -> list[dict]:
     """The cases a bench resumes from its JSON-lines file ``lines`` (none if it is absent).
 
@@ -71,7 +83,8 @@ def resumed_cases(lines: Path, seed: int) -> list[dict]:
     lines = Path(lines)
     if not lines.exists():
         return []
-    cases = [json.loads(s) for s in lines.read_text().splitlines() if s.strip()]
+    with open_lines(lines) as fh:
+        cases = [json.loads(s) for s in fh.read().splitlines() if s.strip()]
     other = sorted({c["seed"] for c in cases if c.get("seed", seed) != seed})
     if other:
         raise SystemExit(f"error: {lines} holds cases of seed {', '.join(map(str, other))}, not {seed}: "
@@ -181,7 +194,7 @@ def cases_to_lines(args, fn, say, *, by_value=()) -> list[dict]:
             if name.split(".")[0] in by_value:
                 cloudpickle.register_pickle_by_value(module)
     for i, c in map_cases(fn, todo, workers=1, scheduler=args.scheduler):
-        with open(lines, "a") as fh:
+        with open_lines(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
         done[i] = c
         print(say(c), flush=True)

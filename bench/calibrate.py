@@ -71,7 +71,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from _calibrate_truth import IN_LIBRARY, draw_structural, draw_truth, inject_structural, scaled_structural  # noqa: E402
-from _stats import code_digest, fresh_seed, resumed_cases, ship_bench_modules, wilson  # noqa: E402
+from _stats import code_digest, fresh_seed, open_lines, resumed_cases, ship_bench_modules, wilson  # noqa: E402
 
 from rmbench.calibrate import (CalibrationSettings, ModalModel, TestDesign, calibrate, error_summary,  # noqa: E402
                                load_modal_data)
@@ -587,7 +587,7 @@ def main(argv=None) -> None:
     one = partial(run_robot, seed=seed, args=args if args.scheduler is None
                   else argparse.Namespace(**{**vars(args), "workers": 0}))
     for i, c in map_cases(one, todo, workers=1, scheduler=args.scheduler):
-        with open(lines, "a") as fh:
+        with open_lines(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
         if "rejected" in c:
             rejected[i] = c

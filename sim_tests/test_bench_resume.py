@@ -35,3 +35,15 @@ def test_a_file_holding_another_seeds_cases_stops_with_a_one_line_error(tmp_path
         resumed_cases(path, 7)
     message = str(stop.value)
     assert "\n" not in message and "27994" in message and message.startswith("error:")
+
+
+def test_a_gzipped_lines_file_resumes_the_same_cases_and_takes_appended_ones(tmp_path):
+    # finished runs' lines are kept gzipped in bench/results/; a replay reads them as they were
+    import gzip
+
+    cases = [{"index": 0, "seed": 7}, {"index": 1, "seed": 7}]
+    path = tmp_path / "l.jsonl.gz"
+    path.write_bytes(gzip.compress(_write(tmp_path / "l.jsonl", cases[:1]).read_bytes()))
+    with _stats.open_lines(path, "a") as fh:
+        fh.write(json.dumps(cases[1]) + "\n")
+    assert resumed_cases(path, 7) == cases

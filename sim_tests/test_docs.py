@@ -1,5 +1,5 @@
 """The user documents stay true: the README's commands run as written, and bench/README.md is the
-summary of the results files it is generated from."""
+index of the results files and bench scripts it is generated from."""
 
 import importlib.util
 import shlex
@@ -57,11 +57,23 @@ def test_the_readmes_tour_and_a_command_of_each_stage_run_as_written(tmp_path, m
         assert (tmp_path / written).stat().st_size > 0, written
 
 
-def test_bench_readme_is_the_summary_of_the_results_files(monkeypatch):
-    # bench/README.md is generated (make bench-summary); a results file changed without
-    # regenerating it leaves the published tables behind the measurements
+def _bench_summary(monkeypatch):
     spec = importlib.util.spec_from_file_location("bench_summary", ROOT / "bench" / "summary.py")
     summary = importlib.util.module_from_spec(spec)
     monkeypatch.setitem(sys.modules, spec.name, summary)    # its dataclasses look their module up
     spec.loader.exec_module(summary)
-    assert (ROOT / "bench" / "README.md").read_text(encoding="utf-8") == summary.render(summary.read_summaries())
+    return summary
+
+
+def test_bench_readme_is_the_index_of_the_results_files(monkeypatch):
+    # bench/README.md is generated (make bench-summary); a results file or bench script changed
+    # without regenerating it leaves the index behind the benches
+    summary = _bench_summary(monkeypatch)
+    assert (ROOT / "bench" / "README.md").read_text(encoding="utf-8") == summary.readme_text()
+
+
+def test_every_file_kept_in_bench_results_belongs_to_a_results_file(monkeypatch):
+    # bench/results/ keeps only what its results files are rebuilt from or show (a run's lines,
+    # figures); a superseded run's lines stay in the git history
+    summary = _bench_summary(monkeypatch)
+    assert summary.unclaimed(summary.read_summaries()) == []

@@ -88,7 +88,6 @@ class SensorOffset:
 
 @dataclass(frozen=True)
 class TestDesign:
-    __test__ = False   # not a pytest test class, whatever its name
     """Bands, sensors and hits of an impact test (SI inside).
 
     Attributes
@@ -99,6 +98,8 @@ class TestDesign:
     offsets : tuple of SensorOffset
         Sensor placement errors assumed on top of the configuration's (a candidate effect).
     """
+
+    __test__ = False   # not a pytest test class, whatever its name
 
     config: CampaignConfig
     offsets: tuple = field(default=())
