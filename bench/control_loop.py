@@ -34,7 +34,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from rmbench.control import (Controller, DesignError, Hardware, Weights, cluster, design, eccentric_test,  # noqa: E402
+from rmbench.control import (Controller, DesignError, Hardware, Weights, design, eccentric_test,  # noqa: E402
                              excitation_frequencies, measured_plant, posture_for_mode_ratio, reduction_at,
                              robot_plant, robust_design, run_loop, sine_sweep)
 from rmbench.control.plot import plot_sensitivity  # noqa: E402
@@ -117,87 +117,86 @@ def main():
             for name, k in (("uncontrolled", None), ("H-infinity", d_t.controller), ("modified", d_t_mod.controller))}
     plot_sensitivity(fig7, plots / "control_fig7_model.png", title="modelled sensitivity (linear, exact plant)")
 
-    with cluster(args.workers) as client:
-        kw = dict(scheduler=client)
-        # 1. single axis --------------------------------------------------------------------
-        f_sweep = excitation_frequencies([(f_t, z_t), (f_a, z_a)], 2.0, 40.0)
-        sw, t_sweep = timed(lambda k: sine_sweep(op, k, "tangential", f_sweep, **kw),
-                            {"uncontrolled": None, "H-infinity": d_t.controller, "modified": d_t_mod.controller,
-                             "measured plant, all modes": d_meas.controller,
-                             "measured plant, one mode": d_meas1.controller})
-        print(f"\n1. Single axis, 20 N sine on the tangential disturbance coil, {len(f_sweep)} frequencies "
-              f"2-40 Hz ({t_sweep:.0f} s)")
-        print(f"  {'controller':<24} {'reduction':>9} {'amp >2f0 dB':>11} {'stroke':>7} {'force N':>8} {'sat.':>5} "
-              f"{'end-stop runs':>13}")
-        single = {}
-        for name, ds in controlled(sw):
-            red = reduction_at(sw["uncontrolled"], ds, "tangential", f_t)
-            amp = amplification_db(sw["uncontrolled"], ds, "tangential", 2 * f_t)
-            single[name] = (red, amp)
-            print(f"  {name:<24} {100 * red:8.1f}% {amp:11.2f} {effort(ds)} "
-                  f"{float(ds.saturated.max()):5.2f} {int((ds.end_stop > 0).sum()):13d}")
-        print("  seed: 75.2 % at 5.72 Hz (modified controller); target >= 80 %, <= 3 dB above 2 f0, "
-              "stroke <= 12.5 mm, force <= 180 N")
-        plot_sensitivity(sw, plots / "control_fig9_single_axis.png", title="single axis: 20 N sine sweep")
+    kw = dict(workers=args.workers)  # local worker processes (rmbench.parallel.map_cases)
+    # 1. single axis --------------------------------------------------------------------
+    f_sweep = excitation_frequencies([(f_t, z_t), (f_a, z_a)], 2.0, 40.0)
+    sw, t_sweep = timed(lambda k: sine_sweep(op, k, "tangential", f_sweep, **kw),
+                        {"uncontrolled": None, "H-infinity": d_t.controller, "modified": d_t_mod.controller,
+                         "measured plant, all modes": d_meas.controller,
+                         "measured plant, one mode": d_meas1.controller})
+    print(f"\n1. Single axis, 20 N sine on the tangential disturbance coil, {len(f_sweep)} frequencies "
+          f"2-40 Hz ({t_sweep:.0f} s)")
+    print(f"  {'controller':<24} {'reduction':>9} {'amp >2f0 dB':>11} {'stroke':>7} {'force N':>8} {'sat.':>5} "
+          f"{'end-stop runs':>13}")
+    single = {}
+    for name, ds in controlled(sw):
+        red = reduction_at(sw["uncontrolled"], ds, "tangential", f_t)
+        amp = amplification_db(sw["uncontrolled"], ds, "tangential", 2 * f_t)
+        single[name] = (red, amp)
+        print(f"  {name:<24} {100 * red:8.1f}% {amp:11.2f} {effort(ds)} "
+              f"{float(ds.saturated.max()):5.2f} {int((ds.end_stop > 0).sum()):13d}")
+    print("  seed: 75.2 % at 5.72 Hz (modified controller); target >= 80 %, <= 3 dB above 2 f0, "
+          "stroke <= 12.5 mm, force <= 180 N")
+    plot_sensitivity(sw, plots / "control_fig9_single_axis.png", title="single axis: 20 N sine sweep")
 
-        # 2. eccentric mass ---------------------------------------------------------------------
-        speeds = excitation_frequencies([(f_t, z_t), (f_a, z_a)], 2.0, 20.0)
-        ecc, t_ecc = timed(lambda k: eccentric_test(op, k, speeds, **kw),
-                           {"uncontrolled": None, "two SISO loops": pair, "SISO, seed process": pair_seed,
-                            "MIMO": d_mimo.controller})
-        print(f"\n2. Eccentric mass (m e = 0.01 kg m), {len(speeds)} speeds 2-20 Hz ({t_ecc:.0f} s)")
-        print(f"  {'controller':<18} {'tangential':>10} {'axial':>8} {'amp >1.5f_a dB (t/a)':>19} {'stroke':>7} "
-              f"{'force N':>8} {'runs at an end stop':>19}")
-        ecc_red = {}
-        for name, ds in controlled(ecc):
-            rt = reduction_at(ecc["uncontrolled"], ds, "tangential", f_t)
-            ra = reduction_at(ecc["uncontrolled"], ds, "axial", f_a)
-            at = amplification_db(ecc["uncontrolled"], ds, "tangential", 1.5 * f_a)
-            aa = amplification_db(ecc["uncontrolled"], ds, "axial", 1.5 * f_a)
-            out = ds.freq.values[ds.end_stop.values > 0]
-            ecc_red[name] = (rt, ra)
-            print(f"  {name:<18} {100 * rt:9.1f}% {100 * ra:7.1f}% {at:9.2f}/{aa:<9.2f} {effort(ds)} "
-                  f"{', '.join(f'{f:g}' for f in out) + ' Hz' if len(out) else 'none':>19}")
-        print("  seed (two SISO loops): 58.7 % tangential at 6.0 Hz, 27.8 % axial at 12.3 Hz, an increase "
-              "at 13.9 Hz; target MIMO >= 70 % on both")
-        plot_sensitivity(ecc, plots / "control_fig12_eccentric.png", title="eccentric mass test",
-                         ylabel="acceleration / eccentric force, m/s²/N")
+    # 2. eccentric mass ---------------------------------------------------------------------
+    speeds = excitation_frequencies([(f_t, z_t), (f_a, z_a)], 2.0, 20.0)
+    ecc, t_ecc = timed(lambda k: eccentric_test(op, k, speeds, **kw),
+                       {"uncontrolled": None, "two SISO loops": pair, "SISO, seed process": pair_seed,
+                        "MIMO": d_mimo.controller})
+    print(f"\n2. Eccentric mass (m e = 0.01 kg m), {len(speeds)} speeds 2-20 Hz ({t_ecc:.0f} s)")
+    print(f"  {'controller':<18} {'tangential':>10} {'axial':>8} {'amp >1.5f_a dB (t/a)':>19} {'stroke':>7} "
+          f"{'force N':>8} {'runs at an end stop':>19}")
+    ecc_red = {}
+    for name, ds in controlled(ecc):
+        rt = reduction_at(ecc["uncontrolled"], ds, "tangential", f_t)
+        ra = reduction_at(ecc["uncontrolled"], ds, "axial", f_a)
+        at = amplification_db(ecc["uncontrolled"], ds, "tangential", 1.5 * f_a)
+        aa = amplification_db(ecc["uncontrolled"], ds, "axial", 1.5 * f_a)
+        out = ds.freq.values[ds.end_stop.values > 0]
+        ecc_red[name] = (rt, ra)
+        print(f"  {name:<18} {100 * rt:9.1f}% {100 * ra:7.1f}% {at:9.2f}/{aa:<9.2f} {effort(ds)} "
+              f"{', '.join(f'{f:g}' for f in out) + ' Hz' if len(out) else 'none':>19}")
+    print("  seed (two SISO loops): 58.7 % tangential at 6.0 Hz, 27.8 % axial at 12.3 Hz, an increase "
+          "at 13.9 Hz; target MIMO >= 70 % on both")
+    plot_sensitivity(ecc, plots / "control_fig12_eccentric.png", title="eccentric mass test",
+                     ylabel="acceleration / eccentric force, m/s²/N")
 
-        # 3. robustness ---------------------------------------------------------------------------
-        print("\n3. Robustness: the reference-posture tangential controllers where the mode has moved "
-              "(robust: designed over the plants at x0.8, x1, x1.2, acceleration weight widened)")
-        print(f"  {'mode ratio':>10} {'f_n Hz':>7} {'controller':<12} {'d, N':>5} {'reduction':>9} {'amp >2f0 dB':>11} "
-              f"{'stroke':>7} {'stable':>6} {'end-stop runs':>13}")
-        q_ref = reference_q(robot)
-        q_fam = {r: posture_for_mode_ratio(robot, q_ref, r) for r in (0.8, 1.2)}
-        family = [robot_plant(robot.at(q), ("tangential",), order=14) for q in q_fam.values()] + [tang]
-        d_rob = robust_design(family)
-        robust = []
-        t0 = time.perf_counter()
-        for ratio in (0.8, 1.2):
-            op_r = robot.at(q_fam[ratio])
-            f_r = robot_plant(op_r, ("tangential",)).mode_hz[0]
-            fr = excitation_frequencies([(f_r, zeta_near(op_r, f_r))], 2.0, 40.0, coarse=2.0)
-            rows = [("H-infinity", d_t.controller, ROBUST_N), ("modified", d_t_mod.controller, ROBUST_N),
-                    ("robust", d_rob.controller, ROBUST_N)]
-            if ratio < 1:
-                rows.append(("H-infinity", d_t.controller, 20.0))  # the single-axis test's level
-            base = {}
-            for name, k, amp_n in rows:
-                if amp_n not in base:
-                    base[amp_n] = sine_sweep(op_r, None, "tangential", fr, amplitude=amp_n, **kw)
-                ds = sine_sweep(op_r, k, "tangential", fr, amplitude=amp_n, **kw)
-                ok = bool(ds.ok.all())
-                red = reduction_at(base[amp_n], ds, "tangential", f_r) if ok else float("nan")
-                amp = amplification_db(base[amp_n], ds, "tangential", 2 * f_r) if ok else float("nan")
-                if name == "H-infinity" and amp_n == ROBUST_N:
-                    robust.append(red if ok else 0.0)
-                print(f"  {ratio:10.2f} {f_r:7.2f} {name:<12} {amp_n:5.0f} {100 * red:8.1f}% {amp:11.2f} "
-                      f"{100 * float(ds.stroke_used.max()):6.0f}% {str(ok):>6} {int((ds.end_stop > 0).sum()):13d}")
-        t_rob = time.perf_counter() - t0
-        print(f"  ({t_rob:.0f} s) target: >= 60 % and stable at both. At x0.8 the mode sits at 4.7 Hz, where a 20 N "
-              "sine asks for more travel than the ±12.5 mm stage has (the 20 N row: end stops); the robustness "
-              f"runs use {ROBUST_N:g} N")
+    # 3. robustness ---------------------------------------------------------------------------
+    print("\n3. Robustness: the reference-posture tangential controllers where the mode has moved "
+          "(robust: designed over the plants at x0.8, x1, x1.2, acceleration weight widened)")
+    print(f"  {'mode ratio':>10} {'f_n Hz':>7} {'controller':<12} {'d, N':>5} {'reduction':>9} {'amp >2f0 dB':>11} "
+          f"{'stroke':>7} {'stable':>6} {'end-stop runs':>13}")
+    q_ref = reference_q(robot)
+    q_fam = {r: posture_for_mode_ratio(robot, q_ref, r) for r in (0.8, 1.2)}
+    family = [robot_plant(robot.at(q), ("tangential",), order=14) for q in q_fam.values()] + [tang]
+    d_rob = robust_design(family)
+    robust = []
+    t0 = time.perf_counter()
+    for ratio in (0.8, 1.2):
+        op_r = robot.at(q_fam[ratio])
+        f_r = robot_plant(op_r, ("tangential",)).mode_hz[0]
+        fr = excitation_frequencies([(f_r, zeta_near(op_r, f_r))], 2.0, 40.0, coarse=2.0)
+        rows = [("H-infinity", d_t.controller, ROBUST_N), ("modified", d_t_mod.controller, ROBUST_N),
+                ("robust", d_rob.controller, ROBUST_N)]
+        if ratio < 1:
+            rows.append(("H-infinity", d_t.controller, 20.0))  # the single-axis test's level
+        base = {}
+        for name, k, amp_n in rows:
+            if amp_n not in base:
+                base[amp_n] = sine_sweep(op_r, None, "tangential", fr, amplitude=amp_n, **kw)
+            ds = sine_sweep(op_r, k, "tangential", fr, amplitude=amp_n, **kw)
+            ok = bool(ds.ok.all())
+            red = reduction_at(base[amp_n], ds, "tangential", f_r) if ok else float("nan")
+            amp = amplification_db(base[amp_n], ds, "tangential", 2 * f_r) if ok else float("nan")
+            if name == "H-infinity" and amp_n == ROBUST_N:
+                robust.append(red if ok else 0.0)
+            print(f"  {ratio:10.2f} {f_r:7.2f} {name:<12} {amp_n:5.0f} {100 * red:8.1f}% {amp:11.2f} "
+                  f"{100 * float(ds.stroke_used.max()):6.0f}% {str(ok):>6} {int((ds.end_stop > 0).sum()):13d}")
+    t_rob = time.perf_counter() - t0
+    print(f"  ({t_rob:.0f} s) target: >= 60 % and stable at both. At x0.8 the mode sits at 4.7 Hz, where a 20 N "
+          "sine asks for more travel than the ±12.5 mm stage has (the 20 N row: end stops); the robustness "
+          f"runs use {ROBUST_N:g} N")
 
     # 4. speed ------------------------------------------------------------------------------------
     shake = lambda t: 20 * np.sin(2 * np.pi * f_t * t)  # noqa: E731

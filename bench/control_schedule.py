@@ -53,10 +53,10 @@ import numpy as np  # noqa: E402
 from scipy.stats import qmc  # noqa: E402
 
 from _control_truth import draw_mh180  # noqa: E402
-from _stats import keyed_run  # noqa: E402
+from _stats import keyed_run, open_lines  # noqa: E402
 from rmbench.control import design, is_stable, sensitivity  # noqa: E402
 from rmbench.control.moving import moving_test  # noqa: E402
-from rmbench.control.identify import measured_matrix_plant  # noqa: E402
+from rmbench.control.experiments import measured_matrix_plant  # noqa: E402
 from rmbench.control.plant import first_strong_mode, robot_plant  # noqa: E402
 from rmbench.control.schedule import certify, design_schedule, grid_posture, loop_margin  # noqa: E402
 from rmbench.control.trajectory import linear_move  # noqa: E402
@@ -278,19 +278,23 @@ def main(argv=None) -> int:
               modules=("rmbench.control", "rmbench.robot"), extra=("_control_truth.py", "_truth_edits.py"))
     path = Path(args.lines)
     path.parent.mkdir(parents=True, exist_ok=True)
-    done = {json.loads(s)["index"] for s in path.read_text().splitlines()} if path.exists() else set()
+    done = set()
+    if path.exists():
+        with open_lines(path) as fh:
+            done = {json.loads(s)["index"] for s in fh.read().splitlines()}
     todo = [int(x) for x in args.only.split(",")] if args.only else range(args.robots)
     for i in todo:
         if i in done:
             continue
         t = time.perf_counter()
         line = run_robot(i, args.seed, args.postures)
-        with path.open("a") as fh:
+        with open_lines(path, "a") as fh:
             fh.write(json.dumps(line) + "\n")
         v = [r["single"]["reduction"][0] for r in line["postures"] if r["single"]["stable"]]
         print(f"robot {i}: single-axis median {np.median(v):.1%}, p5 {np.percentile(v, 5):.1%} "
               f"({time.perf_counter() - t:.0f} s)", flush=True)
-    lines = [json.loads(s) for s in path.read_text().splitlines() if s.strip()]
+    with open_lines(path) as fh:
+        lines = [json.loads(s) for s in fh.read().splitlines() if s.strip()]
     lines = [ln for ln in lines if ln["index"] < args.robots]
     if not lines:
         return 0

@@ -18,7 +18,7 @@ def controller(default_design):
 
 @pytest.fixture(scope="module")
 def sweeps(op, tangential, controller):
-    """Uncontrolled and controlled stepped sines at the mode and ±5 % of it (no dask cluster)."""
+    """Uncontrolled and controlled stepped sines at the mode and ±5 % of it (run here, one by one)."""
     f0 = tangential.mode_hz[0]
     freqs = np.array([0.95, 1.0, 1.05]) * f0
     return (sine_sweep(op, None, "tangential", freqs, workers=0),
@@ -67,6 +67,13 @@ def test_sine_sweep_sensitivity_phase_matches_the_linear_prediction(sweeps, tang
         measured = ds.sensitivity.sel(axis="tangential").values
         # the same 3 % as the magnitude, now on the complex value (1.7° of phase)
         assert (np.abs(measured - predicted) <= 0.03 * np.abs(predicted)).all()
+
+
+def test_sine_sweep_on_worker_processes_equals_the_run_here_frequency_by_frequency(op, controller):
+    freqs = [6.1, 5.8, 5.95]  # the runs finish in any order; the rows keep the frequencies'
+    here, pool = (sine_sweep(op, controller, "tangential", freqs, settle=0.3, periods=2, workers=w) for w in (0, 2))
+    np.testing.assert_array_equal(pool.sensitivity.values, here.sensitivity.values)
+    np.testing.assert_array_equal(pool.freq.values, freqs)
 
 
 def test_sine_sweep_shows_the_designed_80_percent_reduction(sweeps, tangential):

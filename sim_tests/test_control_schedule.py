@@ -5,13 +5,11 @@ schedule file, and the loop running on a moving robot."""
 import numpy as np
 import pytest
 
-from rmbench.control import Controller, design, is_stable, reaction_mass, run_loop, two_mass_plant
-from rmbench.control.design import _achieves, generalized_plant
+from rmbench.control import Controller, achieves_gamma, design, is_stable, reaction_mass, run_loop, two_mass_plant
 from rmbench.control.identify import fit_modes_matrix
 from rmbench.control.plant import first_strong_mode, modal_plant
 from rmbench.control.schedule import Schedule, blend_plants, certify, design_schedule, grid_posture
 from rmbench.control.trajectory import Trajectory, linear_move, load_trajectory
-from rmbench.control.weights import Weights
 from rmbench.errors import InputError
 
 # a 5.9 Hz robot mode and a weaker 11.9 Hz one, as the reference posture's shaker test shows them
@@ -78,12 +76,10 @@ def test_first_strong_mode_takes_the_lower_of_two_comparable_peaks(rm):
 def test_synthesis_check_rejects_a_controller_with_the_wrong_sign(rm):
     plant = plant_at(rm, 1.0)
     d = design(plant, order=None)
-    P = generalized_plant(plant, Weights())
-    A, B, C, D = (np.asarray(x) for x in (P.A, P.B, P.C, P.D))
-    k = (d.controller.A, d.controller.B, d.controller.C, d.controller.D)
-    assert _achieves(A, B, C, D, k, 1, 2, d.gamma)
+    k = d.controller
+    assert achieves_gamma(plant, k, d.gamma)
     # the same controller pushing instead of damping misses γ (or destabilises the loop)
-    assert not _achieves(A, B, C, D, (k[0], k[1], -k[2], -k[3]), 1, 2, d.gamma)
+    assert not achieves_gamma(plant, Controller(k.axes, k.A, k.B, -k.C, -k.D), d.gamma)
 
 
 # -- blending --------------------------------------------------------------------------------------

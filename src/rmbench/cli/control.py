@@ -61,7 +61,8 @@ def register(sub) -> None:
     r.add_argument("--amplitude", type=float, default=20.0, help="sweep: sine amplitude, N (default 20)")
     r.add_argument("--freqs", default=None, metavar="F1,F2,...",
                    help="excitation frequencies or spindle speeds, Hz (default: 2-20 Hz, dense at the modes)")
-    r.add_argument("--workers", type=int, default=None, help="local dask workers (default: all cores)")
+    r.add_argument("--workers", type=int, default=None,
+                   help="local worker processes (default: all cores; 0 runs here)")
     r.add_argument("--scheduler", default=None, help="address of an existing dask scheduler")
     r.add_argument("--plot", default=None, metavar="PNG", help="uncontrolled vs controlled sensitivity")
     r.add_argument("--out", default=None, metavar="NC", help="write both runs as netCDF")
@@ -160,8 +161,7 @@ def _design_schedule(args) -> int:
     cert = certify(sch, plants)
     seconds = time.perf_counter() - t0
     sch = type(sch)(sch.axes, sch.joints, sch.grid, sch.controllers, sch.q_ref, sch.hold,
-                    dict(sch.meta, source=source, robot=args.robot, certificate={
-                        "stable": cert.stable, "min_margin": float(cert.margin.min()), "points": len(cert.margin)}))
+                    dict(sch.meta, source=source, robot=args.robot, certificate=cert.headline()))
     sch.save(args.out)
     modes = [c.meta["mode_hz"] for c in sch.controllers]
     summary = {"out": str(args.out), "axes": list(sch.axes), "structure": sch.meta["structure"],
@@ -171,10 +171,10 @@ def _design_schedule(args) -> int:
     if args.json:
         print_json(summary)
     else:
-        lo, hi = np.min(modes, axis=0), np.max(modes, axis=0)
         print(f"\n{sch.meta['structure']} schedule over {' x '.join(str(n) for n in sch.shape)} postures of "
               f"{', '.join(grid.joints)} from {source}: modes " +
-              ", ".join(f"{a} {lo[i]:.2f}-{hi[i]:.2f} Hz" for i, a in enumerate(sch.axes)) + f" ({seconds:.1f} s)")
+              ", ".join(f"{a} {lo:.2f}-{hi:.2f} Hz" for a, (lo, hi) in zip(sch.axes, sch.mode_range()))
+              + f" ({seconds:.1f} s)")
         c = sch.meta["certificate"]
         print(f"certificate on the design plants ({c['points']} postures, grid and between): "
               f"{'stable' if c['stable'] else 'UNSTABLE'}, smallest loop margin {c['min_margin']:.3f}")
@@ -241,7 +241,7 @@ def _load_any(path):
 
 
 def _run_moving(args, ctrl) -> int:
-    from rmbench.control.moving import moving_test
+    from rmbench.control.moving import moving_figures, moving_test
     from rmbench.control.trajectory import load_trajectory
 
     robot = load_robot(args)
@@ -254,15 +254,8 @@ def _run_moving(args, ctrl) -> int:
     if args.force_rms <= 0:
         raise InputError(f"--force-rms must be positive, got {args.force_rms}")
     ds = moving_test(op, {"controlled": ctrl}, traj, axis=ctrl.axes[0], force_rms=args.force_rms)
-    c = ds.sel(controller="controlled")
     result = {"trajectory": str(args.trajectory), "duration_s": float(traj.t[-1]), "axis": ctrl.axes[0],
-              "reduction": float(c.reduction), "transient": float(c.transient), "saturated": float(c.saturated),
-              "stroke_used": float(c.stroke_used), "guard_trips": int(c.guard_trips),
-              "realtime_factor": float(c.realtime_factor),
-              "windows": [{"t_s": float(t), "mode_hz": float(f),
-                           "reduction": 1 - float(np.sqrt(ds.energy.sel(controller="controlled")[w]
-                                                          / ds.energy.sel(controller="open")[w]))}
-                          for w, (t, f) in enumerate(zip(ds.t_mid.values, ds.f0.values))]}
+              **moving_figures(ds, "controlled")}
     if args.out:
         from rmbench.impact.dataset import save
 
@@ -283,8 +276,8 @@ def _run_moving(args, ctrl) -> int:
 
 
 def cmd_run(args) -> int:
-    from rmbench.control import Controller, eccentric_test, excitation_frequencies, reduction_at, sine_sweep
-    from rmbench.control.experiments import cluster
+    from rmbench.control import Controller
+    from rmbench.control.suppression import suppression_test
 
     report = report_path(args)
     ctrl = _load_any(args.controller)
@@ -293,85 +286,65 @@ def cmd_run(args) -> int:
     if not isinstance(ctrl, Controller):
         raise InputError(f"{args.controller} is a posture schedule: run it along a move with --trajectory TRAJ.csv")
     op = _operating_point(args)
-    modes = op.linear.modes()
-    mode_hz = ctrl.meta.get("mode_hz", [])
-    if args.freqs:
-        try:
-            freqs = np.array([float(v) for v in args.freqs.split(",")])
-        except ValueError:
-            raise InputError(f"--freqs must be comma-separated numbers, got {args.freqs!r}") from None
-        if np.any(freqs <= 0):
-            raise InputError("--freqs must be positive")
-    else:
-        near = [(f, float(modes.zeta[np.argmin(np.abs(modes.f_n - f))])) for f in mode_hz]
-        freqs = excitation_frequencies(near, 2.0, 20.0 if args.test == "eccentric" else 30.0)
-    with cluster(args.workers, args.scheduler) as client:
-        if args.test == "sweep":
-            axis = args.axis or ctrl.axes[0]
-            if axis not in ctrl.axes:
-                raise InputError(f"--axis {axis!r}: the controller drives {', '.join(ctrl.axes)}")
-            kw = dict(amplitude=args.amplitude, scheduler=client, workers=0 if client is None else None,
-                      progress=not args.json)
-            open_ = sine_sweep(op, None, axis, freqs, **kw)
-            closed = sine_sweep(op, ctrl, axis, freqs, **kw)
-            axes = [axis]
-        else:
-            kw = dict(scheduler=client, workers=0 if client is None else None, progress=not args.json)
-            open_ = eccentric_test(op, None, freqs, **kw)
-            closed = eccentric_test(op, ctrl, freqs, **kw)
-            axes = [a for a in closed.axis.values if a in ctrl.axes]
-    result = {"test": args.test, "axes": {}, "stroke_used_max": float(np.nanmax(closed.stroke_used)),
-              "force_max": float(np.nanmax(closed.force_max)), "saturated_max": float(np.nanmax(closed.saturated)),
-              "failed_runs": int((~closed.ok.values).sum()),
-              "end_stop_runs": int((closed.end_stop.values > 0).sum())}
-    for a in axes:
-        f0 = mode_hz[list(ctrl.axes).index(a)] if mode_hz else float(freqs[np.argmax(np.abs(open_.sensitivity.sel(axis=a)))])
-        result["axes"][a] = {"mode_hz": f0, "reduction": reduction_at(open_, closed, a, f0)}
+    freqs = _freqs(args.freqs)
+    if args.test == "sweep" and (args.axis or ctrl.axes[0]) not in ctrl.axes:
+        raise InputError(f"--axis {args.axis!r}: the controller drives {', '.join(ctrl.axes)}")
+    run = suppression_test(op, ctrl, args.test, freqs, axis=args.axis, amplitude=args.amplitude,
+                           workers=args.workers, scheduler=args.scheduler, progress=not args.json)
     if args.out:
-        import xarray as xr
-
-        both = xr.concat([open_.drop_vars("reason"), closed.drop_vars("reason")], dim="case")
-        both = both.assign_coords(case=["uncontrolled", "controlled"])
         from rmbench.impact.dataset import save
 
-        save(both, args.out)
+        save(run.to_dataset(), args.out)
     if args.plot:
         from rmbench.control.plot import plot_sensitivity
 
-        plot_sensitivity({"uncontrolled": open_, "controlled": closed}, args.plot,
-                         title=f"{args.test}: {', '.join(ctrl.axes)} controller")
+        plot_sensitivity(run.runs, args.plot, title=f"{args.test}: {', '.join(ctrl.axes)} controller")
     if report:
-        from rmbench.control.experiments import traced_runs
-        from rmbench.report import Page
-        from rmbench.report.control import control_sections
-
-        traces, f0 = None, None
-        if result["axes"]:
-            a0 = next(iter(result["axes"]))
-            f0 = result["axes"][a0]["mode_hz"]
-            traces = traced_runs(op, ctrl, a0 if args.test == "sweep" else None, f0, amplitude=args.amplitude)
-        page = Page(f"Proof-mass suppressor: {args.test} test", {
-            "controller": args.controller, "robot": args.robot, "test": args.test,
-            "reduction": ", ".join(f"{a}: {100 * r['reduction']:.1f} % at {r['mode_hz']:.2f} Hz"
-                                   for a, r in result["axes"].items()),
-            "time traces": f"{'sine' if args.test == 'sweep' else 'eccentric mass'} at {f0:.2f} Hz" if traces else "none"})
-        control_sections(page, {"uncontrolled": open_, "controlled": closed}, controller=ctrl, traces=traces)
-        page.write(report)
+        _run_report(args, op, ctrl, run, report)
         if not args.json:
             print(f"wrote {report}")
     if args.json:
-        print_json(result)
+        print_json(run.to_dict())
     else:
-        for a, r in result["axes"].items():
-            print(f"{a}: reduction {100 * r['reduction']:.1f} % at the {r['mode_hz']:.2f} Hz mode")
-        print(f"stroke used {100 * result['stroke_used_max']:.0f} % of ±stroke, peak force "
-              f"{result['force_max']:.1f} N, runs at an end stop {result['end_stop_runs']}, failed runs "
-              f"{result['failed_runs']}")
+        print(run.summary())
     return 0
 
 
+def _freqs(text):
+    """``--freqs F1,F2,...`` as a list of positive frequencies, Hz (None where not given)."""
+    if not text:
+        return None
+    try:
+        freqs = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"--freqs must be comma-separated numbers, got {text!r}") from None
+    if any(f <= 0 for f in freqs):
+        raise InputError("--freqs must be positive")
+    return freqs
+
+
+def _run_report(args, op, ctrl, run, report) -> None:
+    """The HTML page of a suppression test: sensitivity, stroke and force use, and time traces of both
+    runs at the first axis's mode."""
+    from rmbench.control.experiments import traced_runs
+    from rmbench.report import Page
+    from rmbench.report.control import control_sections
+
+    traces, f0 = None, None
+    if run.axes:
+        f0 = run.mode_hz[0]
+        traces = traced_runs(op, ctrl, run.axes[0] if args.test == "sweep" else None, f0, amplitude=args.amplitude)
+    page = Page(f"Proof-mass suppressor: {args.test} test", {
+        "controller": args.controller, "robot": args.robot, "test": args.test,
+        "reduction": ", ".join(f"{a}: {100 * r:.1f} % at {f:.2f} Hz"
+                               for a, f, r in zip(run.axes, run.mode_hz, run.reduction)),
+        "time traces": f"{'sine' if args.test == 'sweep' else 'eccentric mass'} at {f0:.2f} Hz" if traces else "none"})
+    control_sections(page, run.runs, controller=ctrl, traces=traces)
+    page.write(report)
+
+
 def cmd_tune(args) -> int:
-    from rmbench.control.tune import load_tune_config, tune
+    from rmbench.control.tune import load_tune_config, tune, tune_table
 
     cfg = load_tune_config(args.config)
     ds = tune(cfg, workers=args.workers, scheduler=args.scheduler, progress=not args.json)
@@ -379,15 +352,7 @@ def cmd_tune(args) -> int:
         from rmbench.impact.dataset import save
 
         save(ds.drop_vars("reason"), args.out)
-    rows = []
-    for c in ds.case.values:
-        w = {k: float(ds[k].sel(case=c)) for k in sorted(cfg.weights)}
-        r = ds.sel(case=c)
-        rows.append({"weights": w, "gamma": float(r.gamma), "reason": str(r.reason.values),
-                     "reduction_min": float(np.nanmin(r.reduction.values)) if r.stable.all() else None,
-                     "stable_all": bool(r.stable.all()), "stroke_used_max": float(np.nanmax(r.stroke_used)),
-                     "force_max": float(np.nanmax(r.force_max)),
-                     "amplification_db_max": float(np.nanmax(r.amplification_db))})
+    rows = tune_table(ds, cfg)
     if args.json:
         print_json({"cases": rows, "mode_ratios": list(cfg.mode_ratios)})
         return 0

@@ -18,20 +18,22 @@ from rmbench.control.axes import AxesDesign, design_axes
 from rmbench.control.analysis import closed_loop_matrix, is_stable, peak_near, reduction, sensitivity
 from rmbench.control.closed_loop import Hardware, LoopDiverged, LoopRecord, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import CONTROLLER_VERSION, Controller
-from rmbench.control.design import (Design, DesignError, controller_order, design, generalized_plant, modify,
-                                    plant_order, robust_design)
-from rmbench.control.experiments import (cluster, eccentric_test, reduction_at, settle_time, sine_sweep,
-                                         excitation_frequencies)
-from rmbench.control.identify import ModeFit, fit_mode, fit_modes, measure_accelerance, measured_plant, plant_from_frf
+from rmbench.control.design import (Design, DesignError, achieves_gamma, controller_order, design, generalized_plant,
+                                    modify, plant_order, robust_design)
+from rmbench.control.experiments import (eccentric_test, excitation_frequencies, measure_accelerance, measured_plant,
+                                         reduction_at, settle_time, sine_sweep)
+from rmbench.control.identify import ModeFit, fit_mode, fit_modes, plant_from_frf
 from rmbench.control.plant import AXES, Plant, ReactionMass, reaction_mass, robot_plant, two_mass_plant
 from rmbench.control.postures import posture_for_mode_ratio
+from rmbench.control.suppression import SuppressionTest, suppression_frequencies, suppression_test
 from rmbench.control.weights import Weights
 
 __all__ = ["AXES", "Plant", "ReactionMass", "reaction_mass", "robot_plant", "two_mass_plant",
            "ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "measure_accelerance", "measured_plant",
-           "Weights", "Design", "DesignError", "design", "generalized_plant", "modify", "robust_design",
+           "Weights", "Design", "DesignError", "design", "achieves_gamma", "generalized_plant", "modify", "robust_design",
            "Controller", "CONTROLLER_VERSION", "closed_loop_matrix", "is_stable", "sensitivity",
            "reduction", "peak_near", "Hardware", "LoopRecord", "LoopDiverged", "run_loop",
            "eccentric_force_amplitude", "sine_sweep", "eccentric_test", "excitation_frequencies",
-           "reduction_at", "settle_time", "cluster", "posture_for_mode_ratio",
+           "reduction_at", "settle_time", "posture_for_mode_ratio",
+           "SuppressionTest", "suppression_test", "suppression_frequencies",
            "AxesDesign", "design_axes", "plant_order", "controller_order"]

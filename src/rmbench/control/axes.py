@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from rmbench.control.controller import Controller
 from rmbench.control.design import controller_order, design, plant_order
-from rmbench.control.identify import measured_plant
+from rmbench.control.experiments import measured_plant
 from rmbench.control.plant import parse_axes, robot_plant
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError

@@ -159,6 +159,61 @@ class LoopRecord:
         """Simulated seconds per wall-clock second."""
         return float(self.t[-1] + self.t[1] - self.t[0]) / self.wall_s if self.wall_s > 0 else np.inf
 
+    @property
+    def duration(self) -> float:
+        """Simulated time, s."""
+        return float(self.t[-1] + self.t[1] - self.t[0])
+
+    def to_dict(self) -> dict:
+        """The run's figures as strict JSON values (the traces left out): duration (s), rms and
+        peak acceleration per recorded axis (m/s²), peak force (N), stroke used, end-stop and
+        saturated fractions, stroke-guard trips and faded fraction, real-time factor (None if
+        unmeasured)."""
+        from rmbench.io.strict_json import jsonable
+
+        return jsonable({"duration_s": self.duration, "samples": len(self.t), "axes": list(self.axes),
+                         "acc_rms": {a: float(np.sqrt(np.mean(self.acc[:, i] ** 2))) for i, a in enumerate(self.axes)},
+                         "acc_peak": {a: float(np.abs(self.acc[:, i]).max()) for i, a in enumerate(self.axes)},
+                         "force_max": float(np.abs(self.force).max(initial=0.0)),
+                         "stroke_used": self.stroke_used, "end_stop": self.end_stop, "saturated": self.saturated,
+                         "guard_trips": self.guard_trips, "guard_off": self.guard_off,
+                         "realtime_factor": self.realtime_factor})
+
+    def summary(self) -> str:
+        """Duration, rms acceleration per axis (m/s²), and the suppressor's use: peak force (N),
+        stroke (% of ±stroke), end-stop and saturated samples (%), guard trips; real-time factor."""
+        d = self.to_dict()
+        acc = ", ".join(f"{a} {v:.4g}" for a, v in d["acc_rms"].items())
+        return "\n".join([
+            f"{d['duration_s']:.3g} s closed loop ({d['samples']} samples); acceleration rms {acc} m/s²",
+            f"peak force {d['force_max']:.1f} N, stroke used {100 * self.stroke_used:.0f} % of ±stroke, "
+            f"at an end stop {100 * self.end_stop:.1f} % and saturated {100 * self.saturated:.1f} % of samples, "
+            f"stroke guard tripped {self.guard_trips} time(s); {self.realtime_factor:.1f}x real time"])
+
+    def plot(self, ax=None):
+        """The recorded accelerations over time, one line per axis (m/s² against s).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Where to draw (default: a new figure's).
+
+        Returns
+        -------
+        matplotlib Axes
+        """
+        if ax is None:
+            import matplotlib.pyplot as plt
+
+            _, ax = plt.subplots(figsize=(7, 3))
+        for i, a in enumerate(self.axes):
+            ax.plot(self.t, self.acc[:, i], lw=0.8, label=a)
+        ax.set_xlabel("time, s")
+        ax.set_ylabel("acceleration, m/s²")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        return ax
+
 
 def eccentric_force_amplitude(model: mujoco.MjModel, f_spin: float) -> float:
     """Rotating force of the spindle's eccentric mass at ``f_spin`` Hz, N: ``m e (2π f)²``."""
@@ -337,6 +392,47 @@ def _commands(trajectory: Trajectory | None, op, n_arm: int, n: int, fs: float) 
     return trajectory.at(np.arange(n) / fs)
 
 
+class _Rig:
+    """A run's MuJoCo model at ``op``'s equilibrium and everything wired to it: accelerometer, coils,
+    shaker and spindle, arm servos and their commands, controllers and stroke guard."""
+
+    def __init__(self, op, controller, n: int, hw: Hardware, shaker, spindle_hz, record_axes, trajectory):
+        self.n, self.hw, self.record_axes = n, hw, record_axes
+        self.m, self.d = m, d = stepping_model(op, dt=1.0 / (hw.fs * hw.substeps), integrator="euler")
+        d.time = 0.0
+        ctrl0 = op.data.ctrl.copy()
+        ctrl_axes = controller.axes if controller is not None else ()
+        for a in record_axes + ctrl_axes:
+            if a not in AXES:
+                raise InputError(f"unknown axis {a!r}; use {', '.join(AXES)}")
+        self.k_ax, self.n_rec = len(ctrl_axes), len(record_axes)
+        # the order matters: the accelerometer's static reading is taken before the spindle turns
+        self.adr, self.E_all, self.c0 = _accelerometer(m, d, op, record_axes + ctrl_axes)
+        self.coils = _Coils(m, d, ctrl_axes, hw, ctrl0)
+        self.shake_idx, self.shake_f = _shaker_forces(m, shaker, n, hw.fs)
+        self.shake_base = ctrl0[self.shake_idx]
+        self.spin = _spindle(m, d, spindle_hz)
+        self.arm_act, self.arm_adr = _arm(m, op.robot.arm_joints)
+        self.q_cmd_t = _commands(trajectory, op, len(self.arm_act), n, hw.fs)
+        self.loop = _Controllers(controller, hw.fs, self.arm_adr) if controller is not None else None
+        self.guard = _Guard(hw) if hw.guard and self.loop is not None else None
+
+    def command(self, k: int, y_acc: np.ndarray, p: np.ndarray, u_hist: np.ndarray) -> tuple[np.ndarray, bool]:
+        """Sample ``k``'s controller step on the measured accelerations ``y_acc`` (noise included)
+        and true positions ``p``: store its force ``delay_samples`` ahead in ``u_hist`` and return
+        the amplifier's target for this sample and whether the coils' range clipped it."""
+        loop, guard, res = self.loop, self.guard, self.hw.encoder_resolution
+        inv_res = 1.0 / res if res > 0 else 0.0
+        u = loop.step(k, y_acc, np.rint(p * inv_res) * res if res > 0 else p, self.d.qpos)
+        gain = 1.0
+        if guard is not None:
+            if guard.step(float(np.max(np.abs(p) / self.coils.stroke))):
+                loop.reset()
+            gain = guard.gain
+        u_hist[k + self.hw.delay_samples] = gain * u
+        return self.coils.target(u_hist[k])
+
+
 def run_loop(op, controller: Controller | Schedule | None, duration: float, *, hardware: Hardware | None = None,
              shaker: dict | None = None, spindle_hz: float | None = None, record_axes=("tangential", "axial"),
              seed: int = 0, trajectory: Trajectory | None = None) -> LoopRecord:
@@ -367,54 +463,42 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
     n = int(round(duration * hw.fs))
     if n < 2:
         raise InputError(f"duration {duration!r} s is shorter than two controller samples")
-    m, d = stepping_model(op, dt=1.0 / (hw.fs * hw.substeps), integrator="euler")
-    d.time = 0.0
-    ctrl0 = op.data.ctrl.copy()
-    record_axes = tuple(record_axes)
-    ctrl_axes = controller.axes if controller is not None else ()
-    for a in record_axes + ctrl_axes:
-        if a not in AXES:
-            raise InputError(f"unknown axis {a!r}; use {', '.join(AXES)}")
-    adr, E_all, c0 = _accelerometer(m, d, op, record_axes + ctrl_axes)
-    coils = _Coils(m, d, ctrl_axes, hw, ctrl0)
-    pm_adr, stroke = coils.pm_adr, coils.stroke
-    shake_idx, shake_f = _shaker_forces(m, shaker, n, hw.fs)
-    spin = _spindle(m, d, spindle_hz)
-    arm_act, arm_adr = _arm(m, op.robot.arm_joints)
-    q_cmd_t = _commands(trajectory, op, len(arm_act), n, hw.fs)
-    loop = _Controllers(controller, hw.fs, arm_adr) if controller is not None else None
-    guard = _Guard(hw) if hw.guard and loop is not None else None
+    rig = _Rig(op, controller, n, hw, shaker, spindle_hz, tuple(record_axes), trajectory)
+    noise = np.random.default_rng(seed).normal(0.0, hw.acc_noise, (n, rig.k_ax)) + hw.acc_bias
+    t0 = time.perf_counter()
+    acc_all, pos, force, q_arm, sat, stops = _simulate(rig, noise)
+    if not np.isfinite(acc_all).all():
+        raise LoopDiverged("the closed loop diverged")
+    wall = time.perf_counter() - t0
+    used = float(np.max(np.abs(pos) / rig.coils.stroke)) if rig.k_ax else 0.0
+    guard = rig.guard
+    return LoopRecord(np.arange(n) / hw.fs, rig.record_axes, acc_all[:, :rig.n_rec], pos, force, sat / n, used,
+                      stops / n, wall, q_arm, guard.trips if guard else 0, guard.off / n if guard else 0.0)
 
-    k_ax, n_rec = len(ctrl_axes), len(record_axes)
-    noise = np.random.default_rng(seed).normal(0.0, hw.acc_noise, (n, k_ax)) + hw.acc_bias
-    res = hw.encoder_resolution
-    inv_res = 1.0 / res if res > 0 else 0.0
+
+def _simulate(rig: _Rig, noise: np.ndarray):
+    """The sample loop: accelerations (n, n_rec + k_ax) m/s², positions and forces (n, k_ax) m and N,
+    arm angles (n, n_arm) rad or None, and the counts of saturated and end-stop samples."""
+    m, d, hw, n, coils, loop = rig.m, rig.d, rig.hw, rig.n, rig.coils, rig.loop
+    k_ax, n_rec, adr, E_all, c0, pm_adr = rig.k_ax, rig.n_rec, rig.adr, rig.E_all, rig.c0, coils.pm_adr
+    shake_idx, shake_f, shake_base, spin = rig.shake_idx, rig.shake_f, rig.shake_base, rig.spin
     u_hist = np.zeros((n + hw.delay_samples, k_ax))  # u_hist[k + delay] computed at sample k
     acc_all = np.empty((n, n_rec + k_ax))
     pos = np.empty((n, k_ax))
     force = np.empty((n, k_ax))
-    q_arm = np.empty((n, len(arm_adr))) if trajectory is not None else None
-    shake_base = ctrl0[shake_idx]
+    q_arm = np.empty((n, len(rig.arm_adr))) if rig.q_cmd_t is not None else None
     sens, qpos, ctrl = d.sensordata, d.qpos, d.ctrl
     sat = stops = 0
-    t0 = time.perf_counter()
     for k in range(n):
         a = E_all @ sens[adr:adr + 3] - c0
         acc_all[k] = a
         p = qpos[pm_adr]
         pos[k] = p
-        if q_cmd_t is not None:
-            ctrl[arm_act] = q_cmd_t[k]
-            q_arm[k] = qpos[arm_adr]
+        if q_arm is not None:
+            ctrl[rig.arm_act] = rig.q_cmd_t[k]
+            q_arm[k] = qpos[rig.arm_adr]
         if loop is not None:
-            u = loop.step(k, a[n_rec:] + noise[k], np.rint(p * inv_res) * res if res > 0 else p, qpos)
-            gain = 1.0
-            if guard is not None:
-                if guard.step(float(np.max(np.abs(p) / stroke))):
-                    loop.reset()
-                gain = guard.gain
-            u_hist[k + hw.delay_samples] = gain * u
-            target, clipped = coils.target(u_hist[k])
+            target, clipped = rig.command(k, a[n_rec:] + noise[k], p, u_hist)
             sat += clipped
         for _ in range(hw.substeps):
             if loop is not None:
@@ -428,12 +512,7 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
         stops += coils.at_stop
         if k % 256 == 0 and (not np.isfinite(d.qacc).all() or (k_ax and np.abs(qpos[pm_adr]).max() > 1.0)):
             raise LoopDiverged(f"the closed loop diverged at t = {k / hw.fs:.3f} s")
-    if not np.isfinite(acc_all).all():
-        raise LoopDiverged("the closed loop diverged")
-    wall = time.perf_counter() - t0
-    used = float(np.max(np.abs(pos) / stroke)) if k_ax else 0.0
-    return LoopRecord(np.arange(n) / hw.fs, record_axes, acc_all[:, :n_rec], pos, force, sat / n, used, stops / n,
-                      wall, q_arm, guard.trips if guard else 0, guard.off / n if guard else 0.0)
+    return acc_all, pos, force, q_arm, sat, stops
 
 
 def _stacked_step(parts, fs: float, k_ax: int) -> tuple[np.ndarray, int, int]:

@@ -32,8 +32,8 @@ from rmbench.control.plant import Plant
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError, RmbenchError
 
-__all__ = ["DesignError", "Design", "generalized_plant", "design", "modify", "robust_design", "plant_order",
-           "controller_order"]
+__all__ = ["DesignError", "Design", "generalized_plant", "design", "achieves_gamma", "modify", "robust_design",
+           "plant_order", "controller_order"]
 
 
 class DesignError(RmbenchError):
@@ -321,6 +321,19 @@ def _bisect(P, nmeas, ncon, gamma_max, gamma_tol, margin, weights):
 
 
 _CHECK_HZ = np.geomspace(0.05, 500.0, 400)
+
+
+def achieves_gamma(plant: Plant, controller: Controller, gamma: float, *, weights: Weights | None = None,
+                   mode_hz=None, slack: float = 1.05) -> bool:
+    """Whether ``controller`` stabilises the weighted generalised plant of ``plant``
+    (:func:`generalized_plant` with ``weights`` and ``mode_hz``) and keeps its closed-loop gain
+    from the disturbances and noises to the weighted outputs below ``slack × gamma`` over
+    0.05-500 Hz: the check every synthesis result has to pass (SB10AD can report success on an
+    ill-conditioned solution whose controller does not reach γ)."""
+    P = generalized_plant(plant, weights if weights is not None else Weights(), mode_hz)
+    A, B, C, D = (np.asarray(x, float) for x in (P.A, P.B, P.C, P.D))
+    k = (controller.A, controller.B, controller.C, controller.D)
+    return _achieves(A, B, C, D, k, plant.n_axes, 2 * plant.n_axes, gamma, slack=slack)
 
 
 def _achieves(A, B, C, D, k, ncon, nmeas, gamma, *, slack: float = 1.05) -> bool:

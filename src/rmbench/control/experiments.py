@@ -7,25 +7,33 @@
   tangential and axial accelerations at the excitation frequency, over the eccentric force
   ``m e Ω²``, give each axis's sensitivity (Fig. 12).
 
+- :func:`measure_accelerance` (one axis) and :func:`measure_accelerance_matrix` (every axis, one
+  coil at a time): the seed's shaker test, a band-limited random force on the disturbance coil and
+  the H1 estimate of the accelerance (averaged Hann-windowed segments,
+  :mod:`rmbench.impact.estimate`); :func:`measured_plant` and :func:`measured_matrix_plant` fit the
+  plant to it (:mod:`rmbench.control.identify`).
+
 Each frequency is one steady-state run (settling, then an integer number of periods read by a
-single-frequency DFT), and the runs go in parallel through dask.distributed (a local cluster by
-default, ``scheduler`` an address or a dask Client for an existing one). Results are xarray Datasets; :func:`reduction_at`
-computes the seed's reduction figure from two of them.
+single-frequency DFT), and the runs go in parallel through :func:`rmbench.parallel.map_cases`
+(local worker processes by default, ``scheduler`` the address of an existing dask scheduler).
+Results are xarray Datasets; :func:`reduction_at` computes the seed's reduction figure from two of them.
 """
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 import numpy as np
 import xarray as xr
+from scipy import signal
 
 from rmbench.control.closed_loop import Hardware, LoopDiverged, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import Controller
-from rmbench.threads import default_workers
+from rmbench.control.identify import plant_from_frf, plant_from_frf_matrix
+from rmbench.control.plant import Plant, parse_axes, reaction_mass
+from rmbench.errors import InputError
+from rmbench.impact.estimate import SpectralSums, h1
 
 __all__ = ["sine_sweep", "eccentric_test", "traced_runs", "excitation_frequencies", "reduction_at", "settle_time",
-           "cluster"]
+           "measure_accelerance", "measured_plant", "measure_accelerance_matrix", "measured_matrix_plant"]
 
 
 def settle_time(zeta: float, f_n: float, *, decay: float = 0.01, floor: float = 2.0) -> float:
@@ -161,6 +169,127 @@ def reduction_at(open_ds: xr.Dataset, closed_ds: xr.Dataset, axis: str, f0: floa
     return reduction(open_ds.freq.values, o, c, f0, window)
 
 
+def traced_runs(op, ctrl: Controller, axis: str | None, f0: float, *, amplitude: float = 20.0,
+                duration: float | None = None) -> dict:
+    """Uncontrolled and controlled closed-loop runs at ``f0`` Hz, kept whole for their time traces.
+
+    Parameters
+    ----------
+    op : OperatingPoint
+    ctrl : Controller
+    axis : str or None
+        Axis of a sine of ``amplitude`` N; None: the eccentric mass spinning at ``f0``.
+    duration : float, optional
+        Seconds (default the longer of 2 s and 25 periods).
+
+    Returns
+    -------
+    dict
+        ``{"uncontrolled": LoopRecord, "controlled": LoopRecord}``; a run that diverged is left out.
+    """
+    duration = duration if duration is not None else max(2.0, 25.0 / f0)
+    if axis is None:
+        kw = {"spindle_hz": f0}
+    else:
+        kw = {"shaker": {axis: lambda t: amplitude * np.sin(2 * np.pi * f0 * t)}, "record_axes": (axis,)}
+    out = {}
+    for name, k in (("uncontrolled", None), ("controlled", ctrl)):
+        try:
+            out[name] = run_loop(op, k, duration, **kw)
+        except LoopDiverged:
+            pass                              # the sweep's table already reports the failed runs
+    return out
+
+
+def measure_accelerance(op, axis: str = "tangential", *, duration: float = 64.0, segment: float = 8.0,
+                        force_rms: float = 10.0, f_max: float = 50.0, hardware: Hardware | None = None,
+                        seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Simulated shaker test: random force on the axis's disturbance coil, H1 of ``a/d``.
+
+    Returns
+    -------
+    freq : ndarray, Hz
+    accelerance : ndarray, complex, m/s²/N (``d`` = force on the robot, minus the coil force)
+    coherence : ndarray
+    """
+    hw = hardware if hardware is not None else Hardware()
+    n = int(round(duration * hw.fs))
+    rng = np.random.default_rng(seed)
+    sos = signal.butter(4, f_max, fs=hw.fs, output="sos")
+    f_coil = signal.sosfilt(sos, rng.normal(0.0, 1.0, n))
+    f_coil *= force_rms / np.std(f_coil)
+    rec = run_loop(op, None, duration, hardware=hw, shaker={axis: f_coil}, record_axes=(axis,), seed=seed)
+    acc = rec.acc[:, 0] + rng.normal(0.0, hw.acc_noise, n)
+    d = -f_coil
+    n_seg = int(round(segment * hw.fs))
+    win = np.hanning(n_seg)
+    freq = np.fft.rfftfreq(n_seg, 1 / hw.fs)
+    sums = SpectralSums(len(freq), 1)
+    start = n_seg  # the first segment holds the start-up transient
+    for s0 in range(start, n - n_seg + 1, n_seg // 2):
+        sums.add(np.fft.rfft(win * d[s0:s0 + n_seg]), np.fft.rfft(win * acc[s0:s0 + n_seg])[:, None])
+    H, coh = h1(sums)
+    keep = (freq > 0) & (freq <= f_max)
+    return freq[keep], H[keep, 0], coh[keep, 0]
+
+
+def measured_plant(op, axis: str = "tangential", *, single_mode: bool = False, **kwargs) -> Plant:
+    """The plant of one axis from a simulated FRF measurement (the seed's path).
+
+    ``single_mode=True``: the seed's one-mode model; default: every resonance in 2-40 Hz.
+    ``kwargs`` go to :func:`measure_accelerance`.
+    """
+    freq, H, _ = measure_accelerance(op, axis, **kwargs)
+    return plant_from_frf(freq, H, reaction_mass(op.robot.model, axis), axis=axis, single_mode=single_mode)
+
+
+def measure_accelerance_matrix(op, axes=("tangential", "axial"), *, duration: float = 64.0, segment: float = 8.0,
+                               force_rms: float = 10.0, f_max: float = 50.0, hardware: Hardware | None = None,
+                               seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Simulated shaker tests, one axis's disturbance coil at a time, every axis recorded.
+
+    Returns
+    -------
+    freq : ndarray, shape (n_freq,), Hz
+    accelerance : ndarray, shape (n_freq, n, n), complex, m/s²/N (row measured, column excited)
+    coherence : ndarray, shape (n_freq, n, n)
+    """
+    axes = parse_axes(axes)
+    hw = hardware if hardware is not None else Hardware()
+    n = int(round(duration * hw.fs))
+    n_seg = int(round(segment * hw.fs))
+    if n < 3 * n_seg:
+        raise InputError(f"a {duration:g} s test holds fewer than three {segment:g} s segments")
+    win = np.hanning(n_seg)
+    freq = np.fft.rfftfreq(n_seg, 1 / hw.fs)
+    keep = (freq > 0) & (freq <= f_max)
+    H = np.zeros((int(keep.sum()), len(axes), len(axes)), complex)
+    coh = np.zeros(H.shape)
+    sos = signal.butter(4, f_max, fs=hw.fs, output="sos")
+    for j, axis in enumerate(axes):
+        rng = np.random.default_rng([seed, j])
+        f_coil = signal.sosfilt(sos, rng.normal(0.0, 1.0, n))
+        f_coil *= force_rms / np.std(f_coil)
+        rec = run_loop(op, None, duration, hardware=hw, shaker={axis: f_coil}, record_axes=axes,
+                       seed=seed + 7919 * (j + 1))
+        acc = rec.acc + rng.normal(0.0, hw.acc_noise, rec.acc.shape)
+        d = -f_coil
+        sums = SpectralSums(len(freq), len(axes))
+        for s0 in range(n_seg, n - n_seg + 1, n_seg // 2):  # the first segment holds the start-up transient
+            sums.add(np.fft.rfft(win * d[s0:s0 + n_seg]), np.fft.rfft(win[:, None] * acc[s0:s0 + n_seg], axis=0))
+        h, c = h1(sums)
+        H[:, :, j], coh[:, :, j] = h[keep], c[keep]
+    return freq[keep], H, coh
+
+
+def measured_matrix_plant(op, axes=("tangential", "axial"), **kwargs) -> Plant:
+    """The multi-axis plant from simulated shaker tests at ``op`` (:func:`measure_accelerance_matrix`,
+    then :func:`plant_from_frf_matrix`); ``kwargs`` go to the measurement."""
+    axes = parse_axes(axes)
+    freq, H, _ = measure_accelerance_matrix(op, axes, **kwargs)
+    return plant_from_frf_matrix(freq, H, [reaction_mass(op.robot.model, a) for a in axes], axes)
+
+
 # -- helpers --------------------------------------------------------------------------------------
 def _default_settle(op) -> float:
     """Settling time of the slowest lightly damped mode below 40 Hz, uncontrolled (upper bound)."""
@@ -194,84 +323,22 @@ def _assemble(rows, freqs, axes, var):
     return ds
 
 
-@contextmanager
-def cluster(workers: int | None = None, scheduler=None):
-    """A dask client: an existing one (``scheduler`` a Client), a scheduler address, or a local
-    cluster of ``workers`` processes (default: the machine's cores); None for ``workers=0``."""
-    if scheduler is not None and not isinstance(scheduler, str):
-        yield scheduler
-        return
-    if scheduler is None and workers == 0:
-        yield None
-        return
-    from dask.distributed import Client, LocalCluster
-
-    local = None
-    if scheduler is not None:
-        client = Client(scheduler)
-    else:
-        # dask's nanny starts each worker with its BLAS and OpenMP pools at one thread
-        local = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1,
-                             processes=True, dashboard_address=None, silence_logs=50)
-        client = Client(local)
-    try:
-        yield client
-    finally:
-        client.close()
-        if local is not None:
-            local.close()
-
-
 def _run(tasks, workers, scheduler, progress, what):
-    """Run ``(fn, args)`` tasks, results in task order: here (workers=0) or through dask."""
+    """Run ``(fn, args)`` tasks through :func:`rmbench.parallel.map_cases`, results in task order:
+    here (``workers`` 0 or 1), on local worker processes, or on the dask scheduler at ``scheduler``."""
     from tqdm import tqdm
 
-    with tqdm(total=len(tasks), unit="run", desc=what, disable=not progress, dynamic_ncols=True) as bar, \
-            cluster(workers, scheduler) as client:
-        if client is None:
-            out = []
-            for fn, args in tasks:
-                out.append(fn(*args))
-                bar.update(1)
-            return out
-        from dask.distributed import as_completed
+    from rmbench.parallel import map_cases
 
-        futures = [client.submit(fn, *args, pure=False) for fn, args in tasks]
-        index = {f.key: i for i, f in enumerate(futures)}
-        out = [None] * len(tasks)
-        for fut in as_completed(futures):
-            out[index[fut.key]] = fut.result()
+    out = [None] * len(tasks)
+    with tqdm(total=len(tasks), unit="run", desc=what, disable=not progress, dynamic_ncols=True) as bar:
+        cases = [(i, fn, args) for i, (fn, args) in enumerate(tasks)]
+        for (i, _, _), result in map_cases(_call, cases, workers=workers, scheduler=scheduler):
+            out[i] = result   # the cases finish in any order
             bar.update(1)
-        return out
-
-
-def traced_runs(op, ctrl: Controller, axis: str | None, f0: float, *, amplitude: float = 20.0,
-                duration: float | None = None) -> dict:
-    """Uncontrolled and controlled closed-loop runs at ``f0`` Hz, kept whole for their time traces.
-
-    Parameters
-    ----------
-    op : OperatingPoint
-    ctrl : Controller
-    axis : str or None
-        Axis of a sine of ``amplitude`` N; None: the eccentric mass spinning at ``f0``.
-    duration : float, optional
-        Seconds (default the longer of 2 s and 25 periods).
-
-    Returns
-    -------
-    dict
-        ``{"uncontrolled": LoopRecord, "controlled": LoopRecord}``; a run that diverged is left out.
-    """
-    duration = duration if duration is not None else max(2.0, 25.0 / f0)
-    if axis is None:
-        kw = {"spindle_hz": f0}
-    else:
-        kw = {"shaker": {axis: lambda t: amplitude * np.sin(2 * np.pi * f0 * t)}, "record_axes": (axis,)}
-    out = {}
-    for name, k in (("uncontrolled", None), ("controlled", ctrl)):
-        try:
-            out[name] = run_loop(op, k, duration, **kw)
-        except LoopDiverged:
-            pass                              # the sweep's table already reports the failed runs
     return out
+
+
+def _call(case):
+    _, fn, args = case
+    return fn(*args)

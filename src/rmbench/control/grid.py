@@ -29,7 +29,8 @@ import xarray as xr
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rmbench.control.design import plant_order
-from rmbench.control.identify import measure_accelerance_matrix, plant_from_frf_matrix
+from rmbench.control.experiments import measure_accelerance_matrix
+from rmbench.control.identify import plant_from_frf_matrix
 from rmbench.control.plant import AXES, Plant, ReactionMass, reaction_mass, robot_plant
 from rmbench.control.schedule import grid_posture
 from rmbench.errors import InputError
@@ -114,7 +115,7 @@ def load_schedule_grid(path) -> ScheduleGrid:
 
 
 def measure_campaign(robot, grid: ScheduleGrid, *, seed: int = 0, progress=None) -> xr.Dataset:
-    """Shaker tests (:func:`~rmbench.control.identify.measure_accelerance_matrix`) at every grid posture.
+    """Shaker tests (:func:`~rmbench.control.experiments.measure_accelerance_matrix`) at every grid posture.
 
     Returns
     -------

@@ -1,8 +1,9 @@
 """The measured-plant path: a robot mode identified from an FRF measurement (METHODS.md §8).
 
 As in the seed's lab, the plant comes from a measurement: the disturbance voice coil shakes the
-robot (band-limited random force), the accelerometer responds, and the H1 estimate (averaged
-Hann-windowed segments, :mod:`rmbench.impact.estimate`) gives the accelerance ``a/d``. The seed
+robot (band-limited random force), the accelerometer responds, and the H1 estimate gives the
+accelerance ``a/d`` (the simulated shaker tests are in :mod:`rmbench.control.experiments`,
+:func:`~rmbench.control.experiments.measured_plant`; this module only fits). The seed
 fitted one mode near its peak — ``1/H = K − M ω² + i ω B`` is linear in (M, K, B) for the
 receptance ``H = −A/ω²``; here every resonance of the band is fitted (jointly, to separate
 overlapping ones) unless ``single_mode`` asks for the seed's model — and
@@ -17,14 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from rmbench.control.closed_loop import Hardware, run_loop
-from rmbench.control.plant import Plant, ReactionMass, modal_plant, parse_axes, reaction_mass, two_mass_plant
+from rmbench.control.plant import Plant, ReactionMass, modal_plant, parse_axes, two_mass_plant
 from rmbench.errors import InputError
-from rmbench.impact.estimate import SpectralSums, h1
 
-__all__ = ["ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "measure_accelerance", "measured_plant",
-           "MatrixModes", "fit_modes_matrix", "plant_from_frf_matrix", "measure_accelerance_matrix",
-           "measured_matrix_plant"]
+__all__ = ["ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "MatrixModes", "fit_modes_matrix",
+           "plant_from_frf_matrix"]
 
 
 @dataclass(frozen=True)
@@ -162,48 +160,6 @@ def _fit_peak(freq, acc, sel, fp, band) -> ModeFit:
     return ModeFit(float(M), float(K), float(B))
 
 
-def measure_accelerance(op, axis: str = "tangential", *, duration: float = 64.0, segment: float = 8.0,
-                        force_rms: float = 10.0, f_max: float = 50.0, hardware: Hardware | None = None,
-                        seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Simulated shaker test: random force on the axis's disturbance coil, H1 of ``a/d``.
-
-    Returns
-    -------
-    freq : ndarray, Hz
-    accelerance : ndarray, complex, m/s²/N (``d`` = force on the robot, minus the coil force)
-    coherence : ndarray
-    """
-    hw = hardware if hardware is not None else Hardware()
-    n = int(round(duration * hw.fs))
-    rng = np.random.default_rng(seed)
-    sos = signal.butter(4, f_max, fs=hw.fs, output="sos")
-    f_coil = signal.sosfilt(sos, rng.normal(0.0, 1.0, n))
-    f_coil *= force_rms / np.std(f_coil)
-    rec = run_loop(op, None, duration, hardware=hw, shaker={axis: f_coil}, record_axes=(axis,), seed=seed)
-    acc = rec.acc[:, 0] + rng.normal(0.0, hw.acc_noise, n)
-    d = -f_coil
-    n_seg = int(round(segment * hw.fs))
-    win = np.hanning(n_seg)
-    freq = np.fft.rfftfreq(n_seg, 1 / hw.fs)
-    sums = SpectralSums(len(freq), 1)
-    start = n_seg  # the first segment holds the start-up transient
-    for s0 in range(start, n - n_seg + 1, n_seg // 2):
-        sums.add(np.fft.rfft(win * d[s0:s0 + n_seg]), np.fft.rfft(win * acc[s0:s0 + n_seg])[:, None])
-    H, coh = h1(sums)
-    keep = (freq > 0) & (freq <= f_max)
-    return freq[keep], H[keep, 0], coh[keep, 0]
-
-
-def measured_plant(op, axis: str = "tangential", *, single_mode: bool = False, **kwargs) -> Plant:
-    """The plant of one axis from a simulated FRF measurement (the seed's path).
-
-    ``single_mode=True``: the seed's one-mode model; default: every resonance in 2-40 Hz.
-    ``kwargs`` go to :func:`measure_accelerance`.
-    """
-    freq, H, _ = measure_accelerance(op, axis, **kwargs)
-    return plant_from_frf(freq, H, reaction_mass(op.robot.model, axis), axis=axis, single_mode=single_mode)
-
-
 # several axes at once ----------------------------------------------------------------------------
 RESIDUAL_HZ, RESIDUAL_ZETA = 0.2, 0.5
 """The modes above the band enter as pseudo-modes far below it (Hz, ζ): free masses above 1 Hz."""
@@ -327,50 +283,3 @@ def plant_from_frf_matrix(freq, accelerance, masses, axes, *, f_min: float = 2.0
     info = dict(p.info, fit={"f_n": fit.f_n[fit.n_residual:].tolist(), "zeta": fit.zeta[fit.n_residual:].tolist(),
                              "rel_error": fit.rel_error})
     return Plant(p.axes, p.A, p.B, p.C, p.D, p.source, p.mode_hz, info)
-
-
-def measure_accelerance_matrix(op, axes=("tangential", "axial"), *, duration: float = 64.0, segment: float = 8.0,
-                               force_rms: float = 10.0, f_max: float = 50.0, hardware: Hardware | None = None,
-                               seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Simulated shaker tests, one axis's disturbance coil at a time, every axis recorded.
-
-    Returns
-    -------
-    freq : ndarray, shape (n_freq,), Hz
-    accelerance : ndarray, shape (n_freq, n, n), complex, m/s²/N (row measured, column excited)
-    coherence : ndarray, shape (n_freq, n, n)
-    """
-    axes = parse_axes(axes)
-    hw = hardware if hardware is not None else Hardware()
-    n = int(round(duration * hw.fs))
-    n_seg = int(round(segment * hw.fs))
-    if n < 3 * n_seg:
-        raise InputError(f"a {duration:g} s test holds fewer than three {segment:g} s segments")
-    win = np.hanning(n_seg)
-    freq = np.fft.rfftfreq(n_seg, 1 / hw.fs)
-    keep = (freq > 0) & (freq <= f_max)
-    H = np.zeros((int(keep.sum()), len(axes), len(axes)), complex)
-    coh = np.zeros(H.shape)
-    sos = signal.butter(4, f_max, fs=hw.fs, output="sos")
-    for j, axis in enumerate(axes):
-        rng = np.random.default_rng([seed, j])
-        f_coil = signal.sosfilt(sos, rng.normal(0.0, 1.0, n))
-        f_coil *= force_rms / np.std(f_coil)
-        rec = run_loop(op, None, duration, hardware=hw, shaker={axis: f_coil}, record_axes=axes,
-                       seed=seed + 7919 * (j + 1))
-        acc = rec.acc + rng.normal(0.0, hw.acc_noise, rec.acc.shape)
-        d = -f_coil
-        sums = SpectralSums(len(freq), len(axes))
-        for s0 in range(n_seg, n - n_seg + 1, n_seg // 2):  # the first segment holds the start-up transient
-            sums.add(np.fft.rfft(win * d[s0:s0 + n_seg]), np.fft.rfft(win[:, None] * acc[s0:s0 + n_seg], axis=0))
-        h, c = h1(sums)
-        H[:, :, j], coh[:, :, j] = h[keep], c[keep]
-    return freq[keep], H, coh
-
-
-def measured_matrix_plant(op, axes=("tangential", "axial"), **kwargs) -> Plant:
-    """The multi-axis plant from simulated shaker tests at ``op`` (:func:`measure_accelerance_matrix`,
-    then :func:`plant_from_frf_matrix`); ``kwargs`` go to the measurement."""
-    axes = parse_axes(axes)
-    freq, H, _ = measure_accelerance_matrix(op, axes, **kwargs)
-    return plant_from_frf_matrix(freq, H, [reaction_mass(op.robot.model, a) for a in axes], axes)

@@ -21,7 +21,7 @@ from rmbench.control.schedule import Schedule
 from rmbench.control.trajectory import Trajectory
 from rmbench.errors import InputError
 
-__all__ = ["moving_test", "design_mode"]
+__all__ = ["moving_test", "moving_figures", "design_mode"]
 
 SHORT_S = 0.25  # s: the transient check's window
 EDGE_S = 0.5  # s: kept out of the transient check at the record's ends (the band-pass's edges)
@@ -114,3 +114,17 @@ def moving_test(op, controllers: dict, trajectory: Trajectory, *, axis: str = "t
                 "arm_joint": np.arange(q_mid.shape[1])},
         attrs={"axis": axis, "force_rms_n": force_rms, "f_max_hz": f_max, "band": band, "window_s": window,
                "controllers": ",".join(ctrl_names), "modes_band_hz": [lo, hi]})
+
+
+def moving_figures(ds: xr.Dataset, controller: str = "controlled") -> dict:
+    """One controller's figures of a :func:`moving_test`: its ``reduction`` over the move,
+    ``transient``, ``saturated``, ``stroke_used``, ``guard_trips``, ``realtime_factor``, and
+    ``windows``: each window's middle ``t_s`` (s), ``mode_hz`` and reduction
+    ``1 − √(E_controlled / E_open)``."""
+    c = ds.sel(controller=controller)
+    energy, open_ = ds.energy.sel(controller=controller).values, ds.energy.sel(controller="open").values
+    return {"reduction": float(c.reduction), "transient": float(c.transient), "saturated": float(c.saturated),
+            "stroke_used": float(c.stroke_used), "guard_trips": int(c.guard_trips),
+            "realtime_factor": float(c.realtime_factor),
+            "windows": [{"t_s": float(t), "mode_hz": float(f), "reduction": 1 - float(np.sqrt(energy[w] / open_[w]))}
+                        for w, (t, f) in enumerate(zip(ds.t_mid.values, ds.f0.values))]}

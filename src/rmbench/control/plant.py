@@ -16,7 +16,7 @@ and ``u_i`` act along the same line, as in METHODS.md §8. Three ways to get one
 - :func:`two_mass_plant`: METHODS.md §8's single-axis model (robot mode M, K, B; reaction mass m, k, b);
 - :func:`modal_plant`: its multi-axis form, the robot as real normal modes seen at the suppressor
   (one participation vector per mode, so the axes couple) carrying one reaction mass per axis;
-- :func:`measured_plant` (in :mod:`rmbench.control.identify`): the robot's mode identified from a
+- :func:`measured_plant` (in :mod:`rmbench.control.experiments`): the robot's mode identified from a
   simulated (or real) shaker FRF measurement, then :func:`two_mass_plant`.
 """
 

@@ -105,6 +105,12 @@ class Schedule:
     def n_postures(self) -> int:
         return int(np.prod(self.shape))
 
+    def mode_range(self) -> tuple[tuple[float, float], ...]:
+        """Per axis, the lowest and highest mode (Hz) the grid's controllers were designed for
+        (their ``meta["mode_hz"]``)."""
+        modes = [c.meta["mode_hz"] for c in self.controllers]
+        return tuple((float(lo), float(hi)) for lo, hi in zip(np.min(modes, axis=0), np.max(modes, axis=0)))
+
     def grid_variables(self) -> np.ndarray:
         """Scheduling variables of the grid postures, rad, shape (n_postures, n_s), C order."""
         mesh = np.meshgrid(*self.grid, indexing="ij")
@@ -325,6 +331,72 @@ class Certificate:
     def worst(self) -> int:
         """Index of the point with the smallest margin."""
         return int(np.argmin(self.margin))
+
+    def headline(self) -> dict:
+        """``{"stable", "min_margin", "points"}``: what a schedule file's ``meta`` keeps of it."""
+        return {"stable": self.stable, "min_margin": float(self.margin.min()), "points": len(self.margin)}
+
+    def to_dict(self) -> dict:
+        """:meth:`headline`, the worst point and every point checked (scheduling variables in rad,
+        largest closed-loop real part in 1/s, loop margin) as strict JSON values."""
+        from rmbench.io.strict_json import jsonable
+
+        w = self.worst
+        return jsonable({**self.headline(), "plants": self.plants,
+                         "worst": {"variables": self.variables[w], "on_grid": self.on_grid[w],
+                                   "max_real": self.max_real[w], "margin": self.margin[w]},
+                         "points_checked": [{"variables": v, "on_grid": g, "max_real": r, "margin": m}
+                                            for v, g, r, m in zip(self.variables, self.on_grid, self.max_real,
+                                                                  self.margin)]})
+
+    def summary(self) -> str:
+        """Stable or not over how many points (on and between the grid postures), and where the
+        loop margin is smallest (scheduling variables in degrees)."""
+        w, n_grid = self.worst, int(self.on_grid.sum())
+        where = ", ".join(f"{np.degrees(v):.1f}" for v in self.variables[w])
+        return "\n".join([
+            f"certificate over {len(self.margin)} points ({n_grid} grid postures, {len(self.margin) - n_grid} "
+            f"between; plants {self.plants}): {'stable' if self.stable else 'UNSTABLE'}",
+            f"smallest loop margin {self.margin[w]:.3f} at ({where}) deg "
+            f"({'a grid posture' if self.on_grid[w] else 'between grid postures'})",
+            f"largest closed-loop pole real part {self.max_real.max():.3g} 1/s"])
+
+    def plot(self, ax=None):
+        """Loop margin at every point checked: over the scheduled joint's angle (deg) for a
+        one-joint schedule, else over the first two joints' angles (colour); grid postures as
+        circles, unstable points as red crosses.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Where to draw (default: a new figure's).
+
+        Returns
+        -------
+        matplotlib Axes
+        """
+        if ax is None:
+            import matplotlib.pyplot as plt
+
+            _, ax = plt.subplots(figsize=(6, 4))
+        deg = np.degrees(self.variables)
+        bad = self.max_real >= 0
+        if deg.shape[1] == 1:
+            order = np.argsort(deg[:, 0])
+            ax.plot(deg[order, 0], self.margin[order], "-", color="C0", label="loop margin")
+            ax.plot(deg[self.on_grid, 0], self.margin[self.on_grid], "o", color="C0", label="grid postures")
+            ax.plot(deg[bad, 0], self.margin[bad], "x", color="red", label="unstable")
+            ax.set_xlabel("scheduled joint, deg")
+            ax.set_ylabel("loop margin")
+        else:
+            sc = ax.scatter(deg[:, 0], deg[:, 1], c=self.margin, s=np.where(self.on_grid, 60, 25), cmap="viridis")
+            ax.figure.colorbar(sc, ax=ax, label="loop margin")
+            ax.plot(deg[bad, 0], deg[bad, 1], "x", color="red", label="unstable")
+            ax.set_xlabel("first scheduled joint, deg")
+            ax.set_ylabel("second scheduled joint, deg")
+        ax.set_title(f"schedule certificate: {'stable' if self.stable else 'UNSTABLE'}")
+        ax.legend(fontsize=8)
+        return ax
 
 
 def certify(schedule: Schedule, grid_plants, *, dense: int = 3, plant_at=None, freq=None) -> Certificate:

@@ -36,7 +36,7 @@ from rmbench.control.plant import AXES, reaction_mass, robot_plant
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError
 
-__all__ = ["TuneConfig", "load_tune_config", "tune"]
+__all__ = ["TuneConfig", "load_tune_config", "tune", "tune_table"]
 
 
 class TuneConfig(BaseModel):
@@ -198,3 +198,20 @@ def tune(cfg: TuneConfig, *, workers: int | None = None, scheduler=None, progres
         ds[name] = ("case", np.array([getattr(w, name) for w in cases]))
     ds.attrs.update(config=cfg.model_dump_json(), evaluate=cfg.evaluate)
     return ds
+
+
+def tune_table(ds: xr.Dataset, cfg: TuneConfig) -> list[dict]:
+    """One row per case of a :func:`tune` result: its ``weights``, ``gamma``, ``reason`` (why the
+    design failed, else ""), and over the postures the smallest ``reduction_min`` (None unless
+    stable at all), ``stable_all``, the largest ``stroke_used_max`` (fraction of ±stroke),
+    ``force_max`` (N) and ``amplification_db_max``."""
+    rows = []
+    for c in ds.case.values:
+        w = {k: float(ds[k].sel(case=c)) for k in sorted(cfg.weights)}
+        r = ds.sel(case=c)
+        rows.append({"weights": w, "gamma": float(r.gamma), "reason": str(r.reason.values),
+                     "reduction_min": float(np.nanmin(r.reduction.values)) if r.stable.all() else None,
+                     "stable_all": bool(r.stable.all()), "stroke_used_max": float(np.nanmax(r.stroke_used)),
+                     "force_max": float(np.nanmax(r.force_max)),
+                     "amplification_db_max": float(np.nanmax(r.amplification_db))})
+    return rows
