@@ -81,7 +81,7 @@ def main() -> None:
     tp, reach = plan.toolpath, plan.reach
     print(f"2. pocket: {len(tp)} cutter locations x {len(reach.theta)} angles planned in {plan_s:.1f} s "
           f"({plan.seconds})")
-    summary = plan.summary()
+    summary = plan.to_dict()
     motion = {k: {n: round(v, 2) for n, v in m.items()} for k, m in summary["joint_motion"].items()}
     print(f"   {summary['ramps']} θ ramps; feasible {summary['feasible']}; joints (deg/s, deg/s², deg/s³): {motion}")
     at = _evaluated(tp, settings.eval_spacing)

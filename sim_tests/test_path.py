@@ -578,8 +578,8 @@ def test_poses_beyond_the_training_postures_are_counted_with_their_distance(irb,
                       np.array([False, True]), np.array([1, 2]))
     outside = ToolPath(np.array([[1.8, 0.0], [2.0, 0.0]]), inside.z, inside.feed, inside.rpm, inside.cutting,
                        inside.line)
-    s_in = plan_path(irb, pred, inside, speed_rpm=15000, settings=settings).summary()
-    s_out = plan_path(irb, pred, outside, speed_rpm=15000, settings=settings).summary()
+    s_in = plan_path(irb, pred, inside, speed_rpm=15000, settings=settings).to_dict()
+    s_out = plan_path(irb, pred, outside, speed_rpm=15000, settings=settings).to_dict()
     assert s_in["outside_hull"] == 0 and s_in["hull_distance_max"] == 0.0
     assert s_out["outside_hull"] >= 1 and s_out["hull_distance_max"] > 0.2
 

@@ -93,6 +93,47 @@ def test_lowest_envelope_takes_the_smaller_depth():
     assert np.allclose(env.a_lim, a.a_lim * 0.5)
 
 
+def _hand_lobes():
+    """Three speeds, the middle one stable at every depth searched (inf)."""
+    from rmbench.stability import Lobes
+
+    return Lobes(np.array([5000.0, 6000.0, 7000.0]), np.array([1.5e-3, np.inf, 0.8e-3]), "fdm")
+
+
+def test_a_lobe_diagrams_summary_names_its_lowest_and_largest_depths_in_mm():
+    lines = _hand_lobes().summary().splitlines()
+    assert lines[0] == "FDM lobes, 3 speeds 5000-7000 rev/min"
+    assert lines[1] == "lowest critical depth 0.800 mm at 7000 rev/min; largest 1.500 mm"
+    assert lines[3].strip() == "6000 rev/min  a_lim > range"
+
+
+def test_a_lobe_diagram_without_an_unstable_depth_says_so():
+    from rmbench.stability import Lobes
+
+    d = Lobes(np.array([5000.0, 6000.0]), np.full(2, np.inf), "zoa")
+    assert d.extremes() is None and "no unstable depth in the range" in d.summary()
+
+
+def test_a_lobe_diagrams_dict_is_strict_json_with_null_where_stable():
+    import json
+
+    back = json.loads(json.dumps(_hand_lobes().to_dict(), allow_nan=False))
+    assert back == {"method": "fdm", "speed_rpm": [5000.0, 6000.0, 7000.0], "a_lim_m": [1.5e-3, None, 0.8e-3]}
+
+
+def test_a_lobe_diagram_plots_its_critical_depth_against_speed():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = _hand_lobes().plot()
+    assert len(ax.lines) == 1 and np.allclose(ax.lines[0].get_ydata(), [1.5, np.nan, 0.8], equal_nan=True)
+    _, given = plt.subplots()
+    assert _hand_lobes().plot(ax=given) is given
+    plt.close("all")
+
+
 @pytest.mark.parametrize("kwargs, match", [
     ({"teeth": 0}, "at least one tooth"),
     ({"immersion": 0.0}, "immersion"),
@@ -346,22 +387,16 @@ def test_the_no_cut_reference_is_the_motion_stepped_without_a_cut(irb):
     alignment)."""
     import mujoco
 
-    from rmbench.robot.simulate import stable_step
-    from rmbench.stability.milling import Motion, _state, _uncut
+    from rmbench.robot.simulate import stable_step, stepping_model
+    from rmbench.stability.milling import Motion, _uncut
 
     a, b = (irb.at(Posture.from_mm_deg(x, 0, 0)) for x in (1600, 1610))
     motion = Motion.through([a, b], [0.0, 0.2])
-    dt = stable_step(a)
-    m = mujoco.MjModel.from_xml_string(a.robot.xml)
-    m.opt.timestep = dt
-    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
-    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    m, d = stepping_model(a, dt=stable_step(a))       # the model a cut steps, at the equilibrium
     n = 400
-    sampled = motion.sample(m, np.arange(n + 1) * dt)
+    sampled = motion.sample(m, np.arange(n + 1) * m.opt.timestep)
     q_eq, v_eq, ctrl, rows = sampled
     reference = _uncut(m, a, sampled, n)
-    d = mujoco.MjData(m)
-    mujoco.mj_setState(m, d, _state(a), mujoco.mjtState.mjSTATE_FULLPHYSICS)
     d.qpos[:], d.qvel[:] = q_eq[0], v_eq[0]
     stepped = np.empty((n, 2))
     for i in range(n):

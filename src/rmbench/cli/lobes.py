@@ -196,18 +196,15 @@ def cmd_lobes(args) -> int:
         d["stable_to_m"] = depth_max   # what a null a_lim_m means: stable at every depth searched
         print_json(d)
         return 0
-    finite = np.isfinite(env.a_lim)
     print(f"{what}: {args.method.upper()} lobes, {len(speeds)} speeds {speeds[0]:.0f}-{speeds[-1]:.0f} rev/min, "
           f"depths to {1e3 * depth_max:g} mm")
-    if finite.any():
-        k = int(np.nanargmin(np.where(finite, env.a_lim, np.nan)))
-        print(f"  lowest critical depth {1e3 * env.a_lim[k]:.3f} mm at {speeds[k]:.0f} rev/min; "
-              f"largest {1e3 * env.a_lim[finite].max():.3f} mm")
+    ext = env.extremes()
+    if ext is not None:
+        print(f"  lowest critical depth {1e3 * ext[1]:.3f} mm at {ext[0]:.0f} rev/min; largest {1e3 * ext[2]:.3f} mm")
     else:
         print("  no unstable depth in the range")
-    for i in np.linspace(0, len(speeds) - 1, min(11, len(speeds))).astype(int):
-        a = env.a_lim[i]
-        print(f"  {speeds[i]:8.0f} rev/min  a_lim {'> range' if not np.isfinite(a) else f'{1e3 * a:7.3f} mm'}")
+    for v, a in zip(*env.table()):
+        print(f"  {v:8.0f} rev/min  a_lim {'> range' if not np.isfinite(a) else f'{1e3 * a:7.3f} mm'}")
     if args.out:
         print(f"wrote {args.out}")
     if report:

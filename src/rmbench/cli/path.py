@@ -79,8 +79,6 @@ def _speeds(args):
     import numpy as np
 
     if args.speed is not None:
-        if not args.speed > 0:
-            raise InputError(f"--speed must be > 0 rev/min, got {args.speed!r}")
         return args.speed
     try:
         a, b = (float(v) for v in args.speed_range.split(","))
@@ -94,34 +92,32 @@ def _speeds(args):
     return speeds
 
 
-def cmd_plan(args) -> int:
+def _settings(args):
+    """The planner's settings from the options (mm and degrees to m and rad; it checks them)."""
     import numpy as np
 
-    from rmbench.io.strict_json import strict_dumps
+    from rmbench.path import PlanSettings
+
+    return PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
+                        spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)),
+                        ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)))
+
+
+def cmd_plan(args) -> int:
     from rmbench.io.toolpath import read_toolpath
-    from rmbench.path import EXAMPLES, PlanSettings, example, plan_path, with_band
+    from rmbench.path import EXAMPLES, example, plan_path, with_band
     from rmbench.predict import PosturePredictor
     from rmbench.robot import Robot
 
     report = report_path(args)
-    if args.depth is not None and not args.depth > 0:
-        raise InputError(f"--depth must be > 0 mm, got {args.depth!r}")
     if args.band_draws < 0 or args.band_draws == 1:
         raise InputError(f"--band-draws must be 0 (no band) or at least 2, got {args.band_draws}")
     if args.mill < 0 or (args.mill and args.depth is None):
         raise InputError("--mill N needs N >= 0 and a --depth to cut")
-    if not args.spacing > 0 or not args.max_joint_rate > 0 or not args.max_joint_accel > 0:
-        raise InputError("--spacing, --max-joint-rate and --max-joint-accel must be > 0")
-    if not args.ramp >= 0:
-        raise InputError(f"--ramp must be >= 0 mm, got {args.ramp!r}")
+    settings = _settings(args)
     tp = example(args.toolpath) if args.toolpath in EXAMPLES else read_toolpath(args.toolpath)
-    if not Path(args.predictor).is_file():
-        raise InputError(f"predictor not found: {args.predictor}")
     predictor = PosturePredictor.load(args.predictor)
     robot = Robot.load(args.robot, tool=args.tool)
-    settings = PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
-                            spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)),
-                            ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)))
     out = Path(args.out) if args.out else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
@@ -131,7 +127,7 @@ def cmd_plan(args) -> int:
     if args.band_draws:
         say(f"the critical depth's 95 % band along the plan from {args.band_draws} draws")
         plan = with_band(plan, predictor, eval_spacing=settings.eval_spacing, draws=args.band_draws)
-    summary = plan.summary()
+    summary = plan.to_dict()
     milled = {}
     if args.mill:
         from rmbench.path import mill_schedule
@@ -142,15 +138,7 @@ def cmd_plan(args) -> int:
             milled[sched] = mill_schedule(robot, plan, depth=1e-3 * args.depth, schedule=sched, n=args.mill)
             summary["milling"][sched] = milled[sched].summary()
     if out is not None:
-        from rmbench.path import save_plan
-
-        plan.to_csv(out / "plan.csv")
-        plan.to_csv(out / "fixed.csv", plan.fixed)
-        save_plan(plan, out / "plan.npz", robot=args.robot, tool=args.tool, predictor=str(args.predictor))
-        tmp = out / "plan.json.part"
-        tmp.write_text(strict_dumps(summary) + "\n")
-        tmp.replace(out / "plan.json")
-        summary["files"] = [str(out / f) for f in ("plan.csv", "fixed.csv", "plan.json", "plan.npz")]
+        summary["files"] = _write_plan(out, plan, summary, args)
     if report is not None:
         from rmbench.report import Page
         from rmbench.report.path import path_sections
@@ -163,15 +151,39 @@ def cmd_plan(args) -> int:
     if args.json:
         print_json(summary)
         return 0
-    a = summary["min_alim_mm"]
-    if "speed_scan" in summary:
-        scan = summary["speed_scan"]
-        print(f"best speed of {len(scan['speeds_rpm'])} from {scan['speeds_rpm'][0]:g} to {scan['speeds_rpm'][-1]:g} rev/min: "
-              f"{plan.speed_rpm:g} rev/min (planned smallest critical depth {max(scan['min_alim_mm']):.3f} mm; "
-              f"worst speed {min(scan['min_alim_mm']):.3f} mm)")
+    _print_plan(plan, summary, args)
+    if out is not None:
+        print(f"wrote {out}: plan.csv, fixed.csv, plan.json, plan.npz (rmbench path mill {out} --depth MM)")
+    if report is not None:
+        print(f"wrote {report}")
+    return 0
+
+
+def _write_plan(out: Path, plan, summary: dict, args) -> list:
+    """plan.csv, fixed.csv, plan.npz and plan.json (``summary``) in ``out``; their paths."""
+    from rmbench.io.strict_json import strict_dumps
+    from rmbench.path import save_plan
+
+    plan.to_csv(out / "plan.csv")
+    plan.to_csv(out / "fixed.csv", plan.fixed)
+    save_plan(plan, out / "plan.npz", robot=args.robot, tool=args.tool, predictor=str(args.predictor))
+    tmp = out / "plan.json.part"
+    tmp.write_text(strict_dumps(summary) + "\n")
+    tmp.replace(out / "plan.json")
+    return [str(out / f) for f in ("plan.csv", "fixed.csv", "plan.json", "plan.npz")]
+
+
+def _print_plan(plan, summary: dict, args) -> None:
+    """The plan's lines (mm and degrees); the depths that may be non-finite from the plan itself."""
+    if plan.speed_scan is not None:
+        speeds, best = plan.speed_scan["speeds_rpm"], plan.speed_scan["min_alim"]
+        print(f"best speed of {len(speeds)} from {speeds[0]:g} to {speeds[-1]:g} rev/min: "
+              f"{plan.speed_rpm:g} rev/min (planned smallest critical depth {1e3 * max(best):.3f} mm; "
+              f"worst speed {1e3 * min(best):.3f} mm)")
     print(f"{summary['cl_points']} cutter locations at {plan.speed_rpm:g} rev/min; smallest critical depth "
-          f"planned {a['planned']:.3f} mm, fixed θ = {args.fixed_theta:g}° {a['fixed']:.3f} mm "
-          f"(gain {summary['min_alim_gain']:.2f}x), pointwise best {a['pointwise']:.3f} mm")
+          f"planned {1e3 * plan.planned.min_margin:.3f} mm, fixed θ = {args.fixed_theta:g}° "
+          f"{1e3 * plan.fixed.min_margin:.3f} mm (gain {plan.gain:.2f}x), pointwise best "
+          f"{1e3 * plan.pointwise.min_margin:.3f} mm")
     lo, hi = summary["theta_range_deg"]
     print(f"planned θ between {lo:g}° and {hi:g}°; {'feasible' if summary['feasible']['planned'] else 'NOT feasible'} "
           f"within {args.max_joint_rate:g} deg/s per joint")
@@ -190,11 +202,6 @@ def cmd_plan(args) -> int:
         print(f"warning: {summary['outside_hull']} planned poses lie outside the predictor's training postures, up "
               f"to {summary['hull_distance_max']:.2f} of their standard deviations beyond their hull: the "
               "predictor extrapolates there", file=sys.stderr)
-    if out is not None:
-        print(f"wrote {out}: plan.csv, fixed.csv, plan.json, plan.npz (rmbench path mill {out} --depth MM)")
-    if report is not None:
-        print(f"wrote {report}")
-    return 0
 
 
 def cmd_mill(args) -> int:

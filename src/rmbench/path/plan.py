@@ -245,14 +245,29 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
     """
     margin, theta = _check(margin, theta, q)
     q = None if q is None else np.asarray(q, float)
-    n, m = margin.shape
+    n = margin.shape[0]
     if int(ramp) != ramp or ramp < 1:
         raise InputError(f"a ramp takes a whole number of moves >= 1, got {ramp!r}")
     r = int(ramp)
     max_dq = _per_move(max_dq, n)
     dt = None if dt is None else _per_move(dt, n)
     mv = _moves(margin, q, max(int(max_step), 0), max_dq, r, dt, max_ddq, max_dddq)
-    # pass 1: the bottleneck value
+    bottleneck = _bottleneck(margin, mv, r)
+    if not np.isfinite(bottleneck):
+        return _fallback(margin, theta)
+    w, back = _best_sum(margin, mv, r, bottleneck, step_cost)
+    idx, to, frac = _trace_back(w, back, r)
+    th = theta[idx] + frac * (theta[to] - theta[idx])
+    rows = np.arange(n)
+    got = np.where(frac > 0, margin[rows, idx] + frac * (margin[rows, to] - margin[rows, idx]), margin[rows, idx])
+    ramps = bool(np.any(frac > 0))
+    return Schedule(idx, th, got, True, "planned", to if ramps else None, frac if ramps else None)
+
+
+def _bottleneck(margin: np.ndarray, mv: _Moves, r: int) -> float:
+    """Pass 1: the largest smallest margin any schedule of allowed holds and ramps of ``r`` moves
+    keeps along the path (-inf: none keeps every pose usable)."""
+    n, m = margin.shape
     v = np.full((n, m), -np.inf)
     v[0] = margin[0]
     for s in range(1, n):
@@ -262,17 +277,24 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
                 came = np.minimum(_shift(v[s - r], d, -np.inf), mv.low[d][s])
                 best = np.maximum(best, np.where(ok[s], came, -np.inf))
         v[s] = np.minimum(margin[s], best)
-    bottleneck = float(np.max(v[-1]))
-    if not np.isfinite(bottleneck):
-        return _fallback(margin, theta)
-    # pass 2: the largest sum at or above the bottleneck, θ steps costed
+    return float(np.max(v[-1]))
+
+
+def _best_sum(margin: np.ndarray, mv: _Moves, r: int, bottleneck: float, step_cost: float):
+    """Pass 2: over the schedules that keep at least ``bottleneck``, the largest summed margin
+    (in units of its spread) less ``step_cost`` per θ step.
+
+    Returns the best value ending at each (location, angle), shape (n, m), and how each was
+    reached, int shape (n, m): 0 held from the location before, ``d`` a ramp of ``d`` steps that
+    ended there."""
+    n, m = margin.shape
     finite = margin[np.isfinite(margin)]
     scale = float(np.ptp(finite)) or 1.0
     floor = bottleneck - 1e-12 * max(abs(bottleneck), 1.0)
     gain = np.where(margin >= floor, margin / scale, -np.inf)
     w = np.full((n, m), -np.inf)
     w[0] = gain[0]
-    back = np.zeros((n, m), int)           # 0: held from s - 1; d: a ramp of d steps ended here
+    back = np.zeros((n, m), int)
     for s in range(1, n):
         best = np.where(mv.hold[s], w[s - 1], -np.inf)
         came_by = np.zeros(m, int)
@@ -286,6 +308,14 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
                 came_by = np.where(better, d, came_by)
         back[s] = came_by
         w[s] = gain[s] + best
+    return w, back
+
+
+def _trace_back(w: np.ndarray, back: np.ndarray, r: int):
+    """The best schedule of :func:`_best_sum` from its last location back: per location the grid
+    index it leaves, the one a ramp runs to (elsewhere the same) and how far along its ramp it
+    lies (the cycloidal profile; 0 off ramps), each shape (n,)."""
+    n = len(w)
     idx, to, frac = np.empty(n, int), np.empty(n, int), np.zeros(n)
     s, k = n - 1, int(np.argmax(w[-1]))
     idx[s], to[s] = k, k
@@ -301,11 +331,7 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
         s -= r
         k = j
         idx[s], to[s] = k, k
-    th = theta[idx] + frac * (theta[to] - theta[idx])
-    rows = np.arange(n)
-    got = np.where(frac > 0, margin[rows, idx] + frac * (margin[rows, to] - margin[rows, idx]), margin[rows, idx])
-    ramps = bool(np.any(frac > 0))
-    return Schedule(idx, th, got, True, "planned", to if ramps else None, frac if ramps else None)
+    return idx, to, frac
 
 
 def _fallback(margin, theta) -> Schedule:

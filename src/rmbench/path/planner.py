@@ -174,8 +174,11 @@ class PathPlan:
 
         return {"rate": peak(v, cut), "accel": peak(acc, smooth), "jerk": peak(jerk, smooth[1:] & smooth[:-1])}
 
-    def summary(self) -> dict:
-        """The plan's figures as plain data (mm and degrees, as the command line prints them)."""
+    def to_dict(self) -> dict:
+        """The plan's figures as strict JSON types (mm and degrees, as the command line prints
+        them; a non-finite depth or gain is null)."""
+        from rmbench.io.strict_json import jsonable
+
         out = {"cl_points": len(self.toolpath), "speed_rpm": self.speed_rpm,
                "depth_mm": None if self.depth is None else 1e3 * self.depth,
                "unreachable": [int(i) for i in self.reach.unreachable()],
@@ -205,7 +208,56 @@ class PathPlan:
             if self.depth is not None:
                 # locations whose band reaches below the depth cut: chatter there is not ruled out
                 out["at_risk"]["planned_band"] = int(np.sum(self.band.lower < self.depth))
-        return out
+        return jsonable(out)
+
+    def summary(self) -> str:
+        """A few readable lines (mm and degrees): the locations and speed, each schedule's smallest
+        critical depth and the gain, the planned angles, the band and the locations at risk where
+        known, and the poses beyond the predictor's training postures."""
+        def mm(v):   # -inf: a pose along the schedule cannot be used; inf: stable at any depth
+            return f"{1e3 * v:.3f} mm" if np.isfinite(v) else ("unusable" if v < 0 else "unbounded")
+
+        head = f"{len(self.toolpath)} cutter locations at {self.speed_rpm:g} rev/min"
+        if self.speed_scan is not None:
+            sp = self.speed_scan["speeds_rpm"]
+            head += f" (the best of {len(sp)} from {sp[0]:g} to {sp[-1]:g})"
+        lines = [head,
+                 f"smallest critical depth: planned {mm(self.planned.min_margin)}"
+                 f"{'' if self.planned.feasible else ' (NOT feasible)'}, fixed θ = "
+                 f"{np.degrees(self.fixed.theta[0]):g}° {mm(self.fixed.min_margin)}"
+                 f"{f' (gain {self.gain:.2f}x)' if np.isfinite(self.gain) else ''}, "
+                 f"pointwise best {mm(self.pointwise.min_margin)}",
+                 f"planned θ between {np.degrees(self.planned.theta.min()):g}° and "
+                 f"{np.degrees(self.planned.theta.max()):g}°"]
+        if self.band is not None:
+            lines.append(f"{100 * self.band_level:g} % band of the planned critical depth: smallest lower bound "
+                         f"{mm(float(np.nanmin(self.band.lower)))}")
+        if self.depth is not None:
+            lines.append(f"locations below the {1e3 * self.depth:g} mm depth: planned {len(self.at_risk())}, "
+                         f"fixed {len(self.at_risk(self.fixed))}")
+        outside = int(np.sum(self.depths.outside_hull[np.arange(len(self.planned.index)), self.planned.index]))
+        if outside:
+            far = ("" if self.hull_distance is None else
+                   f", up to {float(np.max(self.hull_distance)):.2f} of their standard deviations beyond their hull")
+            lines.append(f"{outside} planned poses outside the predictor's training postures{far}")
+        return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """The critical depth along the path for the planned and the fixed-θ schedules, the band and
+        the depth cut where known (:func:`rmbench.path.plot.plot_plan`).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Where to draw (default: a new figure's).
+
+        Returns
+        -------
+        matplotlib Axes
+        """
+        from rmbench.path.plot import plot_plan
+
+        return plot_plan(self, ax=ax)
 
     def to_csv(self, path, schedule: Schedule | None = None) -> Path:
         """The schedule and joint trajectory: arc length, location, θ, joints (deg), critical depth (mm)."""
@@ -346,11 +398,7 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
         A cutter location no candidate angle reaches (named, with the reach), a speed or depth out
         of range.
     """
-    speeds = np.atleast_1d(np.asarray(speed_rpm, float))
-    if speeds.ndim != 1 or not len(speeds) or not np.all(speeds > 0):
-        raise InputError(f"spindle speeds must be > 0 rev/min, got {speed_rpm!r}")
-    if depth is not None and not depth > 0:
-        raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
+    speeds = _check_cut(speed_rpm, depth)
     say = progress or (lambda msg: None)
     t = {"start": time.perf_counter()}
     theta = np.asarray(settings.theta, float)
@@ -377,6 +425,36 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     # its joint moves are judged leniently; nothing is cut along it)
     dt = np.diff(arc) / feed[1:]
     max_dq = settings.max_joint_rate * dt
+    depths, planned, margin, scan = _best_speed(grids, spread, reach, settings, dt)
+    planned = _solve_ramps(robot, tp, reach, planned, max_dq)
+    fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
+    pointwise = pointwise_schedule(margin, theta)
+    t["plan"] = time.perf_counter()
+    hull = predictor.hull_distance(np.column_stack([tp.xy, planned.theta]))
+    speed_scan = ({"speeds_rpm": speeds.tolist(), "min_alim": [float(v) for v in scan]} if len(speeds) > 1
+                  else None)
+    return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(depths.speed_rpm), _stage_seconds(t),
+                    hull, speed_scan=speed_scan)
+
+
+def _check_cut(speed_rpm, depth) -> np.ndarray:
+    """The spindle speeds to plan at, rev/min, shape (n_speed,), once they and the depth are checked."""
+    speeds = np.atleast_1d(np.asarray(speed_rpm, float))
+    if speeds.ndim != 1 or not len(speeds) or not np.all(speeds > 0):
+        raise InputError(f"spindle speeds must be > 0 rev/min, got {speed_rpm!r}")
+    if depth is not None and not depth > 0:
+        raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
+    return speeds
+
+
+def _best_speed(grids, spread, reach: Reach, settings: PlanSettings, dt: np.ndarray):
+    """Plan at each speed's critical depths (``grids``, spread from the evaluated locations to all
+    by ``spread``) and keep the speed whose planned schedule keeps the largest smallest depth.
+
+    Returns its depths (DepthGrid), planned schedule, margin over (location, θ) (-inf where not
+    reached) and every speed's planned smallest depth, m."""
+    theta = np.asarray(settings.theta, float)
+    max_dq = settings.max_joint_rate * dt
     ramp = _ramp_moves(settings, reach, dt)
     best, scan = None, []
     for coarse in grids:
@@ -388,19 +466,15 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
         scan.append(planned.min_margin)
         if best is None or planned.min_margin > best[1].min_margin:
             best = (depths, planned, margin)
-    depths, planned, margin = best
-    planned = _solve_ramps(robot, tp, reach, planned, max_dq)
-    fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
-    pointwise = pointwise_schedule(margin, theta)
-    t["plan"] = time.perf_counter()
+    return (*best, scan)
+
+
+def _stage_seconds(t: dict) -> dict:
+    """Seconds each stage took from the times its end was reached (``perf_counter``, in order,
+    the first the start), and their total."""
     keys = list(t)
-    seconds = {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i} | {
+    return {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i} | {
         "total": round(t[keys[-1]] - t[keys[0]], 3)}
-    hull = predictor.hull_distance(np.column_stack([tp.xy, planned.theta]))
-    speed_scan = ({"speeds_rpm": speeds.tolist(), "min_alim": [float(v) for v in scan]} if len(speeds) > 1
-                  else None)
-    return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(depths.speed_rpm), seconds, hull,
-                    speed_scan=speed_scan)
 
 
 def _ramp_moves(settings: PlanSettings, reach: Reach, dt: np.ndarray) -> int:

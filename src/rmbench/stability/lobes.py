@@ -47,8 +47,54 @@ class Lobes:
     depths: np.ndarray | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
+        """The diagram as strict JSON types: ``method``, ``speed_rpm`` (rev/min) and ``a_lim_m``
+        (m; null where no depth in the range is unstable)."""
         return {"method": self.method, "speed_rpm": self.speed_rpm.tolist(),
                 "a_lim_m": [None if not np.isfinite(a) else float(a) for a in self.a_lim]}
+
+    def extremes(self) -> tuple[float, float, float] | None:
+        """The lowest critical depth's speed (rev/min) and depth (m), and the largest finite
+        critical depth (m); None where no depth in the range is unstable at any speed."""
+        finite = np.isfinite(self.a_lim)
+        if not finite.any():
+            return None
+        k = int(np.nanargmin(np.where(finite, self.a_lim, np.nan)))
+        return float(self.speed_rpm[k]), float(self.a_lim[k]), float(self.a_lim[finite].max())
+
+    def table(self, rows: int = 11) -> tuple[np.ndarray, np.ndarray]:
+        """Speeds (rev/min) and critical depths (m, inf: stable in the range) at ``rows`` speeds
+        spread evenly over the diagram's (all of them where fewer), each shape (rows,)."""
+        i = np.linspace(0, len(self.speed_rpm) - 1, min(rows, len(self.speed_rpm))).astype(int)
+        return self.speed_rpm[i], self.a_lim[i]
+
+    def summary(self) -> str:
+        """A few readable lines (rev/min and mm): the method and speed range, the lowest and largest
+        critical depths, and the depths at up to 11 speeds."""
+        s = self.speed_rpm
+        lines = [f"{self.method.upper()} lobes, {len(s)} speeds {s[0]:.0f}-{s[-1]:.0f} rev/min"]
+        ext = self.extremes()
+        lines.append("no unstable depth in the range" if ext is None else
+                     f"lowest critical depth {1e3 * ext[1]:.3f} mm at {ext[0]:.0f} rev/min; largest {1e3 * ext[2]:.3f} mm")
+        for v, a in zip(*self.table()):
+            lines.append(f"{v:8.0f} rev/min  a_lim {'> range' if not np.isfinite(a) else f'{1e3 * a:7.3f} mm'}")
+        return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """Critical depth (mm) against spindle speed (rev/min)
+        (:func:`rmbench.stability.plot.draw_lobes`).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Where to draw (default: a new figure's).
+
+        Returns
+        -------
+        matplotlib Axes
+        """
+        from rmbench.stability.plot import draw_lobes
+
+        return draw_lobes({"critical depth": self}, ax)
 
 
 def lobes(structure: Structure, cutting: Cutting, speeds_rpm, depths, *, method: str = "fdm",

@@ -40,7 +40,6 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
-from rmbench.threads import worker_init
 
 __all__ = ["MillingRun", "Motion", "mill", "chatter_metrics", "mill_grid"]
 
@@ -209,7 +208,7 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
         The robot moving through the cut (from time 0), ``op`` the operating point nearest its
         start (whose model, stiffness and fastest mode set the run up). Default: held at ``op``.
     """
-    from rmbench.robot.simulate import stable_step
+    from rmbench.robot.simulate import stable_step, stepping_model
 
     if not (np.isfinite(rpm) and rpm > 0):
         raise InputError(f"spindle speed must be positive, got {rpm} rev/min")
@@ -217,14 +216,25 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
         raise InputError(f"depth of cut must be positive, got {depth} m")
     dt = stable_step(op) if dt is None else float(dt)
     period = 60.0 / (cutting.teeth * rpm)
-    omega = 2 * np.pi * rpm / 60
-    rows = op.coordinate_map(("1X", "1Y"))                 # (2, nv): tip X, Y per generalised coordinate
-    m = mujoco.MjModel.from_xml_string(op.robot.xml)
-    m.opt.timestep = dt
-    m.opt.integrator = mujoco.mjtIntegrator.mjINT_RK4
-    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
-    d = mujoco.MjData(m)
-    q_eq = op.data.qpos.copy()
+    force = _tooth_forces(cutting, depth, feed_per_tooth)
+    m, d = stepping_model(op, dt=dt)
+    n = int(np.ceil(periods * period / dt))
+    # the state after each step is read against the equilibrium at that step's time
+    sampled = None if motion is None else motion.sample(m, np.arange(n + 1) * dt)
+    held, q0 = _start(op, m, d, force, cutting.teeth, sampled, kick)
+    q, ran_away = _cut(m, d, force, held, sampled, q0, n, dt, rpm, period, runaway)
+    if ran_away:
+        return MillingRun(float(rpm), float(depth), True, "runaway", np.inf, np.inf, 1.0,
+                          float(np.max(np.ptp(q, axis=0))))
+    if motion is not None:
+        q = _less_motion(q, m, op, sampled, dt)
+    return _verdict(rpm, depth, q, dt, period)
+
+
+def _tooth_forces(cutting: Cutting, depth: float, feed_per_tooth: float):
+    """``force(phase, dq)``: the cutting force on the tool tip, shape (2,), N, in the feed and
+    normal directions, at cutter angle ``phase`` (rad) with the tip displaced by ``dq`` (m, shape
+    (2,)) from where the previous tooth left the surface; a tooth whose chip vanishes cuts nothing."""
     st, ex = cutting.angles
 
     def force(phase, dq):
@@ -240,55 +250,81 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
                     fy += ft * s - fn * c
         return np.array([fx, fy])
 
-    # start from the static deflection under the mean cutting force (no regeneration yet)
-    ph = np.linspace(0, 2 * np.pi / cutting.teeth, 64, endpoint=False)
+    return force
+
+
+def _start(op, m: mujoco.MjModel, d: mujoco.MjData, force, teeth: int, sampled, kick: float):
+    """Set ``d`` at the static deflection under the mean cutting force (no regeneration yet), on
+    the equilibrium at the cut's start, with the tip kicked by ``kick`` m/s in X and Y.
+
+    Returns the held equilibrium ``(qpos, rows)`` (``op``'s; the motion's first knot where
+    ``sampled``) and the tip's static deflection, shape (2,), m: the surface the first tooth
+    period's delayed position reads."""
+    rows = op.coordinate_map(("1X", "1Y"))                 # (2, nv): tip X, Y per generalised coordinate
+    ph = np.linspace(0, 2 * np.pi / teeth, 64, endpoint=False)
     f_mean = np.mean([force(p, np.zeros(2)) for p in ph], axis=0)
     dq_static = np.linalg.solve(op.linear.K, rows.T @ f_mean)
-    mujoco.mj_setState(m, d, _state(op), mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    n = int(np.ceil(periods * period / dt))
-    if motion is None:
-        q_eq, v_eq, ctrl0, rows = q_eq, np.zeros(m.nv), op.data.ctrl, rows
+    if sampled is None:
+        q_eq, v_eq, ctrl0 = op.data.qpos.copy(), np.zeros(m.nv), op.data.ctrl
     else:
-        # the state after each step is read against the equilibrium at that step's time
-        q_eq_t, v_eq_t, ctrl_t, rows_t = motion.sample(m, np.arange(n + 1) * dt)
-        q_eq, v_eq, ctrl0, rows = q_eq_t[0], v_eq_t[0], ctrl_t[0], rows_t[0]
-        motion_state = (q_eq_t, v_eq_t, ctrl_t, rows_t)
+        q_eq, v_eq, ctrl0, rows = (a[0] for a in sampled)
     d.qpos[:] = q_eq + dq_static
     d.qvel[:] = v_eq + np.linalg.pinv(rows) @ np.array([kick, kick])
     d.ctrl[:] = ctrl0
+    return (q_eq, rows), rows @ dq_static
+
+
+def _cut(m: mujoco.MjModel, d: mujoco.MjData, force, held, sampled, q0: np.ndarray, n: int, dt: float,
+         rpm: float, period: float, runaway: float) -> tuple[np.ndarray, bool]:
+    """Step the cut ``n`` times, the regenerative force applied at the tip through its rows
+    (``held``'s equilibrium and rows, or the motion's ``sampled`` ones at each step).
+
+    Returns the tip's X, Y against the equilibrium before each step, shape (n, 2), m, and whether
+    the vibration ran away (then the history up to the step where it did)."""
+    q_eq, rows = held
+    omega = 2 * np.pi * rpm / 60
     lag = period / dt
     q = np.empty((n, 2))
-    q0 = rows @ dq_static
     for i in range(n):
-        if motion is not None:
-            q_eq, rows = q_eq_t[i], rows_t[i]
-            d.ctrl[:] = ctrl_t[i]
+        if sampled is not None:
+            q_eq, rows = sampled[0][i], sampled[3][i]
+            d.ctrl[:] = sampled[2][i]
         qi = rows @ (d.qpos - q_eq)
         q[i] = qi
-        k = i - lag
-        if k < 0:
-            qd = q0
-        else:
-            k0 = int(k)
-            w = k - k0
-            qd = q[k0] * (1 - w) + q[min(k0 + 1, i)] * w
-        f = force(omega * i * dt, qi - qd)
+        f = force(omega * i * dt, qi - _delayed(q, i, lag, q0))
         d.qfrc_applied[:] = rows.T @ f
         mujoco.mj_step(m, d)
-        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.all(np.isfinite(d.qpos)):
-            # the vibration ran away (MuJoCo would reset the state): chatter beyond the model's
-            # validity — nothing limits it but the tool leaving the cut, which was not enough
-            return MillingRun(float(rpm), float(depth), True, "runaway", np.inf, np.inf, 1.0,
-                              float(np.max(np.ptp(q[:i + 1], axis=0))))
-        if abs(qi).max() > runaway:
-            return MillingRun(float(rpm), float(depth), True, "runaway", np.inf, np.inf, 1.0,
-                              float(np.max(np.ptp(q[:i + 1], axis=0))))
-    if motion is not None:
-        # what the arm does along the motion with no cut is not the cut's vibration (module notes)
-        q = q - _uncut(m, op, motion_state, n)
-        # the static deflection under the cutting force changes slowly with the posture
-        t = np.arange(n) * dt
-        q = q - np.polynomial.polynomial.polyval(t, np.polynomial.polynomial.polyfit(t, q, 2)).T
+        # a bad acceleration or a non-finite state: the vibration ran away (MuJoCo would reset the
+        # state), chatter beyond the model's validity that only the tool leaving the cut limited
+        if (d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.all(np.isfinite(d.qpos))
+                or abs(qi).max() > runaway):
+            return q[:i + 1], True
+    return q, False
+
+
+def _delayed(q: np.ndarray, i: int, lag: float, q0: np.ndarray) -> np.ndarray:
+    """The tip one tooth period (``lag`` steps) before step ``i``, interpolated linearly in the
+    history ``q``; ``q0`` (the static deflection) before the run began."""
+    k = i - lag
+    if k < 0:
+        return q0
+    k0 = int(k)
+    w = k - k0
+    return q[k0] * (1 - w) + q[min(k0 + 1, i)] * w
+
+
+def _less_motion(q: np.ndarray, m: mujoco.MjModel, op, sampled, dt: float) -> np.ndarray:
+    """A moving cut's tip history, shape (n, 2), m, less what the arm does along the motion with no
+    cut and less a quadratic trend (the static deflection under the cutting force changes slowly
+    with the posture): the cut's own vibration (module notes)."""
+    n = len(q)
+    q = q - _uncut(m, op, sampled, n)
+    t = np.arange(n) * dt
+    return q - np.polynomial.polynomial.polyval(t, np.polynomial.polynomial.polyfit(t, q, 2)).T
+
+
+def _verdict(rpm: float, depth: float, q: np.ndarray, dt: float, period: float) -> MillingRun:
+    """The run's chatter verdict from its tip history ``q`` (n, 2), m (:func:`chatter_metrics`)."""
     met = chatter_metrics(q - q.mean(axis=0), dt, period)
     chatter = met["growth"] > 1.0 or met["off_harmonic"] > 0.5
     kind = "stable" if not chatter else ("flip" if met["flip_ratio"] < 0.3 else "hopf")
@@ -352,26 +388,23 @@ def mill_grid(robot: str, tool: str | None, posture, cutting: Cutting, speeds_rp
     workers : int
         Processes.
     out : str or Path, optional
-        JSON-lines file of finished runs (strict JSON: a runaway's unbounded metric and growth
-        are null): a rerun skips the pairs already there.
-    """
-    import json
-    from concurrent.futures import ProcessPoolExecutor
-    from pathlib import Path
+        JSON-lines file of finished runs, in the order they finish (strict JSON: a runaway's
+        unbounded metric and growth are null): a rerun skips the pairs already there.
 
+    Returns
+    -------
+    list of MillingRun
+        One per pair, speeds outer, depths inner.
+    """
     from rmbench.io.strict_json import strict_dumps
+    from rmbench.parallel import map_cases
 
     speeds = np.atleast_1d(np.asarray(speeds_rpm, float))
     dep = np.asarray(depths, float)
     dep = np.broadcast_to(dep, (len(speeds), dep.shape[-1])) if dep.ndim == 1 else dep
     pairs = [(float(s), float(a)) for s, row in zip(speeds, dep) for a in row]
-    done: dict = {}
-    if out is not None and Path(out).is_file():
-        for line in Path(out).read_text().splitlines():
-            if line.strip():
-                r = json.loads(line)
-                done[(round(r["rpm"], 6), round(r["depth"], 12))] = r
-    todo = [p for p in pairs if (round(p[0], 6), round(p[1], 12)) not in done]
+    done = _finished(out)
+    todo = [p for p in pairs if _key(*p) not in done]
     post = (posture.x, posture.y, posture.theta)
     tasks = [(robot, tool, post, cutting, s, a, kw) for s, a in todo]
     sink = open(out, "a") if out is not None else None
@@ -379,25 +412,34 @@ def mill_grid(robot: str, tool: str | None, posture, cutting: Cutting, speeds_rp
         from tqdm import tqdm
 
         bar = tqdm(total=len(pairs), initial=len(pairs) - len(todo), disable=not progress, unit="cut")
-        if workers > 1 and len(tasks) > 1:
-            with ProcessPoolExecutor(workers, initializer=worker_init) as pool:
-                results = pool.map(_grid_task, tasks)
-                for r in results:
-                    done[(round(r["rpm"], 6), round(r["depth"], 12))] = r
-                    if sink:
-                        sink.write(strict_dumps(r) + "\n")
-                        sink.flush()
-                    bar.update()
-        else:
-            for t in tasks:
-                r = _grid_task(t)
-                done[(round(r["rpm"], 6), round(r["depth"], 12))] = r
-                if sink:
-                    sink.write(strict_dumps(r) + "\n")
-                    sink.flush()
-                bar.update()
+        # written as each finishes, so that a killed run resumes from what was written
+        for _, r in map_cases(_grid_task, tasks, workers=max(int(workers), 1)):
+            done[_key(r["rpm"], r["depth"])] = r
+            if sink:
+                sink.write(strict_dumps(r) + "\n")
+                sink.flush()
+            bar.update()
         bar.close()
     finally:
         if sink:
             sink.close()
-    return [MillingRun.from_dict(done[(round(s, 6), round(a, 12))]) for s, a in pairs]
+    return [MillingRun.from_dict(done[_key(s, a)]) for s, a in pairs]
+
+
+def _key(rpm: float, depth: float) -> tuple:
+    """A grid pair's key, rounded so that it survives a JSON round trip."""
+    return round(rpm, 6), round(depth, 12)
+
+
+def _finished(out) -> dict:
+    """The runs already in the JSON-lines file ``out`` (none without one), by :func:`_key`."""
+    import json
+    from pathlib import Path
+
+    done: dict = {}
+    if out is not None and Path(out).is_file():
+        for line in Path(out).read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                done[_key(r["rpm"], r["depth"])] = r
+    return done

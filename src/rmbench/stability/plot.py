@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_lobes"]
+__all__ = ["plot_lobes", "draw_lobes"]
 
 
 def plot_lobes(diagrams: dict, path, *, title: str = "", points=None) -> Path:
@@ -24,6 +24,34 @@ def plot_lobes(diagrams: dict, path, *, title: str = "", points=None) -> Path:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
+    draw_lobes(diagrams, ax, title=title, points=points)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def draw_lobes(diagrams: dict, ax=None, *, title: str = "", points=None):
+    """Critical depth (mm) against spindle speed (rev/min) for each named diagram on ``ax`` (the
+    one named ``"envelope"`` bold black), with optional milling points.
+
+    Parameters
+    ----------
+    diagrams : dict of str to Lobes
+    ax : matplotlib Axes, optional
+        Where to draw (default: a new figure's).
+    points : tuple (speed_rpm, depth_m, chatter bool), optional
+        Virtual milling results drawn as stable (o) and chatter (x) markers.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=(8, 4.5))
     for k, (name, d) in enumerate(diagrams.items()):
         a = np.where(np.isfinite(d.a_lim), d.a_lim, np.nan)
         ax.plot(d.speed_rpm, 1e3 * a, color="k" if name == "envelope" else f"C{k}",
@@ -37,8 +65,4 @@ def plot_lobes(diagrams: dict, path, *, title: str = "", points=None) -> Path:
     ax.set_ylim(bottom=0)
     ax.legend(fontsize=8)
     ax.set_title(title)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return ax
