@@ -90,28 +90,16 @@ def cmd_run(args) -> int:
         return 0
     if not args.out:
         raise InputError("--out is required (the dataset file to write)")
-    from rmbench.impact import is_complete, open_campaign
+    from rmbench.impact import CampaignSummary, is_complete
 
     kept = not args.force and is_complete(cfg, args.out)
     out = run_campaign(cfg, args.out, toml=toml, workers=args.workers, scheduler=args.scheduler,
                        progress=not args.no_progress, force=args.force)
-
-    ds = open_campaign(out)
-    ok = int(ds.ok.sum())
-    summary = {"out": str(out), "postures": int(ds.sizes["posture"]), "ok": ok,
-               "failed": {str(ds.reason.values[i]) for i in range(ds.sizes["posture"]) if not ds.ok.values[i]},
-               "steps": int(ds.steps.sum()), "kept": kept}
-    summary["failed"] = sorted(summary["failed"])
+    summary = CampaignSummary.load(out, kept=kept)
     if args.json:
-        print_json(summary)
+        print_json(summary.to_dict())
     else:
-        if kept:
-            print(f"{out} is a finished run of this configuration: kept, nothing simulated "
-                  "(--force runs it again)")
-        else:
-            print(f"wrote {out}: {ok} of {summary['postures']} postures measured, {summary['steps']} steps simulated")
-        for r in summary["failed"]:
-            print(f"  failed: {r}")
+        print(summary.summary())
     return 0
 
 
@@ -148,9 +136,8 @@ def cmd_import(args) -> int:
 
 
 def cmd_plot(args) -> int:
-    import numpy as np
-
     from rmbench.impact import open_campaign
+    from rmbench.impact.dataset import find_posture
     from rmbench.impact.plot import plot_frf_matrix
     from rmbench.robot import parse_posture
 
@@ -163,10 +150,8 @@ def cmd_plot(args) -> int:
             raise InputError(f"--index {args.index} is outside 0..{ds.sizes['posture'] - 1}")
         index = args.index
     else:
-        p = parse_posture(args.posture)
-        d = np.abs(ds.x.values - p.x) + np.abs(ds.y.values - p.y) + np.abs(ds.theta.values - p.theta)
-        index = int(np.nanargmin(d))
-        if not d[index] < 1e-6:
+        index = find_posture(ds, parse_posture(args.posture))
+        if index is None:
             raise InputError(f"posture {args.posture} is not in {args.data}")
     if not bool(ds.ok.values[index]):
         raise InputError(f"posture {index} failed in this campaign: {ds.reason.values[index]}")

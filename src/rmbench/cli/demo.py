@@ -30,18 +30,39 @@ def register(sub) -> None:
 
 
 def cmd_demo(args) -> int:
-    from rmbench.impact import bundled_configs, load_config, open_campaign, run_campaign
-    from rmbench.impact.plot import plot_frf_matrix
-    from rmbench.robot import Robot, validation_postures
-    from rmbench.robot.plot import plot_tip_frfs
-
     from rmbench import __version__
-    from rmbench.report import Page
+    from rmbench.report import Page, campaign_sections, modal_sections
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     page = Page("rmbench demo", {"rmbench": __version__, "folder": str(out.resolve()),
                                  "robots": "IRB6660 stand-in (dummy tool), MH180 stand-in (suppressor)"})
+    _demo_exact(out)
+    ds = _demo_campaign(out, args.workers)
+    fit = _demo_modal(out, ds, args.workers)
+    page.part("Impact campaign and modal fit (3 validation postures, time domain)")
+    campaign_sections(page, ds, fit=fit)
+    modal_sections(page, fit, ds)
+    _demo_predict(out, args.workers, page)
+    _demo_path(out, page)
+    _demo_rcsa(out, ds, page)
+    _demo_lobes(out, fit, page)
+    _demo_control(out, page)
+    _demo_gap(out, args.workers, page)
+    _demo_calibrate(out, args.workers, page)
+    _demo_form(out, args.workers, page)
+    _demo_tracker_gap(out, page)
+    _demo_any_arm(out, args.workers, page)
+    report = page.write(out / "report.html")
+    print(f"\nreport of everything above (open it in a browser): {report}")
+    return 0
+
+
+def _demo_exact(out: Path) -> None:
+    """The IRB6660 stand-in's exact modes and tip receptances at the seed's validation postures."""
+    from rmbench.robot import Robot, validation_postures
+    from rmbench.robot.plot import plot_tip_frfs
+
     robot = Robot.load("irb6660", tool="dummy")
     print(f"rmbench demo: the {robot.name} stand-in with the {robot.tool} tool")
     curves = {"low": [], "high": []}
@@ -61,10 +82,16 @@ def cmd_demo(args) -> int:
         plot_tip_frfs(curves[band], path, title=f"Exact tool-tip receptance, {band} band, IRB6660 stand-in")
         print(f"wrote {path}")
 
+
+def _demo_campaign(out: Path, workers):
+    """The bundled demo campaign (time domain) run into ``out``, its FRF matrices plotted; the dataset."""
+    from rmbench.impact import bundled_configs, load_config, open_campaign, run_campaign
+    from rmbench.impact.plot import plot_frf_matrix
+
     config = bundled_configs()["demo"]
     data = out / "demo_campaign.nc"
     print(f"\nvirtual impact campaign {config.name} (time domain): 3 postures, hits at 1X 1Y 1aX 1aY x 3")
-    run_campaign(load_config(config), data, toml=config.read_text(), workers=args.workers)
+    run_campaign(load_config(config), data, toml=config.read_text(), workers=workers)
     ds = open_campaign(data)
     for i in range(ds.sizes["posture"]):
         for band in ("low", "high"):
@@ -75,13 +102,17 @@ def cmd_demo(args) -> int:
         print(f"  posture {i}: median |measured/exact - 1| = {np.nanmedian(err):.4f}; "
               f"figures {out}/campaign_posture{i}_*.png")
     print(f"wrote {data}")
+    return ds
 
+
+def _demo_modal(out: Path, ds, workers):
+    """The campaign's automatic MDOF modal fit, scored against the exact modes; the fit dataset."""
     from rmbench.impact.dataset import save
     from rmbench.modal.campaign_fit import fit_campaign
 
     print("\nMDOF modal fit of the campaign (automatic: pLSCF, stabilisation, model order by the "
           "information criterion, all 16 FRFs per band)")
-    fit = fit_campaign(ds, workers=args.workers)
+    fit = fit_campaign(ds, workers=workers)
     for i in range(fit.sizes["posture"]):
         found = np.isfinite(fit.modal.values[i, :, 0])
         verdict = ("fit ok" if fit.fit_ok.values[i].all() else "needs a look: " + "; ".join(
@@ -95,24 +126,7 @@ def cmd_demo(args) -> int:
               f"MAC phiR/phiL min {np.nanmin(fit.mac_phiR):.4f}/{np.nanmin(fit.mac_phiL):.4f}")
     save(fit, out / "demo_modal.nc")
     print(f"wrote {out / 'demo_modal.nc'}")
-    from rmbench.report import campaign_sections, modal_sections
-
-    page.part("Impact campaign and modal fit (3 validation postures, time domain)")
-    campaign_sections(page, ds, fit=fit)
-    modal_sections(page, fit, ds)
-    _demo_predict(out, args.workers, page)
-    _demo_path(out, page)
-    _demo_rcsa(out, ds, page)
-    _demo_lobes(out, fit, page)
-    _demo_control(out, page)
-    _demo_gap(out, args.workers, page)
-    _demo_calibrate(out, args.workers, page)
-    _demo_form(out, args.workers, page)
-    _demo_tracker_gap(out, page)
-    _demo_any_arm(out, args.workers, page)
-    report = page.write(out / "report.html")
-    print(f"\nreport of everything above (open it in a browser): {report}")
-    return 0
+    return fit
 
 
 def _demo_any_arm(out: Path, workers, page) -> None:
@@ -243,7 +257,7 @@ def _demo_path(out: Path, page) -> None:
     plan = plan_path(robot, predictor, example("contour"), speed_rpm=9000.0,
                      settings=PlanSettings(theta=tuple(np.radians(np.arange(-60.0, 61.0, 10.0))), spacing=10e-3))
     plan = with_band(plan, predictor, draws=32)
-    s = plan.summary()
+    s = plan.to_dict()
     a = s["min_alim_mm"]
     print(f"  {s['cl_points']} cutter locations x {len(plan.reach.theta)} angles in {s['seconds']['total']:.1f} s: "
           f"smallest critical depth planned {a['planned']:.3f} mm (95 % band down to {s['band']['min_lower_mm']:.3f}), "

@@ -70,13 +70,38 @@ def register(sub) -> None:
 def cmd_tool(args) -> int:
     import warnings
 
-    import numpy as np
-
-    from rmbench.rcsa import Contact, IllConditionedWarning
-    from rmbench.rcsa.tool_change import posture_index, predict_campaign_tool, tool_geometry
-    from rmbench.robot import parse_posture
+    from rmbench.rcsa import IllConditionedWarning
+    from rmbench.rcsa.tool_change import predict_campaign_tool
 
     report = report_path(args)
+    data, index, target, contact, free, calibration, cal_ref = _tool_inputs(args)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", IllConditionedWarning)
+        res = predict_campaign_tool(data, index, target, contact=contact, calibration=calibration,
+                                    calibration_reference=cal_ref, method=args.method, shank=not args.no_shank,
+                                    tool_model=args.tool_model, free=free, mass_loading=not args.no_mass_loading,
+                                    cross_axis=not args.no_cross_axis, hit_offset=not args.no_hit_offset)
+    notes = [str(w.message) for w in caught if issubclass(w.category, IllConditionedWarning)]
+    _write_tool_outputs(args, res, data, index, notes, report)
+    if args.json:
+        d = res.to_dict()
+        d["warnings"] = notes
+        print_json(d)
+        return 0
+    _print_tool(args, res, index, notes)
+    for path in (args.out, args.save, report):
+        if path:
+            print(f"wrote {path}")
+    return 0
+
+
+def _tool_inputs(args):
+    """Read and check ``rcsa tool``'s inputs: (campaign, posture index, target tool, contact or
+    None, free parameters, calibration or None, reference calibration or None)."""
+    from rmbench.rcsa import Contact
+    from rmbench.rcsa.tool_change import posture_index, tool_geometry
+    from rmbench.robot import parse_posture
+
     data = load_dataset(args.reference, "reference campaign")
     for key in ("H", "x", "band"):
         if key not in data:
@@ -98,13 +123,11 @@ def cmd_tool(args) -> int:
         calibration = (load_dataset(args.calibration, "calibration campaign"), args.calibration_index)
         if args.calibration_reference:
             cal_ref = load_dataset(args.calibration_reference, "reference calibration campaign")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", IllConditionedWarning)
-        res = predict_campaign_tool(data, index, target, contact=contact, calibration=calibration,
-                                    calibration_reference=cal_ref, method=args.method, shank=not args.no_shank,
-                                    tool_model=args.tool_model, free=free, mass_loading=not args.no_mass_loading,
-                                    cross_axis=not args.no_cross_axis, hit_offset=not args.no_hit_offset)
-    notes = [str(w.message) for w in caught if issubclass(w.category, IllConditionedWarning)]
+    return data, index, target, contact, free, calibration, cal_ref
+
+
+def _write_tool_outputs(args, res, data, index: int, notes: list, report) -> None:
+    """Write the files ``rcsa tool`` was asked for: the predictions, the figure, the report."""
     if args.save:
         from rmbench.impact.dataset import save
 
@@ -125,11 +148,10 @@ def cmd_tool(args) -> int:
                      "contact": res.contact_source, "warnings": "; ".join(notes)})
         tool_change_sections(page, res, reference={b: campaign_receptance(data, index, b).values for b in res.bands})
         page.write(report)
-    if args.json:
-        d = res.to_dict()
-        d["warnings"] = notes
-        print_json(d)
-        return 0
+
+
+def _print_tool(args, res, index: int, notes: list) -> None:
+    """``rcsa tool``'s text output: warnings, the contact used, its fit and the peak errors."""
     for n in notes:
         print(f"warning: {n}")
     x, y, t = res.posture_mm_deg
@@ -149,16 +171,8 @@ def cmd_tool(args) -> int:
         print("  entry     f_true Hz   f_pred Hz   freq err   amp err")
         for p in res.peaks:
             print(f"  {p.entry:8s} {p.f_true:10.2f} {p.f_pred:11.2f} {100 * p.freq_err:9.2f} % {100 * p.amp_err:8.2f} %")
-        amp = np.nanmax([abs(p.amp_err) for p in res.peaks])
-        fr = np.nanmax([abs(p.freq_err) for p in res.peaks])
+        amp, fr = res.largest_peak_errors()
         print(f"largest errors: amplitude {100 * amp:.2f} %, frequency {100 * fr:.2f} %")
-    if args.out:
-        print(f"wrote {args.out}")
-    if args.save:
-        print(f"wrote {args.save}")
-    if report:
-        print(f"wrote {report}")
-    return 0
 
 
 def cmd_part(args) -> int:

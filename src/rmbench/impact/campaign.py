@@ -9,6 +9,7 @@ one dataset (``OUT``) and the parts are removed.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import time
 import traceback
@@ -21,10 +22,10 @@ from rmbench.errors import InputError, RmbenchError
 from rmbench.impact.config import CampaignConfig
 from rmbench.impact.measure import band_lines, exact_band, measure_band
 from rmbench.impact.sensors import COORDS, sensor_set
+from rmbench.parallel import map_cases
 from rmbench.robot import OperatingPoint, Posture, Robot, seed_grid
 from rmbench.robot.model import Band
 from rmbench.robot.variant import condensed, with_tool_masses
-from rmbench.threads import default_workers, worker_init
 
 __all__ = ["Campaign", "postures_of", "run_posture", "run_campaign", "dry_run"]
 
@@ -215,6 +216,20 @@ def _task(config_json: str, toml: str, index: int, posture: tuple) -> dict:
     return run_posture(_campaign_from_json(config_json, toml), index, Posture(*posture))
 
 
+def _posture_case(config_json: str, toml: str, single_threaded: bool, item: tuple) -> dict:
+    """One posture ``item = (index, (x, y, theta))`` as a case of :func:`rmbench.parallel.map_cases`.
+
+    ``single_threaded``: one thread in every pool while it runs, as in a worker process, so that
+    a posture run here (one worker, or one posture left) equals one run on a worker bit for bit.
+    """
+    if not single_threaded:
+        return _task(config_json, toml, *item)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        return _task(config_json, toml, *item)
+
+
 def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", workers: int | None = None,
                  scheduler: str | None = None, progress: bool = True, force: bool = False) -> Path:
     """Run a campaign into the dataset file ``out`` (netCDF), resuming from ``out.parts/``.
@@ -225,9 +240,12 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
     Parameters
     ----------
     workers : int, optional
-        Local worker processes (default: the machine's cores); 0 runs in this process.
+        Local worker processes, each single-threaded (default: this command's share of the cores,
+        :func:`rmbench.threads.default_workers`); 1, or a single posture left, runs single-threaded
+        in this process; 0 runs in this process with its own threads.
     scheduler : str, optional
-        Address of an existing dask scheduler (then ``workers`` is ignored).
+        Address of an existing dask scheduler (then ``workers`` is ignored); the postures run
+        through :func:`rmbench.parallel.map_cases`.
     force : bool
         Simulate every posture again even if ``out`` is complete.
     """
@@ -244,15 +262,15 @@ def run_campaign(cfg: CampaignConfig, out: str | Path, *, toml: str = "", worker
     todo = [i for i in range(len(postures)) if not parts.has(i)]
     config_json = cfg.model_dump_json()
     bar = _progress(len(postures), len(postures) - len(todo), progress)
-    if todo:
-        if scheduler is None and workers == 0:
-            for i in todo:
-                parts.write(_task(config_json, toml, i, _tuple(postures[i])))
-                bar.update(1)
-        elif scheduler is None:
-            _run_local(todo, postures, config_json, toml, parts, bar, workers)
-        else:
-            _run_dask([(i, postures[i]) for i in todo], config_json, toml, parts, bar, scheduler)
+    # workers=0: here, with this process's threads (the cases in order); else each posture
+    # single-threaded, on local worker processes or the scheduler's cluster, written as it finishes
+    case = functools.partial(_posture_case, config_json, toml, scheduler is not None or workers != 0)
+    items = [(i, _tuple(postures[i])) for i in todo]
+    # closing: an interrupt while a part is written cancels the postures not started at once
+    with contextlib.closing(map_cases(case, items, workers=workers, scheduler=scheduler)) as done:
+        for _, result in done:
+            parts.write(result)
+            bar.update(1)
     bar.close()
     ds = parts.assemble(toml, postures, built.robot)
     dataset.save(ds, out)
@@ -277,44 +295,6 @@ def is_complete(cfg: CampaignConfig, out: str | Path, *, n_postures: int | None 
     if n_postures is None:
         n_postures = len(postures_of(cfg, Campaign.build(cfg).robot))
     return digest == cfg.digest and n == n_postures
-
-
-def _run_local(todo, postures, config_json, toml, parts, bar, workers):
-    """Postures in local worker processes, each on its share of the cores (rmbench.threads).
-
-    A process pool rather than a local dask cluster: dask's start-up and shutdown cost a few
-    seconds a run, and its nanny starts workers with ``MALLOC_TRIM_THRESHOLD_`` set, which makes
-    glibc map every array over 128 kB afresh and fault it in page by page (0.1 s a posture).
-    """
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    n = min(workers or default_workers(), len(todo))
-    # fork: the workers start with this process's imports; spawn would import everything again
-    with ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("fork"), initializer=worker_init) as pool:
-        futures = [pool.submit(_task, config_json, toml, i, _tuple(postures[i])) for i in todo]
-        try:
-            for fut in as_completed(futures):
-                parts.write(fut.result())
-                bar.update(1)
-        except BaseException:   # an interrupt: what finished is in OUT.parts/, the rest resumes later
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-
-
-def _run_dask(todo, config_json, toml, parts, bar, scheduler):
-    """Postures ``todo`` (index, posture) on an existing dask scheduler (a cluster)."""
-    from dask.distributed import Client, as_completed
-
-    client = Client(scheduler)
-    try:
-        futures = [client.submit(_task, config_json, toml, i, _tuple(posture), key=f"posture-{i}-{parts.digest}",
-                                 pure=False) for i, posture in todo]
-        for fut in as_completed(futures):
-            parts.write(fut.result())
-            bar.update(1)
-    finally:
-        client.close()
 
 
 def _tuple(p: Posture) -> tuple:

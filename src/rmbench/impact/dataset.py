@@ -22,7 +22,7 @@ from rmbench.impact.sensors import COORDS
 from rmbench.modeshape import pair_modes
 
 __all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "posture_positions",
-           "exact_modes_dataset"]
+           "exact_modes_dataset", "find_posture"]
 
 DATASET_VERSION = 1
 
@@ -40,6 +40,14 @@ def posture_positions(x, y, theta) -> np.ndarray:
     ndarray, shape (n_postures, 3)
     """
     return np.column_stack([np.asarray(x) / 0.1, np.asarray(y) / 0.1, np.asarray(theta) / np.radians(10)])
+
+
+def find_posture(ds: xr.Dataset, posture) -> int | None:
+    """Position of ``posture`` (x, y in m, theta in rad) among a dataset's postures, or None where
+    none lies within 1e-6 of it (|Δx| + |Δy| + |Δθ|, m and rad)."""
+    d = np.abs(ds.x.values - posture.x) + np.abs(ds.y.values - posture.y) + np.abs(ds.theta.values - posture.theta)
+    index = int(np.nanargmin(d))
+    return index if d[index] < 1e-6 else None
 
 
 def track_modes(tables: list, positions: np.ndarray | None = None, *, freq_tol: float = 0.05,

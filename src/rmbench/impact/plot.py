@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_frf_matrix"]
+__all__ = ["plot_frf_matrix", "plot_campaign_summary"]
 
 
 def plot_frf_matrix(ds, index: int, path, *, band: str | None = None) -> None:
@@ -56,3 +56,33 @@ def plot_frf_matrix(ds, index: int, path, *, band: str | None = None) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
+
+
+def plot_campaign_summary(summary, ax=None):
+    """Wall time per posture of a campaign run (s), bars of the measured postures in blue and of
+    the failed ones in red.
+
+    Parameters
+    ----------
+    summary : CampaignSummary
+    ax : matplotlib Axes, optional
+        Where to draw (default: a new figure's).
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=(7, 3))
+    index = np.arange(summary.n_postures)
+    ok = np.asarray(summary.ok, bool)
+    ax.bar(index[ok], summary.seconds[ok], color="tab:blue", label="measured")
+    if not ok.all():
+        ax.bar(index[~ok], summary.seconds[~ok], color="tab:red", label="failed")
+    ax.set_xlabel("posture")
+    ax.set_ylabel("wall time (s)")
+    ax.set_title(f"{summary.n_ok} of {summary.n_postures} postures measured, {summary.steps_total} steps")
+    ax.legend(fontsize=8)
+    return ax

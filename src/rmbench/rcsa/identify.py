@@ -112,21 +112,9 @@ def identify_contact(t_ref: np.ndarray, h_target: np.ndarray, freq: np.ndarray, 
         Accelerometers on the tools while both were measured (m up from the tip, kg): both
         substructures carry them (mass loading; :func:`tool_receptance`).
     """
-    freq = np.asarray(freq, float)
-    h_target = np.asarray(h_target)
-    if h_target.shape != (len(freq), 2, 2):
-        raise InputError(f"target FRFs must have shape (n_freq, 2, 2), got {h_target.shape}")
-    good = np.all(np.isfinite(h_target), axis=(1, 2)) & np.all(np.isfinite(t_ref), axis=(1, 2))
-    if good.sum() < 8:
-        raise InputError(f"contact identification needs at least 8 finite lines, got {int(good.sum())}")
-    freq, t_ref, h_target = freq[good], np.asarray(t_ref)[good], h_target[good]
+    freq, t_ref, h_target = _finite_lines(freq, t_ref, h_target)
     k1 = reference_contact or Contact.of(reference)
-    x0 = start or k1
-    unknown = [n for n in free if n not in _NAMES]
-    if unknown or not free:
-        raise InputError(f"free contact parameters must be among {', '.join(_NAMES)}, got {free!r}")
-    # zero damping cannot be searched in log space: start it at a loss factor of 1e-5 per rad/s
-    p0 = np.log([x0.k_t, x0.k_r, max(x0.c_t, 1e-8 * x0.k_t), max(x0.c_r, 1e-8 * x0.k_r)])
+    p0 = _log_start(start or k1, free)
     idx = [_NAMES.index(n) for n in free]
     a1 = tool_receptance(reference, freq, n_el=n_el, s_1a=s_1a, model=tool_model, masses=sensor_masses)
     a2 = tool_receptance(target, freq, n_el=n_el, model=tool_model, masses=sensor_masses)
@@ -150,12 +138,38 @@ def identify_contact(t_ref: np.ndarray, h_target: np.ndarray, freq: np.ndarray, 
     x0 = p0[idx]
     lo, hi = x0 - np.log(span), x0 + np.log(span)
     sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=1.0, method="trf")
-    n = residual(x0).size
+    rms, at_bound, rel_std = _fit_stats(sol, residual(x0).size, free, lo, hi)
+    return ContactFit(Contact(*np.exp(full(sol.x))), Contact(*np.exp(p0)), rms,
+                      float(np.sqrt(np.mean(residual(x0) ** 2))), int(len(freq)), at_bound, rel_std)
+
+
+def _finite_lines(freq, t_ref, h_target):
+    """Check the target FRFs' shape and keep the lines where both measurements are finite."""
+    freq = np.asarray(freq, float)
+    h_target = np.asarray(h_target)
+    if h_target.shape != (len(freq), 2, 2):
+        raise InputError(f"target FRFs must have shape (n_freq, 2, 2), got {h_target.shape}")
+    good = np.all(np.isfinite(h_target), axis=(1, 2)) & np.all(np.isfinite(t_ref), axis=(1, 2))
+    if good.sum() < 8:
+        raise InputError(f"contact identification needs at least 8 finite lines, got {int(good.sum())}")
+    return freq[good], np.asarray(t_ref)[good], h_target[good]
+
+
+def _log_start(x0: Contact, free: tuple[str, ...]) -> np.ndarray:
+    """Log of the start contact (k_t, k_r, c_t, c_r), after checking the names in ``free``."""
+    unknown = [n for n in free if n not in _NAMES]
+    if unknown or not free:
+        raise InputError(f"free contact parameters must be among {', '.join(_NAMES)}, got {free!r}")
+    # zero damping cannot be searched in log space: start it at a loss factor of 1e-5 per rad/s
+    return np.log([x0.k_t, x0.k_r, max(x0.c_t, 1e-8 * x0.k_t), max(x0.c_r, 1e-8 * x0.k_r)])
+
+
+def _fit_stats(sol, n: int, free: tuple[str, ...], lo: np.ndarray, hi: np.ndarray):
+    """RMS misfit, parameters on a bound and relative standard errors of a least-squares solution."""
     at_bound = tuple(free[i] for i, (v, a, b) in enumerate(zip(sol.x, lo, hi)) if min(v - a, b - v) < 1e-3)
     rms = float(np.sqrt(2 * sol.cost / n))
     jtj = sol.jac.T @ sol.jac
     with np.errstate(divide="ignore", invalid="ignore"):
         cov = rms**2 * np.linalg.pinv(jtj)
     rel_std = {name: float(np.sqrt(max(cov[i, i], 0.0))) for i, name in enumerate(free)}
-    return ContactFit(Contact(*np.exp(full(sol.x))), Contact(*np.exp(p0)), rms,
-                      float(np.sqrt(np.mean(residual(x0) ** 2))), int(len(freq)), at_bound, rel_std)
+    return rms, at_bound, rel_std

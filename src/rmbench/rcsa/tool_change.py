@@ -77,9 +77,16 @@ class CampaignToolChange:
         if self.peaks:
             out["peaks"] = [{"entry": p.entry, "f_true_hz": p.f_true, "f_pred_hz": p.f_pred,
                              "amp_err": p.amp_err, "freq_err": p.freq_err} for p in self.peaks]
-            out["peak_amp_err_max"] = float(np.nanmax([abs(p.amp_err) for p in self.peaks]))
-            out["peak_freq_err_max"] = float(np.nanmax([abs(p.freq_err) for p in self.peaks]))
+            out["peak_amp_err_max"], out["peak_freq_err_max"] = self.largest_peak_errors()
         return out
+
+    def largest_peak_errors(self) -> tuple[float, float]:
+        """The largest relative amplitude and frequency errors over the scored peaks, NaNs ignored
+        (NaN without peaks)."""
+        if not self.peaks:
+            return float("nan"), float("nan")
+        return (float(np.nanmax([abs(p.amp_err) for p in self.peaks])),
+                float(np.nanmax([abs(p.freq_err) for p in self.peaks])))
 
     def to_dataset(self, reference: str = "") -> xr.Dataset:
         """The predicted target-tool receptances as one dataset: ``T_<band>`` per band on its own
@@ -322,23 +329,10 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
         Take the hits back to their nominal points first (:func:`without_hit_offset`): the tip
         hits' mean lies above the tip by the hammer's location scatter over √(2π).
     """
-    if method not in ("difference", "beam"):
-        raise InputError(f"method must be 'difference' or 'beam', got {method!r}")
-    if tool_model not in TOOL_MODELS:
-        raise InputError(f"tool model must be one of {', '.join(TOOL_MODELS)}, got {tool_model!r}")
-    ref_name = str(data.attrs.get("tool", ""))
-    reference = tool_geometry(ref_name) if ref_name in TOOLS else None
-    if reference is None:
-        raise InputError(f"the reference campaign's tool {ref_name!r} is not a bundled tool; "
-                         f"RCSA needs its geometry ({', '.join(sorted(TOOLS))})")
+    reference = _reference_tool(data, method, tool_model)
     bands = bands or tuple(dict.fromkeys(str(b) for b in data["band"].values))
-    corrections = [fix for on, fix in ((cross_axis, without_cross_axis), (hit_offset, without_hit_offset)) if on]
-    for fix in corrections:
-        data = fix(data)
-        if calibration is not None:
-            calibration = (fix(calibration[0]), calibration[1])
-        if calibration_reference is not None:
-            calibration_reference = fix(calibration_reference)
+    data, calibration, calibration_reference = _corrected(data, calibration, calibration_reference,
+                                                          cross_axis=cross_axis, hit_offset=hit_offset)
     source, fit = "catalogue", None
     if contact is not None:
         source = "given"
@@ -353,6 +347,33 @@ def predict_campaign_tool(data: xr.Dataset, index: int, target: ToolGeometry, *,
     posture = (1e3 * float(data["x"].values[index]), 1e3 * float(data["y"].values[index]),
                float(np.degrees(data["theta"].values[index])))
     return CampaignToolChange(index, posture, method, out, truth, peaks, fit, source, tool_model)
+
+
+def _reference_tool(data: xr.Dataset, method: str, tool_model: str) -> ToolGeometry:
+    """Check the method and tool model; the reference campaign's bundled tool."""
+    if method not in ("difference", "beam"):
+        raise InputError(f"method must be 'difference' or 'beam', got {method!r}")
+    if tool_model not in TOOL_MODELS:
+        raise InputError(f"tool model must be one of {', '.join(TOOL_MODELS)}, got {tool_model!r}")
+    ref_name = str(data.attrs.get("tool", ""))
+    reference = tool_geometry(ref_name) if ref_name in TOOLS else None
+    if reference is None:
+        raise InputError(f"the reference campaign's tool {ref_name!r} is not a bundled tool; "
+                         f"RCSA needs its geometry ({', '.join(sorted(TOOLS))})")
+    return reference
+
+
+def _corrected(data, calibration, calibration_reference, *, cross_axis: bool, hit_offset: bool):
+    """The campaigns with the selected measurement corrections applied, in order: cross-axis
+    sensitivity, then the hits' offset."""
+    corrections = [fix for on, fix in ((cross_axis, without_cross_axis), (hit_offset, without_hit_offset)) if on]
+    for fix in corrections:
+        data = fix(data)
+        if calibration is not None:
+            calibration = (fix(calibration[0]), calibration[1])
+        if calibration_reference is not None:
+            calibration_reference = fix(calibration_reference)
+    return data, calibration, calibration_reference
 
 
 def _predict_bands(data, index: int, bands, reference, target, contact, *, method, shank, tool_model,

@@ -46,9 +46,10 @@ import mujoco
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.robot.kinds import (_CB_UP, COMPLIANCE_UNIT, COUNTERBALANCE, DAMPING_RATIO, KINDS, RIGID, Kind, _WIDE_LOG, _WIDE_MASS,
-                                 _WIDE_COMPLIANCE, WIDE_FORM, bending_child, bending_joints, resonator_body,
-                                 resonator_joints, tilt_joints)
+from rmbench.robot.compliance import (_WIDE_COMPLIANCE, COMPLIANCE_UNIT, DAMPING_RATIO, RIGID, WIDE_FORM,
+                                      bending_child, bending_joints, tilt_joints)
+from rmbench.robot.kinds import (_CB_UP, COUNTERBALANCE, KINDS, Kind, _WIDE_LOG, _WIDE_MASS, resonator_body,
+                                 resonator_joints)
 
 __all__ = ["GROUPS", "OPTIONAL_GROUPS", "DEFAULT_GROUPS", "STRUCTURAL", "Parameter", "ParameterSet",
            "parameter_set", "parse_groups", "BASE_DAMPING_RATIO"]

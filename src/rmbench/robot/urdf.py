@@ -126,6 +126,38 @@ def read_urdf(path: Path, name: str, *, flange: str | None = None) -> UrdfArm:
         Flange link. By default a link named like a tool flange (``tool0``, ``panda_link8``,
         ``flange``) on the chain, else the child link of the chain's last revolute joint.
     """
+    links, joints, parent_of, children, root_link = _parse_tree(path)
+
+    def chain_to(link):
+        return _chain_to(link, parent_of, joints)
+
+    if flange is None:
+        flange = _default_flange(links, joints, chain_to)
+    elif flange not in links:
+        raise ModelError(f"URDF has no link {flange!r} for the flange; links: {', '.join(list(links)[:12])}")
+    chain = chain_to(flange)
+    arm = [j for j in chain if joints[j][0] in _REVOLUTE]
+    bad = [j for j in chain if joints[j][0] not in (*_REVOLUTE, "fixed")]
+    if not arm:
+        kinds = sorted({joints[j][0] for j in chain}) or ["none"]
+        raise ModelError(f"URDF chain from {root_link!r} to {flange!r} has no revolute joint (joint types: "
+                         f"{', '.join(kinds)}); the bench needs a revolute arm")
+    if bad:
+        raise ModelError(f"URDF arm joint {bad[0]!r} is {joints[bad[0]][0]}; only revolute and fixed joints "
+                         "are supported between the base and the flange")
+    moving = _moving_links(arm, joints, children)
+    _check_inertias(arm, joints, links)
+    frozen = tuple(j for j, (kind, _, child, _) in joints.items()
+                   if kind != "fixed" and j not in arm and child in moving)
+    if any(joints[j][3].find("mimic") is not None and j not in frozen for j in arm):
+        raise ModelError("URDF arm joints with <mimic> are not supported")
+    return UrdfArm(path=path, name=name, joints=tuple(arm), flange=flange, frozen=frozen,
+                   mass=float(sum(_mass(links[n]) or 0.0 for n in moving)))
+
+
+def _parse_tree(path: Path):
+    """The URDF's links by name, joints by name ``(type, parent, child, element)``, each child
+    link's joint, each link's child joints and the root link; a tree, else a ``ModelError``."""
     try:
         root = ET.parse(path).getroot()
     except (ET.ParseError, OSError) as err:
@@ -154,34 +186,31 @@ def read_urdf(path: Path, name: str, *, flange: str | None = None) -> UrdfArm:
     if len(roots) != 1:
         raise ModelError(f"URDF has {len(roots)} root links ({', '.join(roots[:4])}); a closed loop or "
                          "disconnected links")
+    return links, joints, parent_of, children, roots[0]
 
-    def chain_to(link):
-        out = []
-        while link in parent_of:
-            out.append(parent_of[link])
-            link = joints[parent_of[link]][1]
-        return out[::-1]
 
-    if flange is None:
-        named = [n for n in links if n in _FLANGES]
-        if named:
-            flange = named[0]
-        else:
-            deepest = max(links, key=lambda n: sum(joints[j][0] in _REVOLUTE for j in chain_to(n)))
-            last = [j for j in chain_to(deepest) if joints[j][0] in _REVOLUTE]
-            flange = joints[last[-1]][2] if last else deepest
-    elif flange not in links:
-        raise ModelError(f"URDF has no link {flange!r} for the flange; links: {', '.join(list(links)[:12])}")
-    chain = chain_to(flange)
-    arm = [j for j in chain if joints[j][0] in _REVOLUTE]
-    bad = [j for j in chain if joints[j][0] not in (*_REVOLUTE, "fixed")]
-    if not arm:
-        kinds = sorted({joints[j][0] for j in chain}) or ["none"]
-        raise ModelError(f"URDF chain from {roots[0]!r} to {flange!r} has no revolute joint (joint types: "
-                         f"{', '.join(kinds)}); the bench needs a revolute arm")
-    if bad:
-        raise ModelError(f"URDF arm joint {bad[0]!r} is {joints[bad[0]][0]}; only revolute and fixed joints "
-                         "are supported between the base and the flange")
+def _chain_to(link: str, parent_of: dict, joints: dict) -> list[str]:
+    """The joints from the root link to ``link``, in order."""
+    out = []
+    while link in parent_of:
+        out.append(parent_of[link])
+        link = joints[parent_of[link]][1]
+    return out[::-1]
+
+
+def _default_flange(links: dict, joints: dict, chain_to) -> str:
+    """A link named like a tool flange, else the child of the last revolute joint on the chain
+    with the most revolute joints."""
+    named = [n for n in links if n in _FLANGES]
+    if named:
+        return named[0]
+    deepest = max(links, key=lambda n: sum(joints[j][0] in _REVOLUTE for j in chain_to(n)))
+    last = [j for j in chain_to(deepest) if joints[j][0] in _REVOLUTE]
+    return joints[last[-1]][2] if last else deepest
+
+
+def _moving_links(arm: list, joints: dict, children: dict) -> set:
+    """Every link that an arm joint moves (its child and all below)."""
     moving = set()
     for j in arm:
         stack = [joints[j][2]]
@@ -189,6 +218,11 @@ def read_urdf(path: Path, name: str, *, flange: str | None = None) -> UrdfArm:
             link = stack.pop()
             moving.add(link)
             stack += [joints[c][2] for c in children[link]]
+    return moving
+
+
+def _check_inertias(arm: list, joints: dict, links: dict) -> None:
+    """Each arm joint's child link has a positive mass and an inertia tensor."""
     for j in arm:
         link = links[joints[j][2]]
         mass = _mass(link)
@@ -198,12 +232,6 @@ def read_urdf(path: Path, name: str, *, flange: str | None = None) -> UrdfArm:
         if _inertia(link) is None:
             raise ModelError(f"URDF link {joints[j][2]!r} has no <inertia>; the bench needs the inertia "
                              "of every moving link")
-    frozen = tuple(j for j, (kind, _, child, _) in joints.items()
-                   if kind != "fixed" and j not in arm and child in moving)
-    if any(joints[j][3].find("mimic") is not None and j not in frozen for j in arm):
-        raise ModelError("URDF arm joints with <mimic> are not supported")
-    return UrdfArm(path=path, name=name, joints=tuple(arm), flange=flange, frozen=frozen,
-                   mass=float(sum(_mass(links[n]) or 0.0 for n in moving)))
 
 
 def _mass(link) -> float | None:
