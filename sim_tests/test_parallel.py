@@ -13,7 +13,7 @@ from threadpoolctl import threadpool_info, threadpool_limits
 
 from rmbench.errors import InputError
 from rmbench.gap.cases.blind import run_blind
-from rmbench.parallel import map_cases
+from rmbench.parallel import map_cases, worker_pool
 
 
 def _square(x):
@@ -69,6 +69,34 @@ def test_a_failing_case_raises_its_error(workers):
 def test_workers_must_be_a_whole_number(workers):
     with pytest.raises(InputError, match="workers must be a whole number"):
         list(map_cases(_square, range(2), workers=workers))
+
+
+_KEPT: dict = {}
+
+
+def _keep(value):
+    _KEPT["value"] = value
+
+
+def _kept_and_threads(_):
+    return _KEPT.get("value"), max(p["num_threads"] for p in threadpool_info())
+
+
+def test_a_worker_pool_runs_its_initializer_in_single_threaded_workers():
+    with threadpool_limits(limits=2), worker_pool(2, initializer=_keep, initargs=("model",)) as pool:
+        got = list(pool.map(_kept_and_threads, range(4)))
+    assert got == [("model", 1)] * 4
+
+
+def test_a_worker_pool_without_an_initializer_is_single_threaded():
+    with threadpool_limits(limits=2), worker_pool(1) as pool:
+        assert pool.submit(_square, 3).result() == (9, 1)
+
+
+@pytest.mark.parametrize("workers", [0, -1], ids=["none", "negative"])
+def test_a_worker_pool_needs_a_worker(workers):
+    with pytest.raises(InputError):
+        worker_pool(workers)
 
 
 def _lines(path) -> set:

@@ -6,6 +6,10 @@ Blind checks and benches run many cases that share nothing (a case draws its own
 that its caller writes it down at once (a killed run resumes from what was written). Every worker
 runs one thread per pool (:func:`rmbench.threads.worker_init`), so a case's result does not depend
 on where it ran or beside how many others (bit for bit the result of a single-threaded run here).
+
+Every local pool of worker processes in rmbench is made by :func:`worker_pool`: the cases of
+:func:`map_cases`, and the long-lived pools of a calibration's problem and a gap diagnosis's
+refiner, which keep their workers between maps.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ from collections.abc import Callable, Iterable, Iterator
 from rmbench.errors import InputError
 from rmbench.threads import default_workers, worker_init
 
-__all__ = ["map_cases"]
+__all__ = ["map_cases", "worker_pool"]
 
 _SINGLE_THREADED = False    # worker_init has run in this (dask worker) process
 
@@ -57,6 +61,46 @@ def map_cases(fn: Callable, items: Iterable, *, workers: int | None = None,
     yield from _on_processes(fn, items, min(n, len(items)))
 
 
+def worker_pool(workers: int | None = None, *, initializer: Callable | None = None,
+                initargs: tuple = ()):
+    """A pool of local worker processes, forked and single-threaded.
+
+    Forked: the workers start with this process's imports and objects (a function defined in a
+    script, a model built here), so nothing of it is pickled but the calls' arguments. Each worker
+    runs :func:`rmbench.threads.worker_init` (one thread in every pool) and then
+    ``initializer(*initargs)`` where given (to keep per-worker state, e.g. a rebuilt model).
+
+    Parameters
+    ----------
+    workers : int, optional
+        Processes, at least 1 (default: this command's share of the cores,
+        :func:`rmbench.threads.default_workers`).
+    initializer : callable, optional
+        Run in each worker after it is made single-threaded.
+    initargs : tuple
+        ``initializer``'s arguments.
+
+    Returns
+    -------
+    concurrent.futures.ProcessPoolExecutor
+        The caller shuts it down (or uses it as a context manager).
+    """
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    n = default_workers() if workers is None else _check_workers(workers)
+    if n < 1:
+        raise InputError("a worker pool needs at least one worker, got 0")
+    return ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("fork"),
+                               initializer=_init_worker, initargs=(initializer, initargs))
+
+
+def _init_worker(initializer, initargs) -> None:
+    worker_init()
+    if initializer is not None:
+        initializer(*initargs)
+
+
 def _check_workers(workers) -> int:
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 0:
         raise InputError(f"workers must be a whole number >= 0, got {workers!r}")
@@ -66,10 +110,9 @@ def _check_workers(workers) -> int:
 def _on_processes(fn, items, n):
     """Forked processes: they start with this process's imports, and with ``fn`` even where it is
     defined in a script (``__main__``)."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
 
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=mp.get_context("fork"), initializer=worker_init)
+    pool = worker_pool(n)
     try:
         futures = {pool.submit(fn, item): item for item in items}
         for fut in as_completed(futures):

@@ -105,11 +105,9 @@ class Problem:
 
     def _executor(self, workers):
         if self._pool is None:
-            import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor
+            from rmbench.parallel import worker_pool
 
-            self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("fork"),
-                                             initializer=_worker_init, initargs=(self,))
+            self._pool = worker_pool(workers, initializer=_worker_init, initargs=(self,))
         return self._pool
 
     def close(self):
@@ -122,9 +120,7 @@ _WORKER: dict = {}
 
 
 def _worker_init(problem) -> None:
-    from rmbench.threads import worker_init
-
-    worker_init()
+    """A worker keeps the problem it was forked with (it is not sent with every job)."""
     _WORKER["problem"] = problem
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["spread_held_out"]
+__all__ = ["spread_held_out", "held_out_postures"]
 
 
 def spread_held_out(x, y, theta, k: int) -> list[int]:
@@ -29,3 +29,10 @@ def spread_held_out(x, y, theta, k: int) -> list[int]:
     order = np.lexsort((np.asarray(y, float), np.asarray(x, float), np.asarray(theta, float)))
     step = n / k
     return sorted({int(order[int(i * step + step / 2) % n]) for i in range(k)})
+
+
+def held_out_postures(data, k: int) -> list[int]:
+    """``k`` posture indices of measured modes (:class:`~rmbench.calibrate.data.ModalData`) held
+    out of a calibration: :func:`spread_held_out` of their postures, sorted."""
+    post = data.postures
+    return spread_held_out([p.x for p in post], [p.y for p in post], [p.theta for p in post], k)

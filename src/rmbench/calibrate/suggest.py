@@ -48,6 +48,17 @@ class Suggestion:
     sd_before: dict
     sd_after: dict
 
+    @property
+    def volume_factors(self) -> tuple:
+        """Factor ``exp(−gain / 2)`` by which each posture, added in turn, shrinks the volume of
+        the parameters' confidence region (below 1; best first)."""
+        return tuple(float(np.exp(-g / 2)) for g in self.gain)
+
+    def best_determined(self, n: int = 5) -> list[str]:
+        """The ``n`` parameters whose posterior over prior standard deviation the suggested
+        postures would make smallest relative to now (``sd_after / sd_before``), best first."""
+        return sorted(self.sd_before, key=lambda k: self.sd_after[k] / self.sd_before[k])[:n]
+
     def to_json(self) -> dict:
         return {"postures": [{"x_mm": 1e3 * p.x, "y_mm": 1e3 * p.y, "theta_deg": float(np.degrees(p.theta)),
                               "gain_nats": g} for p, g in zip(self.postures, self.gain)],

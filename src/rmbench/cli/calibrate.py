@@ -6,8 +6,6 @@ import csv
 import io
 from pathlib import Path
 
-import numpy as np
-
 from rmbench.cli._common import add_report_option, print_json, read_test_design, report_path
 from rmbench.errors import InputError
 
@@ -68,10 +66,9 @@ def _spread(data, k: int) -> list[int]:
     n = len(data)
     if k < 0 or k >= n:
         raise InputError(f"--heldout must be between 0 and {n - 1} (the data have {n} postures), got {k}")
-    from rmbench.calibrate.split import spread_held_out
+    from rmbench.calibrate.split import held_out_postures
 
-    post = data.postures
-    return spread_held_out([p.x for p in post], [p.y for p in post], [p.theta for p in post], k)
+    return held_out_postures(data, k)
 
 
 def cmd_calibrate(args) -> int:
@@ -226,11 +223,10 @@ def cmd_suggest(args) -> int:
         print_json(s.to_json())
         return 0
     print(f"next {len(s.postures)} postures to test (of {len(candidates)} candidates), best first:")
-    for p, g in zip(s.postures, s.gain):
-        print(f"  {p.label()} (x mm, y mm, theta deg): confidence volume × {np.exp(-g / 2):.3g}")
-    gained = sorted(s.sd_before, key=lambda k: s.sd_after[k] / s.sd_before[k])[:5]
+    for p, v in zip(s.postures, s.volume_factors):
+        print(f"  {p.label()} (x mm, y mm, theta deg): confidence volume × {v:.3g}")
     print("  parameters they would determine best (posterior over prior sd, now -> after):")
-    for k in gained:
+    for k in s.best_determined(5):
         print(f"  {k}: posterior/prior sd {s.sd_before[k]:.2f} -> {s.sd_after[k]:.2f}")
     for line in s.skipped:
         print(f"  skipped {line}")

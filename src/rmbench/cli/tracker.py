@@ -9,8 +9,6 @@ from __future__ import annotations
 import math
 import time
 
-import numpy as np
-
 from rmbench.cli._common import add_report_option, command_group, print_json, report_path
 from rmbench.errors import InputError
 
@@ -80,20 +78,19 @@ def cmd_tracker_run(args) -> int:
     camp = TrackerCampaign.build(config)
     readings = camp.readings(camp.rng(10))
     write_tracker_csv(args.out, readings)
-    ident = camp.identification_errors()
+    ident = camp.identification_summary()
     summary = {"out": args.out, "robot": camp.robot.name, "seed": config.seed,
                "n_readings": len(readings.location), "n_locations": len(camp.q_validation),
-               "identification_mean": float(ident.mean()) if len(ident) else None,
-               "identification_max": float(ident.max()) if len(ident) else None,
+               "identification_mean": ident["mean"], "identification_max": ident["max"],
                "units": "m"}
     if args.json:
         print_json(summary)
         return 0
     print(f"{camp.robot.name}: {summary['n_readings']} readings at {summary['n_locations']} "
           f"configurations written to {args.out}")
-    if len(ident):
-        print(f"model under test: calibrated on {len(ident)} configurations, identification-set "
-              f"error mean {ident.mean() / MM:.3f} mm, max {ident.max() / MM:.3f} mm")
+    if ident["n"]:
+        print(f"model under test: calibrated on {ident['n']} configurations, identification-set "
+              f"error mean {ident['mean'] / MM:.3f} mm, max {ident['max'] / MM:.3f} mm")
     return 0
 
 
@@ -181,9 +178,8 @@ def cmd_invalidate_readings(args) -> int:
         print("the sequential procedure would re-measure, worst first: " + ", ".join(marks))
         print("conclusive: " + ("yes, every one is at the cap: rejected" if verdict.conclusive
                                 else "no, re-measure them to decide"))
-    mag = np.linalg.norm(res.mean, axis=1)
-    print(f"largest location mean error {mag.max() / MM:.4f} mm at location "
-          f"{verdict.labels[int(np.argmax(mag))]}")
+    label, error = verdict.worst_location()
+    print(f"largest location mean error {error / MM:.4f} mm at location {label}")
     return 0
 
 
@@ -195,21 +191,19 @@ def cmd_invalidate_benchmark(args) -> int:
     t0 = time.perf_counter()
     table = table1(seeds=range(args.seeds))
     seconds = time.perf_counter() - t0
-    mean = table.mean()
+    out = table.to_dict()       # the means over seeds, per method and noise level
     if args.json:
-        out = table.to_dict()
         out["seed_table1"] = {k: list(v) for k, v in SEED_TABLE1.items()}
         out["seconds"] = seconds
         print_json(out)
         return 0
-    noise = mean.noise.values
+    noise = out["noise"]
     print(f"Table 1: identified accuracy of e = sin(2π(q + 0.1)) (true 1.0), mean of {args.seeds} "
           f"seeds; rmbench / seed")
     print(f"{'method':<20}" + "".join(f"{'noise ' + format(s, 'g'):>16}" for s in noise))
     for m in METHODS:
         seed = dict(zip(SEED_TABLE1["noise"], SEED_TABLE1[m]))
-        cells = "".join(f"{mean.sel(estimator=m, noise=s).item():>9.3f} / {seed.get(s, math.nan):<4.2f}"
-                        for s in noise)
+        cells = "".join(f"{a:>9.3f} / {seed.get(s, math.nan):<4.2f}" for s, a in zip(noise, out[m]))
         print(f"{m.replace('_', ' ').title():<20}{cells}")
     print(f"({seconds:.1f} s; model invalidation: search {table.settings['search']}, "
           f"on_cap {table.settings['on_cap']})")

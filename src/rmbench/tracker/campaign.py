@@ -228,6 +228,13 @@ class TrackerCampaign:
             return np.zeros(0)
         return np.linalg.norm(self.calibration.residuals_, axis=1)
 
+    def identification_summary(self) -> dict:
+        """``{"n", "mean", "max"}`` of :meth:`identification_errors` (m; mean and max None when
+        the model under test was not calibrated)."""
+        e = self.identification_errors()
+        return {"n": len(e), "mean": float(e.mean()) if len(e) else None,
+                "max": float(e.max()) if len(e) else None}
+
     def readings(self, rng: np.random.Generator, *, repeats: int | None = None) -> TrackerReadings:
         """Readings at the validation configurations, ``repeats`` per configuration."""
         reps = self.config.repeats if repeats is None else repeats

@@ -52,6 +52,13 @@ class ReadingsJudgement:
         that would need re-measuring is at the cap."""
         return (not self.result.rejected) or bool(len(self.at_cap) and np.all(self.at_cap))
 
+    def worst_location(self) -> tuple:
+        """``(label, error)``: the location whose mean error is largest in magnitude, and that
+        magnitude (the errors' unit, m for positions)."""
+        mag = np.linalg.norm(self.result.mean, axis=1)
+        j = int(np.argmax(mag))
+        return self.labels[j], float(mag[j])
+
     def to_dict(self) -> dict:
         """Plain summary for JSON output."""
         out = self.result.to_dict()

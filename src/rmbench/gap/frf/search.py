@@ -35,7 +35,7 @@ from rmbench.gap.frf.effects import Change, Effect
 from rmbench.calibrate.residual import FRF_SEGMENTS, frf_residuals, mode_residuals, penalties
 from rmbench.calibrate.solver import Bounds, SolverOptions, solve
 from rmbench.gap.selection import significant
-from rmbench.threads import worker_init
+from rmbench.parallel import worker_pool
 
 __all__ = ["Objective", "Screen", "Fitted", "Refiner", "screen", "refine", "combined_change", "significant",
            "peak_residual", "per_posture_chi2", "GRID_PAIR"]
@@ -400,16 +400,12 @@ class Refiner:
 
     def _executor(self):
         if self._pool is None:
-            import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor
-
             b = self.train.bench
             # the objectives travel whole (a forked worker inherits them) and are rebound to the
             # worker's own bench
             state = (b.robot.xml, b.robot.name, b.robot.tool, b.robot.spindle_rpm,
                      b.design.config.model_dump_json(), b.q_cmd, self.train, self.held)
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp.get_context("fork"),
-                                             initializer=_init_worker, initargs=(state,))
+            self._pool = worker_pool(self.workers, initializer=_init_worker, initargs=(state,))
         return self._pool
 
 
@@ -417,7 +413,8 @@ _WORKER: dict = {}
 
 
 def _init_worker(state) -> None:
-    worker_init()
+    """A worker rebuilds the model bench once and binds the objectives to it (it is single-threaded
+    already: :func:`rmbench.parallel.worker_pool`)."""
     from rmbench.calibrate.design import TestDesign
     from rmbench.gap.frf.model import ModelBench
     from rmbench.impact.config import CampaignConfig
