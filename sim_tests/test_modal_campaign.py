@@ -152,7 +152,9 @@ def test_tracking_opens_a_track_for_a_mode_unlike_every_tracked_one():
 def test_phil_fallback_fixes_the_campaign_wide_largest_element_and_keeps_the_model():
     """METHODS.md §2: where φL's 1aY nears zero the largest element over the campaign is fixed
     to 1 at every posture; φR φLᵀ, hence the FRF, is unchanged (to rounding)."""
-    from rmbench.modal.campaign_fit import _phi, renormalise_phi_l
+    import xarray as xr
+
+    from rmbench.modal.campaign_fit import mode_vectors, renormalise_phi_l
     from rmbench.robot.modes import PARAMS, ModeTable
 
     rng = np.random.default_rng(3)
@@ -167,12 +169,11 @@ def test_phil_fallback_fixes_the_campaign_wide_largest_element_and_keeps_the_mod
     assert modal.shape == (n_post, 1, len(PARAMS))
     new, std, phi_1ay, refs = renormalise_phi_l(modal, np.ones_like(modal))
     assert refs == ["1X"]
+    res = xr.Dataset({"modal": (("posture", "mode", "param"), new), "phiL_1aY": (("posture", "mode"), phi_1ay)})
     for p in range(n_post):
-        l_new = _phi(new[p, 0], "L")
-        l_new[3] = phi_1ay[p, 0]
+        r_new, l_new = mode_vectors(res, p, 0)
         assert l_new[0] == 1
-        np.testing.assert_allclose(np.outer(_phi(new[p, 0], "R"), l_new), np.outer(phi_r[p], phi_l[p]),
-                                   rtol=1e-12)
+        np.testing.assert_allclose(np.outer(r_new, l_new), np.outer(phi_r[p], phi_l[p]), rtol=1e-12)
 
 
 def test_phil_fallback_fixes_the_element_that_never_nears_zero():
@@ -222,3 +223,43 @@ def test_cli_fit_reads_one_posture_from_uff58_files(capsys, campaign, tmp_path):
     assert code == 0 and len(out["modes"]) >= 9
     bands = {m["band"] for m in out["modes"]}
     assert bands == {"low", "high"}
+
+
+def test_a_campaign_fit_summarises_postures_bands_and_the_truth(fitted):
+    from rmbench.modal.campaign_result import CampaignFit
+
+    text = CampaignFit(fitted).summary()
+    assert text.startswith(f"fitted {fitted.sizes['posture']} postures x 2 bands, {fitted.sizes['mode']} tracked modes")
+    assert f"{fitted.fit_ok.size} of {fitted.fit_ok.size} band fits ok" in text
+    assert "against ground truth: |f error| p95" in text
+
+
+def test_a_campaign_fits_truth_errors_are_percentiles_over_every_mode(fitted):
+    from rmbench.modal.campaign_result import CampaignFit
+
+    err = CampaignFit(fitted).truth_errors()
+    assert err["f_err_p95"] == pytest.approx(np.nanpercentile(np.abs(fitted.f_err), 95))
+    assert err["mac_phiL_p05"] == pytest.approx(np.nanpercentile(fitted.mac_phiL, 5))
+    assert CampaignFit(fitted.drop_vars(["f_err"])).truth_errors() is None
+
+
+def test_a_campaign_fit_as_a_dict_is_strict_json_per_posture(fitted):
+    from rmbench.modal.campaign_result import CampaignFit
+
+    d = json.loads(json.dumps(CampaignFit(fitted).to_dict(), allow_nan=False))
+    assert [p["index"] for p in d["postures"]] == list(range(fitted.sizes["posture"]))
+    assert set(d["postures"][0]["bands"]) == {"low", "high"}
+    assert d["postures"][0]["modes"][0]["f_n"] > 0 and d["units"]["phiR"] == "s/kg"
+
+
+def test_a_campaign_fit_plots_each_modes_frequency_over_the_postures(fitted):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rmbench.modal.campaign_result import CampaignFit
+
+    ax = CampaignFit(fitted).plot()
+    assert isinstance(ax, matplotlib.axes.Axes) and len(ax.lines) == fitted.sizes["mode"]
+    plt.close(ax.figure)

@@ -158,7 +158,7 @@ def test_covariance_carried_to_another_normalisation_equals_the_one_computed_the
     change of variables (T C Tᵀ): it equals σ² (JᵀJ)⁻¹ with J taken in that normalisation, each
     mode's reference moved (1aY to 1X, 1X to 1Y) or kept, to 1e-10 of the largest variance: the
     map is exact, so the two differ by rounding only (about 1e-14 here)."""
-    from rmbench.modal.fit import _covariance, _renormalisation
+    from rmbench.modal._uncertainty import covariance, renormalisation
 
     rng = np.random.default_rng(5)
     n = 3
@@ -174,11 +174,11 @@ def test_covariance_carried_to_another_normalisation_equals_the_one_computed_the
     Hs = (mdof._model(x, omega, n, fit_refs, residuals)[0]
           + 0.01 * (rng.standard_normal((60, 4, 4)) + 1j * rng.standard_normal((60, 4, 4))))
     r = mdof._residual(x, omega, Hs, W, n, fit_refs, residuals)
-    cov_fit = _covariance(mdof._jacobian(x, omega, Hs, W, n, fit_refs, residuals), r)
+    cov_fit = covariance(mdof._jacobian(x, omega, Hs, W, n, fit_refs, residuals), r)
     piv = phi_l[np.arange(n), user_refs][:, None]
     x_user = mdof._pack(lam, phi_r * piv, phi_l / piv, low, up, user_refs, residuals)
-    cov_user = _covariance(mdof._jacobian(x_user, omega, Hs, W, n, user_refs, residuals), r)
-    T = _renormalisation(phi_r, phi_l, fit_refs, user_refs, len(x))
+    cov_user = covariance(mdof._jacobian(x_user, omega, Hs, W, n, user_refs, residuals), r)
+    T = renormalisation(phi_r, phi_l, fit_refs, user_refs, len(x))
     np.testing.assert_allclose(T @ cov_fit @ T.T, cov_user, atol=1e-10 * np.abs(np.diag(cov_user)).max())
 
 
@@ -297,3 +297,36 @@ def test_a_strong_mode_narrower_than_two_lines_is_kept():
     fit = ModalFit().fit(system.freq, H)
     score = score_fit(fit.f_n_, fit.zeta_, fit.phi_r_, fit.phi_l_, system)
     assert score.correct, score.reason
+
+
+def test_a_fit_summarises_its_modes_and_verdict_in_a_few_lines(table_b1_fits):
+    _, _, fit = table_b1_fits["low"]
+    text = fit.summary()
+    first = text.splitlines()[0]
+    assert first.startswith(f"{fit.n_modes_} modes at ") and "Hz" in first
+    assert all(f"{f:.2f}" in first for f in fit.f_n_)
+    assert ("fit ok" in first) == fit.fit_ok_
+
+
+def test_a_fit_as_a_dict_is_strict_json_with_each_mode(table_b1_fits):
+    import json
+
+    _, _, fit = table_b1_fits["low"]
+    d = json.loads(json.dumps(fit.to_dict(), allow_nan=False))
+    assert d["fit_ok"] == fit.fit_ok_ and len(d["modes"]) == fit.n_modes_
+    assert [m["f_n"] for m in d["modes"]] == pytest.approx(list(fit.f_n_))
+    assert d["modes"][0]["phiL"]["1aY"] == [1.0, 0.0] and d["units"]["f_n"] == "Hz"
+    assert np.array(d["nmse"]).shape == (4, 4)
+
+
+def test_a_fit_plots_its_stabilisation_diagram_with_the_fitted_modes(table_b1_fits):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    _, _, fit = table_b1_fits["low"]
+    ax = fit.plot()
+    assert isinstance(ax, matplotlib.axes.Axes)
+    assert len(ax.lines) >= fit.n_modes_ and "Stabilisation diagram" in ax.get_title()
+    plt.close(ax.figure)

@@ -126,3 +126,13 @@ def test_stgp_estimates_the_noise_and_is_less_sure_away_from_the_data():
     assert gp.noise_ == pytest.approx(0.05, rel=0.25)
     _, sd = gp.predict(np.array([[1.6, 0.0, 0.0], [2.9, 0.0, 0.0]]), return_std=True)
     assert sd[1] > 3 * sd[0]
+
+
+def test_cross_validation_summarises_the_mean_r2_and_the_skipped_parameters():
+    X = _grid()
+    Y = np.column_stack([_smooth(X), np.full(len(X), 3.0)])
+    cv = cross_validate(TrainingSet(X, Y, ("a", "b")), "knn")
+    lines = cv.summary().splitlines()
+    assert lines[0] == (f"knn, random split: mean R² {cv.r2_mean[0]:.3f} over 1 parameters "
+                        f"(mean spread over folds {cv.r2_std[0]:.3f}); 1 skipped")
+    assert lines[1].startswith("  a: R² ") and lines[2].startswith("  skipped b: ")

@@ -9,7 +9,7 @@ import xarray as xr
 from _posture_grid import grid as _grid
 
 from rmbench.predict import PosturePredictor
-from rmbench.predict.gauge import _vectors, from_gauge, gauge_directions, to_gauge
+from rmbench.predict.gauge import from_gauge, gauge_directions, to_gauge, vectors
 from rmbench.robot.modes import PARAMS
 
 
@@ -39,7 +39,7 @@ def _turning_mode_dataset():
 
 
 def _residues(ds):
-    phi_l, phi_r = _vectors(ds["modal"].values, ds["phiL_1aY"].values)
+    phi_l, phi_r = vectors(ds["modal"].values, ds["phiL_1aY"].values)
     return np.einsum("pmi,pmj->pmij", phi_r, phi_l)
 
 
@@ -65,8 +65,8 @@ def test_a_turning_mode_is_gauged_on_a_direction_that_never_nears_zero():
     ds = _turning_mode_dataset()
     v, worst = gauge_directions(ds)
     assert worst[0] > 0.75
-    phi_l, _ = _vectors(to_gauge(ds, v)["modal"].values, to_gauge(ds, v)["phiL_1aY"].values)
-    phi_l_dataset, _ = _vectors(ds["modal"].values, ds["phiL_1aY"].values)
+    phi_l, _ = vectors(to_gauge(ds, v)["modal"].values, to_gauge(ds, v)["phiL_1aY"].values)
+    phi_l_dataset, _ = vectors(ds["modal"].values, ds["phiL_1aY"].values)
     assert np.abs(phi_l).max() <= 1 + 1e-12 and np.abs(phi_l_dataset).max() > 10
     assert np.all(np.abs(np.angle(np.einsum("pmk,mk->pm", phi_l, v.conj())))) < 1e-12   # vᴴφL real > 0
 

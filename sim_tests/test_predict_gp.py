@@ -549,3 +549,28 @@ def test_a_grid_prediction_is_the_posture_by_posture_one(one_mode_stgp):
     np.testing.assert_array_equal(grid.theta.values, X[:, 2])
     scale = np.nanmax(np.abs(each.modal.values), axis=0)
     assert np.all(np.abs(grid.modal.values - each.modal.values) <= 1e-9 * scale)
+
+
+def test_a_predictor_summarises_what_it_learnt_from_which_postures(one_mode_stgp):
+    text = one_mode_stgp.summary()
+    n = len(one_mode_stgp.tasks_)
+    assert text.startswith(f"stgp predictor: 1 modes (low: 1); {n} of {n} parameters learnt from 112 postures")
+    assert "training postures: x " in text and "θ -60-60°" in text
+
+
+def test_a_predictor_as_a_dict_is_strict_json(one_mode_stgp):
+    d = json.loads(json.dumps(one_mode_stgp.to_dict(), allow_nan=False))
+    assert d["model"] == "stgp" and d["modes"] == [0] and d["n_postures"] == 112
+    assert d["posture_range"]["theta_rad"] == pytest.approx([-np.pi / 3, np.pi / 3])
+
+
+def test_a_predictor_plots_its_training_postures(one_mode_stgp):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ax = one_mode_stgp.plot()
+    assert isinstance(ax, matplotlib.axes.Axes)
+    assert len(ax.collections) == 1 and len(ax.collections[0].get_offsets()) == 112
+    plt.close(ax.figure)

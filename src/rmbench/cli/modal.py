@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from rmbench.cli._common import add_report_option, command_group, print_json, report_path
 from rmbench.errors import InputError
 
@@ -53,6 +51,7 @@ def _load(path: str):
 def cmd_fit(args) -> int:
     from rmbench.impact.dataset import save
     from rmbench.modal.campaign_fit import fit_campaign
+    from rmbench.modal.campaign_result import CampaignFit
 
     if args.modes is not None and args.modes < 1:
         raise InputError(f"--modes must be at least 1, got {args.modes}")
@@ -76,62 +75,16 @@ def cmd_fit(args) -> int:
         campaign_sections(page, ds, fit=res)
         modal_sections(page, res, ds)
         page.write(report)
+    account = CampaignFit(res)
     if args.json:
-        print_json(_as_json(res))
+        print_json(account.to_dict())
         return 0
-    ok = res.fit_ok.values
-    print(f"fitted {res.sizes['posture']} postures x {res.sizes['fit_band']} bands, "
-          f"{res.sizes['mode']} tracked modes "
-          f"({', '.join(f'{b}: {int((res.mode_band == b).sum())}' for b in bands)}) in "
-          f"{res.attrs['fit_seconds']:.1f} s; {int(ok.sum())} of {ok.size} band fits ok")
-    for p, bi in np.argwhere(~ok):
-        print(f"  posture {p}, {res.fit_band.values[bi]} band needs a look: "
-              f"{res.fit_reason.values[p, bi]}")
-    if "f_err" in res:
-        print(f"  against ground truth: |f error| p95 {np.nanpercentile(np.abs(res.f_err), 95):.4f}, "
-              f"|zeta error| p95 {np.nanpercentile(np.abs(res.zeta_err), 95):.4f}, "
-              f"MAC phiR p05 {np.nanpercentile(res.mac_phiR, 5):.4f}, phiL p05 {np.nanpercentile(res.mac_phiL, 5):.4f}")
+    print(account.summary(bands))
     if args.out:
         print(f"wrote {args.out}")
     if report:
         print(f"wrote {report}")
     return 0
-
-
-def _as_json(res) -> dict:
-    from rmbench.modal.campaign_fit import mode_vectors
-
-    def modes_of(p):
-        out = []
-        for m in range(res.sizes["mode"]):
-            prm = res.modal.values[p, m]
-            if not np.isfinite(prm[0]):
-                continue
-            r, l = mode_vectors(res, p, m)
-            out.append({"f_n": prm[0], "zeta": prm[1], "band": str(res.mode_band.values[m]),
-                        "f_n_std": res.modal_std.values[p, m, 0],
-                        "zeta_std": res.modal_std.values[p, m, 1],
-                        "uncertain": bool(res.mode_uncertain.values[p, m]),
-                        "delta_bic": res.mode_delta_bic.values[p, m],
-                        "share": res.mode_share.values[p, m],
-                        "stable_orders": int(res.mode_stable_orders.values[p, m]),
-                        "phiL": {c: [l[i].real, l[i].imag] for i, c in enumerate(("1X", "1Y", "1aX", "1aY"))},
-                        "phiR": {c: [r[i].real, r[i].imag] for i, c in enumerate(("1X", "1Y", "1aX", "1aY"))}})
-        return out
-
-    def bands_of(p):
-        return {str(b): {"fit_ok": bool(res.fit_ok.values[p, i]),
-                         "fit_reason": str(res.fit_reason.values[p, i]),
-                         "notes": [n for n in str(res.fit_notes.values[p, i]).split("; ") if n]}
-                for i, b in enumerate(res.fit_band.values)}
-
-    units = {"f_n": "Hz", "zeta": "ratio", "phiR": "s/kg", "phiL": "1"}
-    if res.sizes["posture"] == 1:
-        return {"fit_ok": bool(res.fit_ok.values[0].all()), "bands": bands_of(0),
-                "modes": modes_of(0), "units": units}
-    return {"postures": [{"index": int(p), "fit_ok": bool(res.fit_ok.values[p].all()),
-                          "bands": bands_of(p), "modes": modes_of(p)}
-                         for p in range(res.sizes["posture"])], "units": units}
 
 
 def cmd_plot(args) -> int:
@@ -158,11 +111,7 @@ def cmd_plot(args) -> int:
     if args.out:
         out = Path(args.out)
         plot_fit(fit, freq, h, out, out.with_name(out.stem + "_frf.png"))
-    print(f"{fit.n_modes_} modes at {', '.join(f'{f:.2f}' for f in fit.f_n_)} Hz; "
-          + ("fit ok" if fit.fit_ok_ else f"needs a look: {fit.fit_reason_}"))
-    for note in fit.quality_.notes:
-        if note not in fit.fit_reason_:
-            print(f"  note: {note}")
+    print(fit.summary())
     if args.out:
         print(f"wrote {out} and {out.with_name(out.stem + '_frf.png')}")
     if report:

@@ -79,8 +79,6 @@ def _open_modal(path):
 
 
 def cmd_cv(args) -> int:
-    import numpy as np
-
     from rmbench.predict import cross_validate, training_set
 
     report = report_path(args)
@@ -100,19 +98,7 @@ def cmd_cv(args) -> int:
     if args.json:
         print_json(res.to_dict())
         return 0
-    ok = np.isfinite(res.r2_mean)
-    print(f"{args.model}, {args.split} split: mean R² {np.mean(res.r2_mean[ok]):.3f} over "
-          f"{int(ok.sum())} parameters (mean spread over folds {np.mean(res.r2_std[ok]):.3f}); "
-          f"{len(res.skipped)} skipped")
-    worst = np.argsort(np.where(ok, res.r2_mean, np.inf))[:5]
-    for t in worst:
-        if ok[t]:
-            print(f"  {res.tasks[t]}: R² {res.r2_mean[t]:.3f} ± {res.r2_std[t]:.3f}")
-    for task, why in list(res.skipped.items())[:5]:
-        print(f"  skipped {task}: {why}")
-    if res.notes:
-        print(f"  {len(res.notes)} fits needed jitter, e.g. {next(iter(res.notes))}: "
-              f"{next(iter(res.notes.values()))}")
+    print(res.summary())
     return 0
 
 

@@ -42,17 +42,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import fdtrc
 
 from rmbench.modal import mdof
+from rmbench.modal._candidates import distinct, left_of, lsfd_scaled, scan_missing, split_left
 from rmbench.modal._varpro import Problem, Solution, pack_theta
 from rmbench.modeshape import mac
 
+# scan_missing lives in rmbench.modal._candidates; named here for the callers that import it from here
 __all__ = ["Selection", "SelectionSettings", "select_modes", "scan_missing", "bic"]
 
 SCAN_GRID = 120        # frequencies of the missing-mode scan across the band
 SCAN_OUTSIDE = 12      # and beyond each edge
-SCAN_ZETA = (0.005, 0.015, 0.04, 0.1, 0.2)
 OUTSIDE_RANGE = 10.0   # out-of-band poles may settle within this factor of the band's edges
 OUTSIDE_PER_SIDE = 2
 MIN_LINES = 2.0        # a band mode's half-power bandwidth spans at least this many lines
@@ -148,7 +148,7 @@ def select_modes(problem: Problem, freq: np.ndarray, ws: float, poles0: np.ndarr
         settings = SelectionSettings(**{**settings.__dict__, "outside": 0.0})
     st = _State(problem, freq, ws, settings)
     poles0 = np.asarray(poles0, complex) / ws
-    extra = _distinct([p / ws for p in np.asarray(extra, complex)], poles0)
+    extra = distinct([p / ws for p in np.asarray(extra, complex)], poles0)
     if n_modes is not None or not extra:
         cur = st.drop_unphysical(st.fit_from_poles(poles0))
     else:
@@ -173,82 +173,6 @@ def select_modes(problem: Problem, freq: np.ndarray, ws: float, poles0: np.ndarr
             break
         cur = new
     return st.result(cur)
-
-
-def scan_missing(freq, H, W, lam, residuals, grid, zetas=SCAN_ZETA):
-    """The poles on a (frequency, damping) grid whose LSFD column pair best explains the error.
-
-    With the current poles ``lam`` (rad/s) fixed, the data are projected off their LSFD basis;
-    each candidate's two real basis columns are projected the same way, and the candidate whose
-    columns capture the most of the remaining (per-FRF weighted) error wins. Linear algebra only.
-
-    Parameters
-    ----------
-    freq : ndarray, shape (n_freq,), Hz
-    H : ndarray, shape (n_freq, 4, 4), complex
-    W : ndarray, shape (n_freq, 4, 4)
-    lam : ndarray, complex, rad/s
-    residuals : bool
-    grid : ndarray, Hz
-        Candidate natural frequencies.
-
-    Returns
-    -------
-    list of (pole, p_value)
-        The best candidate (complex, rad/s) below the band, inside it and above it (where the
-        grid reaches), with the p-value of its F-test (linear model, one complex residue per
-        FRF), most significant first.
-    """
-    omega = 2 * np.pi * freq
-    level = W.mean(axis=0).ravel()  # per-FRF weights (the pointwise coherence part is ignored)
-
-    def basis(poles):
-        g = 1 / (1j * omega[:, None] - poles)
-        gc = 1 / (1j * omega[:, None] - poles.conj())
-        return g + gc, 1j * (g - gc)
-
-    cols = list(basis(np.asarray(lam, complex)))
-    if residuals:
-        cols.append(mdof.residual_basis(omega))
-    A = np.concatenate(cols, axis=1)
-    A = np.concatenate([A.real, A.imag])
-    Q, _ = np.linalg.qr(A / np.linalg.norm(A, axis=0))
-    b = H.reshape(len(freq), -1) * level
-    b = np.concatenate([b.real, b.imag])
-    r0 = b - Q @ (Q.T @ b)
-    z = np.asarray(zetas)
-    wn = 2 * np.pi * np.repeat(np.asarray(grid, float), len(z))
-    zz = np.tile(z, len(grid))
-    cand = -zz * wn + 1j * wn * np.sqrt(1 - zz**2)
-    c1, c2 = basis(cand)
-    C = np.stack([np.concatenate([c1.real, c1.imag]), np.concatenate([c2.real, c2.imag])], -1)
-    # projected off the current basis as matrix products (BLAS): (2 n_f, n_cand · 2)
-    Cf = C.reshape(len(C), -1)
-    Cf = Cf - Q @ (Q.T @ Cf)
-    C = Cf.reshape(C.shape)                                           # (2 n_f, n_cand, 2)
-    g00, g01, g11 = (C[..., 0] ** 2).sum(0), (C[..., 0] * C[..., 1]).sum(0), (C[..., 1] ** 2).sum(0)
-    P = (Cf.T @ r0).reshape(len(cand), 2, -1)                        # (n_cand, 2, n_entries)
-    # each candidate's 2 x 2 normal equations in closed form (Cramer)
-    det = g00 * g11 - g01**2 + 1e-300
-    s0 = (g11[:, None] * P[:, 0] - g01[:, None] * P[:, 1]) / det[:, None]
-    s1 = (g00[:, None] * P[:, 1] - g01[:, None] * P[:, 0]) / det[:, None]
-    gain = (P[:, 0] * s0 + P[:, 1] * s1).sum(-1)
-    n_e = b.shape[1]
-    dof = b.size - n_e * (Q.shape[1] + 2)
-    rss = float(np.sum(r0**2))
-    f_cand = np.repeat(np.asarray(grid, float), len(z))
-    out = []
-    # the best candidate below the band, inside it and above it: a strong in-band candidate
-    # that fails must not hide the tail of a mode beyond the band
-    for part in (f_cand < freq[0], (f_cand >= freq[0]) & (f_cand <= freq[-1]), f_cand > freq[-1]):
-        if not part.any():
-            continue
-        best = int(np.flatnonzero(part)[np.argmax(gain[part])])
-        rest = rss - gain[best]
-        F = (gain[best] / (2 * n_e)) / (rest / dof) if rest > 0 else np.inf
-        out.append((cand[best], float(fdtrc(2 * n_e, dof, F))))
-    out.sort(key=lambda t: t[1])
-    return out
 
 
 class _State:
@@ -286,7 +210,7 @@ class _State:
 
     def start_left(self, lam):
         """Starting φL of poles ``lam``: the rank-one split of their LSFD residues."""
-        return _split_left(_lsfd_scaled(self.p, lam)[0])
+        return split_left(lsfd_scaled(self.p, lam)[0])
 
     def fit_from_poles(self, lam):
         """LSFD residues split into φR φLᵀ as the start, then the VarPro fit."""
@@ -486,7 +410,7 @@ class _State:
             # is rare and decisive, so each start gets the full trial without early abort
             best = None
             for lam in starts:
-                phi = np.vstack([sol.phi_l[keep], _left_of(self.p, sol.lam[keep], lam)])
+                phi = np.vstack([sol.phi_l[keep], left_of(self.p, sol.lam[keep], lam)])
                 new = self.refit(np.append(sol.lam[keep], lam), phi,
                                  max_iter=min(self.s.max_iter, 2 * TRIAL_ITER))
                 if new is not None and (best is None or self.bic(new) < self.bic(best)):
@@ -507,7 +431,7 @@ class _State:
         p_val = found[0][1] if found else 1.0
         # nothing even a free residue per FRF would explain: no pole can pay for itself
         cands = [pole / self.ws for pole, p in found if p < 1e-3]
-        cands += _distinct(extra, lam)
+        cands += distinct(extra, lam)
         cands = [c for c in cands if ("add", round(float(abs(c)), 4), len(lam)) not in self.tried]
         if not cands:
             return None
@@ -521,9 +445,9 @@ class _State:
             self.tried.add(("add", round(float(abs(c)), 4), len(lam)))
             lam1 = np.append(lam, c)
             if sol is None:
-                phi1 = _split_left(_lsfd_scaled(self.p, lam1)[0])
+                phi1 = split_left(lsfd_scaled(self.p, lam1)[0])
             else:
-                phi1 = np.vstack([sol.phi_l, _left_of(self.p, lam, c)])
+                phi1 = np.vstack([sol.phi_l, left_of(self.p, lam, c)])
             refs = self.refs_of(phi1)
             phi1 = phi1 / phi1[np.arange(len(refs)), refs][:, None]
             screened.append((self.p.cost(pack_theta(lam1, phi1, refs), refs), lam1, phi1))
@@ -612,7 +536,7 @@ class _State:
         c = found[0][0] / self.ws
         if sol is None:
             return self.fit_from_poles(np.array([c]))
-        return self.refit(np.append(lam, c), np.vstack([sol.phi_l, _left_of(self.p, lam, c)]))
+        return self.refit(np.append(lam, c), np.vstack([sol.phi_l, left_of(self.p, lam, c)]))
 
     def result(self, sol):
         if sol is None:
@@ -626,40 +550,6 @@ class _State:
                          merged=tuple(self.merged), unresolved=tuple(unresolved),
                          removed=tuple(self.removed), added=tuple(self.added), delta_bic=delta,
                          leftover=self.leftover, capped=self.capped)
-
-
-def _distinct(cands, lam, rel=0.5):
-    """Candidate poles not within ``rel`` of their own decay rate of ``lam`` or of each other."""
-    out = []
-    for c in cands:
-        near = [p for p in list(lam) + out if abs(p - c) <= rel * abs(c.real)]
-        if not near:
-            out.append(c)
-    return out
-
-
-def _lsfd_scaled(problem, lam):
-    """LSFD residues of poles ``lam`` on the problem's scaled data (unweighted)."""
-    freq = problem.omega / (2 * np.pi)
-    return mdof.lsfd(freq, problem.H, lam, residuals=problem.residuals)
-
-
-def _split_left(res):
-    """φL of the rank-one split ``R_r ≈ φR φLᵀ`` (leading right singular vector), its largest
-    element 1."""
-    n = len(res)
-    phi_l = np.empty((n, res.shape[2]), complex)
-    for r in range(n):
-        _, _, Vh = np.linalg.svd(res[r])
-        v = Vh[0]
-        phi_l[r] = v / v[np.argmax(np.abs(v))]
-    return phi_l
-
-
-def _left_of(problem, lam, c):
-    """Starting φL of a new pole ``c`` from the LSFD residues with the current poles."""
-    res, _, _ = _lsfd_scaled(problem, np.append(lam, c))
-    return _split_left(res[-1:])
 
 
 def _sorted(sol: Solution) -> Solution:

@@ -1,8 +1,8 @@
 """Modal fitting of a whole campaign: every posture and band, modes tracked over the postures.
 
-The postures are fitted in parallel (worker processes); modes are numbered by frequency at the
-first posture and tracked by MAC and frequency (METHODS.md §2, DATA.md ``mode``). Where the dataset
-carries ground truth (``modal_exact``), each fitted mode is paired with its exact counterpart and
+The postures are fitted in parallel (worker processes, :func:`rmbench.parallel.map_cases`);
+modes are numbered by frequency at the first posture and tracked by MAC and frequency
+(METHODS.md §2, DATA.md ``mode``). Where the dataset carries ground truth (``modal_exact``), each fitted mode is paired with its exact counterpart and
 the errors are stored beside the fit.
 """
 
@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import xarray as xr
@@ -20,8 +19,8 @@ from rmbench.errors import InputError
 from rmbench.impact.dataset import posture_positions, track_modes
 from rmbench.modal.residual import RESIDUAL_TERMS, out_of_band_terms
 from rmbench.modeshape import mac, pair_modes
+from rmbench.parallel import map_cases
 from rmbench.robot.modes import PARAMS, ModeTable
-from rmbench.threads import default_workers, worker_init
 
 __all__ = ["fit_posture", "fit_campaign", "truth_errors", "truth_scores", "renormalise_phi_l",
            "mode_vectors"]
@@ -65,8 +64,10 @@ def fit_posture(freq: np.ndarray, H: np.ndarray, coherence: np.ndarray | None, *
             "n_orders": ev.n_orders, "seconds": time.perf_counter() - t0}
 
 
-def _task(args):
-    freq, h, coh, n_modes = args
+def _task(job):
+    """One fit of :func:`_fit_all`'s ``(key, (freq, H, coherence, n_modes))``: the key travels
+    with it, since the fits come back as they finish."""
+    _, (freq, h, coh, n_modes) = job
     return fit_posture(freq, h, coh, n_modes=n_modes)
 
 
@@ -74,7 +75,7 @@ def _fit_all(ds: xr.Dataset, bands, n_modes, workers) -> dict:
     """Every (band, posture) fit of the campaign, keyed so; postures marked not ok are left out."""
     n_post = ds.sizes["posture"]
     ok_in = ds.ok.values if "ok" in ds.coords else np.ones(n_post, bool)
-    jobs, keys = [], []
+    jobs = []
     for b in bands:
         sel = ds.band.values == b
         freq = ds.freq.values[sel]
@@ -83,16 +84,11 @@ def _fit_all(ds: xr.Dataset, bands, n_modes, workers) -> dict:
                 continue
             h = ds.H.values[p][sel]
             coh = ds.coherence.values[p][sel] if "coherence" in ds else None
-            jobs.append((freq, h, coh, n_modes))
-            keys.append((b, p))
-    if workers == 0 or len(jobs) < 4:
-        results = [_task(j) for j in jobs]
-    else:
-        n = workers or default_workers()
-        # forked workers inherit this process's thread pools: one thread each
-        with ProcessPoolExecutor(max_workers=n, initializer=worker_init) as pool:
-            results = list(pool.map(_task, jobs, chunksize=max(1, len(jobs) // (4 * (workers or 2)))))
-    return dict(zip(keys, results))
+            jobs.append(((b, p), (freq, h, coh, n_modes)))
+    # a few fits run here rather than pay for starting worker processes
+    n = 0 if workers == 0 or len(jobs) < 4 else workers
+    done = {job[0]: result for job, result in map_cases(_task, jobs, workers=n)}
+    return {key: done[key] for key, _ in jobs}
 
 
 def _tracked(tables, stds, evs, positions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -8,9 +8,12 @@ Three steps, no human in the loop:
    (general non-symmetric case, ``φL[ref] = 1``) and optional residual terms, by variable
    projection from LSFD starting values, inside a model-order selection that merges, adds and
    removes poles by the information criterion (:mod:`rmbench.modal._select`);
-3. standard errors from ``σ² (JᵀJ)⁻¹`` of the full problem, per-mode evidence and the band's
-   verdict (:mod:`rmbench.modal.quality`): a failed fit says so (``fit_ok_``, ``fit_reason_``,
-   a :class:`ModalFitWarning` naming the modes).
+3. standard errors from ``σ² (JᵀJ)⁻¹`` of the full problem (:mod:`rmbench.modal._uncertainty`),
+   per-mode evidence and the band's verdict (:mod:`rmbench.modal.quality`): a failed fit says so
+   (``fit_ok_``, ``fit_reason_``, a :class:`ModalFitWarning` naming the modes).
+
+A fitted band describes itself: :meth:`ModalFit.summary`, :meth:`ModalFit.to_dict`,
+:meth:`ModalFit.plot`.
 
 Vocabulary: ``freq`` in Hz, ``omega`` and poles in rad/s, receptance in m/N, φR in s/kg.
 """
@@ -21,8 +24,10 @@ from typing import Literal
 import numpy as np
 
 from rmbench.errors import InputError, RmbenchError
+from rmbench.io.strict_json import jsonable
 from rmbench.modal import mdof
 from rmbench.modal._select import SelectionSettings, select_modes
+from rmbench.modal._uncertainty import covariance, mac_losses, parameters, renormalisation
 from rmbench.modal._varpro import Problem
 from rmbench.modal.plscf import plscf
 from rmbench.modal.quality import QualityCriteria, assess
@@ -36,8 +41,6 @@ PARAM_NAMES = ("f_n", "zeta",
                "phiR_1aY_re", "phiR_1aY_im")
 """The 16 per-mode parameters in DATA.md order (same as ``rmbench.robot.modes.PARAMS``)."""
 COORDS = ("1X", "1Y", "1aX", "1aY")
-_PHI_L_IDX = (0, 2, 1)      # coordinate index of the φL entries of PARAM_NAMES
-_PHI_R_IDX = (0, 2, 1, 3)   # coordinate index of the φR entries
 _COHERENCE_CAP = 0.99       # weight w² = γ²/(1 − γ²) is capped at 99
 _REF_WARN = 0.05            # warn when |φL[ref]| < 5 % of the mode's largest |φL|
 
@@ -175,6 +178,34 @@ class ModalFit:
         freq, H, coherence = _check_data(freq, H, coherence)
         crit = self.criteria if self.criteria is not None else StabilityCriteria()
         W = _weights(H, coherence, self.weighting)
+        stab, problem, sel, ws, hs = self._select_poles(freq, H, W, crit)
+        n_band = int(sel.in_band.sum())
+        if self.n_modes is not None and n_band < self.n_modes:
+            warnings.warn(f"asked for {self.n_modes} modes, the data gave {n_band}; fitting "
+                          "those", ModalFitWarning, stacklevel=2)
+        band, mac_loss = self._store(problem, sel, n_band, ws, hs)
+        self.stabilization_ = stab
+        model = self.predict(freq)
+        err = np.sum(np.abs(model - H) ** 2, axis=0)
+        self.nmse_ = err / np.sum(np.abs(H) ** 2, axis=0)
+        self.quality_ = assess(
+            sel, sel.delta_bic[band], self.std_, self.params_, mac_loss[band],
+            _stable_orders(stab, self.poles_), _shares(freq, self, W),
+            _residual_correlation(W * (model - H)), sel.sol.converged,
+            self.quality if self.quality is not None else QualityCriteria(),
+            (freq[0], freq[-1]), self.outside_["poles"])
+        self.fit_ok_ = self.quality_.ok
+        self.fit_reason_ = self.quality_.reason
+        if not self.fit_ok_:
+            warnings.warn(f"modal fit of {freq[0]:g}-{freq[-1]:g} Hz needs a look: "
+                          f"{self.fit_reason_}", ModalFitWarning, stacklevel=2)
+        self._warn_ref()
+        return self
+
+    def _select_poles(self, freq, H, W, crit: StabilityCriteria):
+        """Steps 1 and 2: the stabilisation diagram and the model-order selection on the band's
+        scaled problem, ``(stab, problem, selection, ws, hs)`` with ws (rad/s) and hs (m/N) the
+        scales of frequency and receptance; raises when no mode is left in the band."""
         orders = range(1, self.max_order + 1)
         w_out = np.sqrt(np.mean(W**2, axis=2))  # (n_freq, 4) per-output weight for pLSCF
         stab = stabilize(plscf(freq, H, orders, weights=w_out), (freq[0], freq[-1]),
@@ -187,25 +218,26 @@ class ModalFit:
                                      max_iter=self.max_iter)
         sel = select_modes(problem, freq, ws, stab.selected, stab.weak, n_modes=self.n_modes,
                            settings=settings)
-        sol = sel.sol
-        if sol is None or not sel.in_band.any():
+        if sel.sol is None or not sel.in_band.any():
             raise InputError(f"no modes found in the band {freq[0]:g}-{freq[-1]:g} Hz: "
                              f"{len(stab.selected)} stable poles in pLSCF orders "
                              f"1-{self.max_order}, and no pole lowers the information criterion "
                              "of the fit")
-        n_band = int(sel.in_band.sum())
-        if self.n_modes is not None and n_band < self.n_modes:
-            warnings.warn(f"asked for {self.n_modes} modes, the data gave {n_band}; fitting "
-                          "those", ModalFitWarning, stacklevel=2)
+        return stab, problem, sel, ws, hs
+
+    def _store(self, problem: Problem, sel, n_band: int, ws: float, hs: float):
+        """The selection's solution in SI and the user's normalisation, as the learnt attributes
+        (modes, out-of-band poles, residual terms, parameters and standard errors, cost);
+        returns the band modes' indices into the solution and every pole's MAC loss."""
+        sol = sel.sol
         phi_r, phi_l, refs, cov, mac_loss, r = self._normalised(problem, sol, sel, n_band)
         lam = sol.lam
-
         # back to SI; one pole per pair with Im > 0, sorted by frequency
         flip = lam.imag < 0
         lam = np.where(flip, lam.conj(), lam) * ws
         phi_r = np.where(flip[:, None], phi_r.conj(), phi_r) * hs * ws
         phi_l = np.where(flip[:, None], phi_l.conj(), phi_l)
-        params, std = _params(lam, phi_r, phi_l, cov, refs, flip, ws, hs)
+        params, std = parameters(lam, phi_r, phi_l, cov, refs, flip, ws, hs)
         order = np.argsort(np.abs(lam))
         band = order[sel.in_band[order]]
         outside = order[~sel.in_band[order]]
@@ -219,25 +251,9 @@ class ModalFit:
         self.residual_ = ({"lower": sol.lower * hs * ws**2, "upper": sol.upper * hs}
                           if self.residuals else {})
         self.outside_ = {"poles": lam[outside], "phi_r": phi_r[outside], "phi_l": phi_l[outside]}
-        self.stabilization_ = stab
         self.n_modes_ = n_band
         self.cost_ = 0.5 * float(r @ r)
-        model = self.predict(freq)
-        err = np.sum(np.abs(model - H) ** 2, axis=0)
-        self.nmse_ = err / np.sum(np.abs(H) ** 2, axis=0)
-        self.quality_ = assess(
-            sel, sel.delta_bic[band], self.std_, self.params_, mac_loss[band],
-            _stable_orders(stab, self.poles_), _shares(freq, self, W),
-            _residual_correlation(W * (model - H)), sol.converged,
-            self.quality if self.quality is not None else QualityCriteria(),
-            (freq[0], freq[-1]), self.outside_["poles"])
-        self.fit_ok_ = self.quality_.ok
-        self.fit_reason_ = self.quality_.reason
-        if not self.fit_ok_:
-            warnings.warn(f"modal fit of {freq[0]:g}-{freq[-1]:g} Hz needs a look: "
-                          f"{self.fit_reason_}", ModalFitWarning, stacklevel=2)
-        self._warn_ref()
-        return self
+        return band, mac_loss
 
     def _normalised(self, problem: Problem, sol, sel, n_band: int):
         """The solution's eigenvectors in the user's φL normalisation, with the parameters'
@@ -251,8 +267,8 @@ class ModalFit:
         x = mdof._pack(sol.lam, sol.phi_r, sol.phi_l, sol.lower, sol.upper, sol.refs,
                        self.residuals)
         r = mdof._residual(x, *args, sol.refs, self.residuals)
-        cov_fit = _covariance(mdof._jacobian(x, *args, sol.refs, self.residuals), r)
-        mac_loss = _mac_loss(cov_fit, sol)
+        cov_fit = covariance(mdof._jacobian(x, *args, sol.refs, self.residuals), r)
+        mac_loss = mac_losses(cov_fit, sol)
         refs = np.full(sol.n, int(self.ref) if np.ndim(self.ref) == 0 else 3)
         if np.ndim(self.ref) == 1:
             refs[sel.in_band] = self._refs(n_band)
@@ -261,7 +277,7 @@ class ModalFit:
             # the user's normalisation is a smooth reparametrisation of the fit's: its covariance
             # is the fit's carried through the change of variables (T C Tᵀ), to rounding what a
             # second Jacobian there would give, at a fraction of the cost
-            T = _renormalisation(sol.phi_r, sol.phi_l, sol.refs, refs, len(x))
+            T = renormalisation(sol.phi_r, sol.phi_l, sol.refs, refs, len(x))
             cov = T @ cov_fit @ T.T
         piv = np.where(np.abs(piv) > 0, piv, 1.0)
         phi_l, phi_r = sol.phi_l / piv[:, None], sol.phi_r * piv[:, None]
@@ -270,7 +286,7 @@ class ModalFit:
             # a zero reference entry: no change of variables reaches that normalisation; the
             # covariance at the forced one
             x = mdof._pack(sol.lam, phi_r, phi_l, sol.lower, sol.upper, refs, self.residuals)
-            cov = _covariance(mdof._jacobian(x, *args, refs, self.residuals), r)
+            cov = covariance(mdof._jacobian(x, *args, refs, self.residuals), r)
         return phi_r, phi_l, refs, cov, mac_loss, r
 
     def predict(self, freq) -> np.ndarray:
@@ -298,6 +314,41 @@ class ModalFit:
             omega = 2 * np.pi * freq
             H = H - self.residual_["lower"] / omega[:, None, None] ** 2 + self.residual_["upper"]
         return H
+
+    # -- what the fit is -------------------------------------------------------------------
+    def summary(self) -> str:
+        """A few readable lines: the modes' natural frequencies (Hz), the verdict and the notes
+        the verdict does not already say."""
+        lines = [f"{self.n_modes_} modes at {', '.join(f'{f:.2f}' for f in self.f_n_)} Hz; "
+                 + ("fit ok" if self.fit_ok_ else f"needs a look: {self.fit_reason_}")]
+        lines += [f"  note: {note}" for note in self.quality_.notes if note not in self.fit_reason_]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """Strict JSON types: the verdict (``fit_ok``, ``fit_reason``, ``notes``), each band mode's
+        f_n (Hz), ζ, their standard errors, evidence, φL and φR (``[re, im]`` per coordinate),
+        the out-of-band poles' frequencies (Hz), the NMSE per FRF (a fraction) and ``units``."""
+        ev = self.quality_.evidence
+        modes = [{"f_n": self.f_n_[r], "zeta": self.zeta_[r], "f_n_std": self.std_[r, 0],
+                  "zeta_std": self.std_[r, 1], "uncertain": ev.uncertain[r], "delta_bic": ev.delta_bic[r],
+                  "share": ev.share[r], "stable_orders": ev.n_orders[r], "source": ev.source[r],
+                  "phiL": {c: [v.real, v.imag] for c, v in zip(COORDS, self.phi_l_[r])},
+                  "phiR": {c: [v.real, v.imag] for c, v in zip(COORDS, self.phi_r_[r])}}
+                 for r in range(self.n_modes_)]
+        return jsonable({"fit_ok": self.fit_ok_, "fit_reason": self.fit_reason_, "notes": list(self.quality_.notes),
+                         "modes": modes, "outside_f": np.abs(self.outside_["poles"]) / (2 * np.pi),
+                         "nmse": self.nmse_, "residual_correlation": self.quality_.residual_correlation,
+                         "units": {"f_n": "Hz", "zeta": "ratio", "phiR": "s/kg", "phiL": "1",
+                                   "outside_f": "Hz", "nmse": "fraction"}})
+
+    def plot(self, ax=None, *, freq=None, H=None):
+        """The band's stabilisation diagram with the fitted modes and the verdict
+        (:func:`~rmbench.modal.plot.plot_stabilisation`); ``freq`` (Hz) and ``H`` (m/N), the
+        measured receptance, draw it under the diagram. Returns the matplotlib Axes (``ax`` or a
+        new figure's)."""
+        from rmbench.modal.plot import plot_stabilisation
+
+        return plot_stabilisation(self, ax, freq=freq, H=H)
 
     # -- helpers ----------------------------------------------------------------------------
     def _check_settings(self):
@@ -383,127 +434,6 @@ def _weights(H, coherence, weighting):
         c = np.minimum(coherence, _COHERENCE_CAP)
         W *= np.sqrt(c / (1 - c))
     return W
-
-
-def _covariance(J, r):
-    """``σ² (JᵀJ)⁻¹`` with ``σ²`` the residual variance (pseudo-inverse, column-scaled eigh).
-
-    The eigen-decomposition of the scaled normal matrix costs a fraction of an SVD of the tall
-    ``J``; scaling the columns to unit norm first keeps its conditioning that of ``J`` squared
-    only within the parameters' own spread, well inside double precision here.
-    """
-    m, n = J.shape
-    sigma2 = float(r @ r) / max(m - n, 1)
-    d = np.linalg.norm(J, axis=0)
-    d = np.where(d > 0, d, 1.0)
-    Js = J / d
-    w, V = np.linalg.eigh(Js.T @ Js)
-    inv = np.where(w > w[-1] * 1e-24, 1 / np.where(w > 0, w, 1.0), 0.0)
-    return sigma2 * ((V * inv) @ V.T) / np.outer(d, d)
-
-
-def _renormalisation(phi_r, phi_l, refs_from, refs_to, n_x: int) -> np.ndarray:
-    """``∂x_to/∂x_from``, shape (n_x, n_x): the fit's variables (:func:`mdof._pack`) normalised
-    with ``φL[refs_from] = 1`` (``phi_r``, ``phi_l`` in that normalisation, (n, 4)) against those
-    normalised with ``φL[refs_to] = 1``.
-
-    Per mode, with ``p = φL[to]``: ``φR' = p φR`` and ``φL' = φL / p`` (so ``φL'[from] = 1/p``);
-    the poles and the residual terms are unchanged. A complex derivative ``d`` acts on
-    ``(Re z, Im z)`` as ``[[Re d, −Im d], [Im d, Re d]]``.
-    """
-    T = np.eye(n_x)
-    n_out, n_in = phi_r.shape[1], phi_l.shape[1]
-    lo = 2 + 2 * n_out                          # first φL variable of a mode's block
-
-    def put(b, row, col, d):
-        # rows (Re, Im) of output `row`, columns (Re, Im) of input `col`, each an offset of
-        # its kind's real part; imaginary parts follow at +n (φR) or +n_in - 1 (φL)
-        (ri, rj), (ci, cj) = row, col
-        T[b + ri, b + ci] = d.real
-        T[b + ri, b + cj] = -d.imag
-        T[b + rj, b + ci] = d.imag
-        T[b + rj, b + cj] = d.real
-
-    for m, (s, u) in enumerate(zip(refs_from, refs_to)):
-        if s == u:
-            continue                             # p = 1: the identity
-        b = mdof.N_PER_MODE * m
-        free_s = [k for k in range(n_in) if k != s]
-        free_u = [k for k in range(n_in) if k != u]
-        nf = n_in - 1
-
-        def col_l(k):
-            q = free_s.index(k)
-            return (lo + q, lo + nf + q)
-
-        p = complex(phi_l[m, u])
-        T[b + 2:b + mdof.N_PER_MODE, b + 2:b + mdof.N_PER_MODE] = 0.0
-        for j in range(n_out):
-            row = (2 + j, 2 + n_out + j)
-            put(b, row, row, p)
-            put(b, row, col_l(u), complex(phi_r[m, j]))
-        for q, k in enumerate(free_u):
-            row = (lo + q, lo + nf + q)
-            if k == s:                           # φL'[from] = 1 / p
-                put(b, row, col_l(u), -1 / p**2)
-            else:
-                put(b, row, col_l(k), 1 / p)
-                put(b, row, col_l(u), -complex(phi_l[m, k]) / p**2)
-    return T
-
-
-def _params(lam, phi_r, phi_l, cov, refs, flip, ws, hs):
-    """Parameters in PARAM_NAMES order and their standard errors (delta method)."""
-    n = len(lam)
-    params = np.zeros((n, 16))
-    std = np.zeros((n, 16))
-    var = np.diag(cov)
-    for r in range(n):
-        b = 16 * r
-        sig, wd = lam[r].real, lam[r].imag
-        mag = abs(lam[r])
-        params[r, 0] = mag / (2 * np.pi)
-        params[r, 1] = -sig / mag
-        # (σ, ω_d) in scaled units; conjugating flips the sign of ω_d only
-        # d(f_n, ζ)/d(σ', ω') with σ = ws σ', ω_d = ws ω' (scaled fit variables)
-        g = ws * np.array([[sig / (2 * np.pi * mag), wd / (2 * np.pi * mag)],
-                           [-(wd**2) / mag**3, sig * wd / mag**3]])
-        if flip[r]:
-            g[:, 1] *= -1
-        c2 = cov[b:b + 2, b:b + 2]
-        std[r, :2] = np.sqrt(np.maximum(np.diag(g @ c2 @ g.T), 0))
-        free = [i for i in range(4) if i != refs[r]]
-        for t, i in enumerate(_PHI_L_IDX):
-            params[r, 2 + 2 * t] = phi_l[r, i].real
-            params[r, 3 + 2 * t] = phi_l[r, i].imag
-            if i in free:
-                q = free.index(i)
-                std[r, 2 + 2 * t] = np.sqrt(max(var[b + 10 + q], 0))
-                std[r, 3 + 2 * t] = np.sqrt(max(var[b + 13 + q], 0))
-        for t, i in enumerate(_PHI_R_IDX):
-            params[r, 8 + 2 * t] = phi_r[r, i].real
-            params[r, 9 + 2 * t] = phi_r[r, i].imag
-            std[r, 8 + 2 * t] = np.sqrt(max(var[b + 2 + i], 0)) * hs * ws
-            std[r, 9 + 2 * t] = np.sqrt(max(var[b + 6 + i], 0)) * hs * ws
-    return params, std
-
-
-def _mac_loss(cov, sol):
-    """``1 − MAC`` that the standard errors of φR and of φL allow, the larger, per mode.
-
-    For a small error ``δ`` of a vector ``φ``, ``1 − MAC ≈ |δ⊥|² / |φ|²``; its mean is at most
-    ``Σ var / |φ|²``, taken in the fit's own normalisation (φL's largest element fixed), where it
-    does not carry the uncertainty of a scale that MAC ignores.
-    """
-    var = np.diag(cov)
-    out = np.empty(sol.n)
-    for r in range(sol.n):
-        b = mdof.N_PER_MODE * r
-        v_r = var[b + 2:b + 10].sum()
-        v_l = var[b + 10:b + 16].sum()
-        out[r] = max(v_r / np.sum(np.abs(sol.phi_r[r]) ** 2),
-                     v_l / np.sum(np.abs(sol.phi_l[r]) ** 2))
-    return out
 
 
 def _stable_orders(stab, poles):

@@ -155,49 +155,77 @@ def assess(selection, delta_bic, std, params, mac_loss, stab_orders, share, corr
     outside : ndarray, complex, rad/s
         Out-of-band poles of the model.
     """
+    evidence = _evidence(selection, delta_bic, std, params, mac_loss, stab_orders, share, criteria)
+    fail = _failures(evidence, params[:, 1], selection, converged, criteria, f_band)
+    notes = _notes(selection, outside)
+    reason = "; ".join(fail)
+    return FitQuality(ok=not fail, reason=reason, notes=tuple(fail + notes), evidence=evidence,
+                      residual_correlation=float(corr))
+
+
+def _mac_quantile(criteria: QualityCriteria) -> float:
+    """The factor on a mode's mean MAC loss for its ``n_sigma`` quantile.
+
+    1 − MAC of an estimate is about a χ² with 6-8 degrees of freedom scaled by mac_loss (its
+    mean); its 95th percentile is about twice the mean, which n_sigma = 2 stands for."""
+    return criteria.n_sigma**2 / 2
+
+
+def _evidence(selection, delta_bic, std, params, mac_loss, stab_orders, share,
+              criteria: QualityCriteria) -> ModeEvidence:
+    """Each band mode's evidence (arguments as :func:`assess`'s)."""
     f_n, zeta = params[:, 0], params[:, 1]
-    n = len(f_n)
     f_rel = std[:, 0] / f_n
     z_rel = std[:, 1] / np.abs(zeta)
-    k = criteria.n_sigma
-    # 1 − MAC of an estimate is about a χ² with 6-8 degrees of freedom scaled by mac_loss (its
-    # mean); its 95th percentile is about twice the mean, which n_sigma = 2 stands for
-    mac_q = k**2 / 2
+    k, mac_q = criteria.n_sigma, _mac_quantile(criteria)
     uncertain = ((k * f_rel > criteria.f_tol) | (k * z_rel > criteria.zeta_tol)
                  | (mac_q * mac_loss > 1 - criteria.mac_min) | ~np.isfinite(f_rel + z_rel + mac_loss))
     merged_f = [0.5 * (a + b) for a, b in selection.merged]
     source = []
-    for r in range(n):
+    for r in range(len(f_n)):
         if stab_orders[r] > 0:
             source.append("stabilisation")
         elif any(abs(f_n[r] - m) < 0.02 * m for m in merged_f):
             source.append("merged")
         else:
             source.append("scan")
-    evidence = ModeEvidence(f_n=f_n, n_orders=np.asarray(stab_orders, int), source=tuple(source),
-                            share=share, delta_bic=delta_bic, f_std_rel=f_rel,
-                            zeta_std_rel=z_rel, mac_loss=mac_loss, uncertain=uncertain)
-    fail, notes = [], []
+    return ModeEvidence(f_n=f_n, n_orders=np.asarray(stab_orders, int), source=tuple(source),
+                        share=share, delta_bic=delta_bic, f_std_rel=f_rel,
+                        zeta_std_rel=z_rel, mac_loss=mac_loss, uncertain=uncertain)
+
+
+def _failures(ev: ModeEvidence, zeta, selection, converged, criteria: QualityCriteria, f_band) -> list:
+    """What makes the fit need a look, one sentence each (empty when ok)."""
+    f_n, k, mac_q = ev.f_n, criteria.n_sigma, _mac_quantile(criteria)
+    fail = []
     if not converged:
         fail.append("the optimiser did not converge")
     out = (f_n < f_band[0]) | (f_n > f_band[1]) | (zeta <= 0)
     if out.any():
         fail.append(f"modes at {_hz(f_n[out])} left the band or have zeta <= 0")
-    if uncertain.any():
+    if ev.uncertain.any():
         bits = []
-        for r in np.flatnonzero(uncertain):
+        for r in np.flatnonzero(ev.uncertain):
             what = []
-            if k * f_rel[r] > criteria.f_tol:
-                what.append(f"f ±{f_rel[r]:.2%}")
-            if k * z_rel[r] > criteria.zeta_tol:
-                what.append(f"zeta ±{z_rel[r]:.1%}")
-            if mac_q * mac_loss[r] > 1 - criteria.mac_min:
-                what.append(f"shape MAC loss {mac_loss[r]:.3f}")
+            if k * ev.f_std_rel[r] > criteria.f_tol:
+                what.append(f"f ±{ev.f_std_rel[r]:.2%}")
+            if k * ev.zeta_std_rel[r] > criteria.zeta_tol:
+                what.append(f"zeta ±{ev.zeta_std_rel[r]:.1%}")
+            if mac_q * ev.mac_loss[r] > 1 - criteria.mac_min:
+                what.append(f"shape MAC loss {ev.mac_loss[r]:.3f}")
             bits.append(f"{f_n[r]:.4g} Hz ({', '.join(what) or 'no standard errors'})")
         fail.append("uncertain mode" + ("s " if len(bits) > 1 else " ") + "; ".join(bits))
     for a, b in selection.unresolved:
         fail.append(f"poles at {a:.4g} and {b:.4g} Hz are close and alike but the data need both "
                     "(one mode split, or two the band cannot separate)")
+    if selection.capped:
+        fail.append("more modes than the add move's cap (max_added) seem to be in the band")
+    return fail
+
+
+def _notes(selection, outside) -> list:
+    """What is worth knowing but harmless, one sentence each."""
+    notes = []
     if selection.leftover:
         # smooth non-modal error (a sensor's, the estimator's) does this too: worth a note, not a
         # failure, since every pole that a mode would be was tried and is in
@@ -206,16 +234,12 @@ def assess(selection, delta_bic, std, params, mac_loss, stab_orders, share, corr
     if len(outside):
         notes.append(f"out-of-band poles at {_hz(np.abs(outside) / (2 * np.pi))} model the tails "
                      "of modes outside the band")
-    if selection.capped:
-        fail.append("more modes than the add move's cap (max_added) seem to be in the band")
     for a, b in selection.merged:
         notes.append(f"poles at {a:.4g} and {b:.4g} Hz merged into one mode")
     if selection.removed:
         notes.append(f"poles at {_hz(np.array(selection.removed))} dropped (not needed by the "
                      "data, or unphysical)")
-    reason = "; ".join(fail)
-    return FitQuality(ok=not fail, reason=reason, notes=tuple(fail + notes), evidence=evidence,
-                      residual_correlation=float(corr))
+    return notes
 
 
 def _hz(f):

@@ -47,6 +47,21 @@ class CVScores:
     notes: dict = None
     predictions: np.ndarray = None
 
+    def summary(self) -> str:
+        """A few readable lines: the mean R² over the scored parameters and its spread over the
+        folds, the five worst parameters, the first five skipped and the fits that needed jitter."""
+        ok = np.isfinite(self.r2_mean)
+        lines = [f"{self.learner}, {self.split} split: mean R² {np.mean(self.r2_mean[ok]):.3f} over "
+                 f"{int(ok.sum())} parameters (mean spread over folds {np.mean(self.r2_std[ok]):.3f}); "
+                 f"{len(self.skipped)} skipped"]
+        worst = np.argsort(np.where(ok, self.r2_mean, np.inf))[:5]
+        lines += [f"  {self.tasks[t]}: R² {self.r2_mean[t]:.3f} ± {self.r2_std[t]:.3f}" for t in worst if ok[t]]
+        lines += [f"  skipped {task}: {why}" for task, why in list(self.skipped.items())[:5]]
+        if self.notes:
+            lines.append(f"  {len(self.notes)} fits needed jitter, e.g. {next(iter(self.notes))}: "
+                         f"{next(iter(self.notes.values()))}")
+        return "\n".join(lines)
+
     def to_dict(self) -> dict:
         ok = np.isfinite(self.r2_mean)
         return {"learner": self.learner, "split": self.split,

@@ -24,7 +24,7 @@ import numpy as np
 from rmbench.modal.campaign_fit import COORDS
 from rmbench.robot.modes import PARAMS
 
-__all__ = ["gauge_directions", "to_gauge", "from_gauge"]
+__all__ = ["gauge_directions", "to_gauge", "from_gauge", "vectors"]
 
 _L = ("phiL_1X", "phiL_1Y", "phiL_1aX")                # φL's fourth element is ``phiL_1aY``
 _R = ("phiR_1X", "phiR_1Y", "phiR_1aX", "phiR_1aY")
@@ -41,8 +41,9 @@ def _nan_modes_quiet(fn):
     return wrapper
 
 
-def _vectors(modal: np.ndarray, ay: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """φL, φR of (posture, mode, 16) parameters, each (posture, mode, 4) complex, 1X 1Y 1aX 1aY."""
+def vectors(modal: np.ndarray, ay: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """φL, φR of (posture, mode, 16) parameters and φL's 1aY element ``ay`` (posture, mode), each
+    (posture, mode, 4) complex, 1X 1Y 1aX 1aY."""
     def part(name):
         return modal[..., _I[f"{name}_re"]] + 1j * modal[..., _I[f"{name}_im"]]
     return np.stack([part(s) for s in _L] + [ay], -1), np.stack([part(s) for s in _R], -1)
@@ -68,7 +69,7 @@ def gauge_directions(ds) -> tuple[np.ndarray, np.ndarray]:
     worst : ndarray, shape (n_modes,)
         ``min |vᴴ φL| / ‖φL‖`` over the postures where the mode was found (NaN: nowhere).
     """
-    phi_l, _ = _vectors(ds["modal"].values, ds["phiL_1aY"].values)
+    phi_l, _ = vectors(ds["modal"].values, ds["phiL_1aY"].values)
     u = phi_l / np.linalg.norm(phi_l, axis=-1, keepdims=True)
     n_modes = u.shape[1]
     v, worst = np.tile(np.eye(4)[3].astype(complex), (n_modes, 1)), np.full(n_modes, np.nan)
@@ -89,7 +90,7 @@ def to_gauge(ds, v: np.ndarray):
     """A copy of the modal dataset with each mode's vectors in the gauge of direction ``v``
     (:func:`gauge_directions`): ‖φL‖ = 1, ``vᴴ φL`` real positive, φR scaled inversely."""
     out = ds.copy(deep=True)
-    phi_l, phi_r = _vectors(ds["modal"].values, ds["phiL_1aY"].values)
+    phi_l, phi_r = vectors(ds["modal"].values, ds["phiL_1aY"].values)
     norm = np.linalg.norm(phi_l, axis=-1)
     proj = np.einsum("pmk,mk->pm", phi_l, v.conj())
     scale = np.conj(proj) / np.abs(proj) / norm                     # (posture, mode)
@@ -120,7 +121,7 @@ def from_gauge(modal: np.ndarray, ay: np.ndarray, phi_l_ref, modal_std: np.ndarr
     -------
     modal, ay[, modal_std, ay_std] in the dataset's normalisation.
     """
-    phi_l, phi_r = _vectors(modal, ay)
+    phi_l, phi_r = vectors(modal, ay)
     e = np.array([COORDS.index(str(r)) for r in phi_l_ref])
     b = np.take_along_axis(phi_l, np.broadcast_to(e[None, :, None], phi_l.shape[:2] + (1,)), axis=-1)
     fixed = np.arange(4)[None, None, :] == e[None, :, None]
@@ -128,7 +129,7 @@ def from_gauge(modal: np.ndarray, ay: np.ndarray, phi_l_ref, modal_std: np.ndarr
     out_modal, out_ay = _put(modal, ratio, phi_r * b)
     if modal_std is None:
         return out_modal, out_ay
-    s_l, s_r = _vectors(modal_std, ay_std)
+    s_l, s_r = vectors(modal_std, ay_std)
     s_b = np.take_along_axis(s_l, np.broadcast_to(e[None, :, None], s_l.shape[:2] + (1,)), axis=-1)
     # z = a / b: dz = da / b − (a / b²) db;  z = a b: dz = b da + a db
     sl = _product_std(1 / b, s_l, -phi_l / b**2, s_b)

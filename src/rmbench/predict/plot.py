@@ -2,7 +2,8 @@
 
 * :func:`plot_cv` — out-of-fold predicted against fitted natural frequencies and damping ratios per
   mode, and the residuals, like the seed's Figs. 16-21;
-* :func:`plot_maps` — a predicted parameter over the workspace (x, y) at each redundant angle.
+* :func:`plot_maps` — a predicted parameter over the workspace (x, y) at each redundant angle;
+* :func:`plot_postures` — a predictor's training postures over the workspace.
 """
 
 from __future__ import annotations
@@ -11,7 +12,23 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_cv", "plot_maps"]
+__all__ = ["plot_cv", "plot_maps", "plot_postures"]
+
+
+def plot_postures(X, *, ax=None, title: str = ""):
+    """Postures ``X`` (n, 3: x, y in m, θ in rad) as points over x, y (mm), coloured by θ (degrees).
+
+    Draws on ``ax`` (default: a new figure's) and returns it.
+    """
+    if ax is None:
+        _, ax = _plt().subplots(figsize=(5, 4))
+    X = np.asarray(X, float)
+    pts = ax.scatter(1e3 * X[:, 0], 1e3 * X[:, 1], c=np.degrees(X[:, 2]), s=12, cmap="viridis")
+    ax.figure.colorbar(pts, ax=ax, label="θ (°)")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_title(title)
+    return ax
 
 
 def _plt():

@@ -56,24 +56,26 @@ from scipy.spatial import ConvexHull, QhullError
 
 from rmbench._version import __version__
 from rmbench.errors import InputError
-from rmbench.io.npz_file import read_npz, write_npz
-from rmbench.modal.campaign_fit import COORDS, mode_vectors
-from rmbench.modal.mdof import synthesize
-from rmbench.modal.residual import RESIDUAL_TERMS, residual_frf
+from rmbench.io.strict_json import jsonable
+from rmbench.modal.campaign_fit import COORDS
+from rmbench.modal.residual import RESIDUAL_TERMS
 from rmbench.predict.baselines import MULTI_TASK, PerTask, make_learner
-from rmbench.predict.cluster import (ModeCluster, cluster_features, cluster_poles, cluster_residues, pole_features,
+from rmbench.predict.cluster import (cluster_features, cluster_poles, cluster_residues, pole_features,
                                      poles_of, round_off_features, veering_clusters)
 from rmbench.predict.data import constant_tasks, frequency_ordered, training_set
-from rmbench.predict.gauge import _vectors, from_gauge, gauge_directions, to_gauge
-from rmbench.predict.gp import MTGP, _torch
+from rmbench.predict.frf import frf_lines, predicted_frf, predicted_frf_dataset
+from rmbench.predict.gauge import from_gauge, gauge_directions, to_gauge, vectors
+from rmbench.predict.gp import _torch
 from rmbench.predict.mtgp import GroupedMTGP
+from rmbench.predict.persist import load_predictor, save_predictor
 from rmbench.robot.modes import PARAMS
 from rmbench.threads import run_concurrently
 
-__all__ = ["PosturePredictor", "ExtrapolationWarning", "predicted_frf", "SAVEABLE"]
+# predicted_frf and its kin live in rmbench.predict.frf; named here for the callers that import them from here
+__all__ = ["PosturePredictor", "ExtrapolationWarning", "predicted_frf", "frf_lines", "predicted_frf_dataset",
+           "SAVEABLE"]
 
 SAVEABLE = MULTI_TASK
-_FORMAT = 1
 _OVERLAP = 1.0      # veering_clusters: peaks closer than their half-power bandwidths
 # frequencies and damping ratios from a cluster's poles only where the modes come far closer (module
 # docstring): on the stand-in modes 3-5 meet within 0.07-0.2 of their bandwidths, mode 2 within 0.36
@@ -214,7 +216,7 @@ class PosturePredictor:
               else np.ones(modal.shape[:2], complex))
         bands = ds["mode_band"].values if "mode_band" in ds.coords else [""] * modal.shape[1]
         f, z = modal[..., PARAMS.index("f_n")], modal[..., PARAMS.index("zeta")]
-        phi_l, phi_r = _vectors(modal, ay)
+        phi_l, phi_r = vectors(modal, ay)
         X = np.column_stack([np.asarray(ds[c].values, float) for c in ("x", "y", "theta")])[keep]
         t0 = time.perf_counter()
         found = []
@@ -258,6 +260,60 @@ class PosturePredictor:
             self._facets = ConvexHull((X - self._x_mean) / self._x_scale).equations
         except QhullError:              # flat training set (one θ, say): every query is outside
             self._facets = None
+
+    # -- what the predictor is ---------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        """The fitted predictor's account as plain JSON types: its settings, modes and parameters,
+        what it learnt from how many postures (their range: x, y in m, θ in rad) and the training
+        times (s)."""
+        X = self.X_train_
+        return jsonable({
+            "model": self.model, "order": self.order, "vectors": self.vectors, "clusters_option": self.clusters,
+            "modes": self.modes_, "mode_band": self.mode_band_, "params": list(self.params_),
+            "n_postures": len(X), "n_parameters": len(self.tasks_), "n_learnt": len(self.live_),
+            "posture_range": {c: [X[:, i].min(), X[:, i].max()] for i, c in enumerate(("x_m", "y_m", "theta_rad"))},
+            "residual_bands": list(self.residual_bands_),
+            "clusters": [list(map(int, c.modes)) for c in self.clusters_],
+            "modes_from_poles": [list(map(int, c.modes)) for c in self.pole_clusters_],
+            "train_seconds": self.train_seconds_, "residual_seconds": self.residual_seconds_,
+            "cluster_seconds": self.cluster_seconds_, "source": self.source_})
+
+    def summary(self) -> str:
+        """A few readable lines: the learner, its modes per band, how many parameters it learnt
+        from how many postures (their range in m and degrees) and what it learnt besides."""
+        X = self.X_train_
+        bands = ", ".join(f"{b or 'unnamed'}: {int(np.sum(self.mode_band_ == b))}"
+                          for b in dict.fromkeys(self.mode_band_.tolist()))
+        lines = [f"{self.model} predictor: {len(self.modes_)} modes ({bands}); {len(self.live_)} of "
+                 f"{len(self.tasks_)} parameters learnt from {len(X)} postures in {self.train_seconds_:.1f} s",
+                 f"training postures: x {X[:, 0].min():.3f}-{X[:, 0].max():.3f} m, "
+                 f"y {X[:, 1].min():.3f}-{X[:, 1].max():.3f} m, "
+                 f"θ {np.degrees(X[:, 2].min()):.0f}-{np.degrees(X[:, 2].max()):.0f}°"]
+        if self.residual_bands_:
+            lines.append(f"residual terms of the {', '.join(self.residual_bands_)} band(s)")
+        if self.clusters_:
+            lines.append("veering clusters: " + ", ".join("modes " + "-".join(map(str, c.modes))
+                                                          for c in self.clusters_))
+        if self.pole_clusters_:
+            lines.append("f_n and ζ from cluster poles: " + ", ".join("modes " + "-".join(map(str, c.modes))
+                                                                     for c in self.pole_clusters_))
+        return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """The training postures in the workspace, x against y (mm), coloured by θ (degrees).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Where to draw (default: a new figure's).
+
+        Returns
+        -------
+        matplotlib Axes
+        """
+        from rmbench.predict.plot import plot_postures
+
+        return plot_postures(self.X_train_, ax=ax, title=f"{self.model}: {len(self.X_train_)} training postures")
 
     def std_scale(self) -> xr.DataArray:
         """The leave-one-posture-out factor on each learnt parameter's standard deviation
@@ -335,46 +391,22 @@ class PosturePredictor:
                 return learner.predict_product(*grid)
             return learner.predict(X, **at)
 
-        if std or at:
-            mu_live, sd_live = self.learner_.predict(X, return_std=True, **at)
-            if calibrated:
-                sd_live = sd_live * _scale_of(self.learner_, sd_live.shape[1])
-        else:
-            mu_live = means(self.learner_)
-            sd_live = np.full(np.shape(mu_live), np.nan)
-        n, n_tasks = len(X), len(self.tasks_)
-        mu = np.tile(self.constant_, (n, 1))
-        sd = np.zeros((n, n_tasks))
-        sd[:, np.isnan(self.constant_)] = np.nan
-        mu[:, self.live_], sd[:, self.live_] = mu_live, sd_live
+        def moments(learner):
+            """A learner's means and standard deviations at X (NaN where not asked for)."""
+            if std or at:
+                mu, sd = (np.asarray(v, float) for v in learner.predict(X, return_std=True, **at))
+                return mu, (sd * _scale_of(learner, sd.shape[1]) if calibrated else sd)
+            mu = np.asarray(means(learner), float)
+            return mu, np.full(mu.shape, np.nan)
+
+        n = len(X)
+        main, main_sd, ay = self._modal_arrays(*moments(self.learner_), n)
         outside = self.outside_hull(X)
         if outside.any():
             warnings.warn(f"{int(outside.sum())} of {n} postures lie outside the training postures' "
                           "hull: the predictions there extrapolate (see modal_std)",
                           ExtrapolationWarning, stacklevel=2)
-        n_modes, n_p = len(self.modes_), len(self.params_)
-        main = mu[:, :n_modes * n_p].reshape(n, n_modes, n_p)
-        main_sd = sd[:, :n_modes * n_p].reshape(n, n_modes, n_p)
-        ay = (mu[:, n_modes * n_p:n_modes * (n_p + 1)] + 1j * mu[:, n_modes * (n_p + 1):]
-              if n_tasks > n_modes * n_p else np.ones((n, n_modes), complex))
-        if self.vectors == "gauge":
-            ay_sd = sd[:, n_modes * n_p:n_modes * (n_p + 1)] + 1j * sd[:, n_modes * (n_p + 1):]
-            main, ay, main_sd, _ = from_gauge(main, ay, self.phiL_ref_, main_sd, ay_sd)
-        i_f, i_z = self.params_.index("f_n"), self.params_.index("zeta")
-        tight = np.full((n, n_modes), np.nan, complex)       # the tight veerings' poles
-        for cl, learner in zip(self.pole_clusters_, self.pole_learners_):
-            if std or at:
-                mu_c, sd_c = (np.asarray(v, float) for v in learner.predict(X, return_std=True, **at))
-            else:
-                mu_c = np.asarray(means(learner), float)
-                sd_c = np.full(mu_c.shape, np.nan)
-            if calibrated:
-                sd_c = sd_c * _scale_of(learner, sd_c.shape[1])
-            lam, lam_sd = cluster_poles(cl, mu_c, sd_c)
-            tight[:, list(cl.modes)] = lam
-            idx, w = list(cl.modes), np.abs(lam)
-            main[:, idx, i_f], main[:, idx, i_z] = w / (2 * np.pi), -lam.real / w
-            main_sd[:, idx, i_f], main_sd[:, idx, i_z] = lam_sd[..., 0], lam_sd[..., 1]
+        tight = self._tight_poles(moments, main, main_sd)
         # every variable and coordinate in one constructor call: successive assign()s re-align
         # the whole dataset each time, which cost more than the GPs (about 3 of 5.7 ms)
         data_vars = {"modal": (("posture", "mode", "param"), main),
@@ -386,24 +418,69 @@ class PosturePredictor:
                   "mode_band": ("mode", self.mode_band_), "phiL_ref": ("mode", self.phiL_ref_),
                   "param": list(self.params_)}
         if self.residual_learner_ is not None:
-            y = np.asarray(means(self.residual_learner_), float)
-            half = y.shape[1] // 2
-            z = (y[:, :half] + 1j * y[:, half:]).reshape(n, len(self.residual_bands_), len(RESIDUAL_TERMS), 4, 4)
-            data_vars["residual"] = (("posture", "fit_band", "term", "out", "inp"), z)
-            coords.update(fit_band=list(self.residual_bands_), residual_f_max=("fit_band", list(self.residual_f_max_)),
-                          term=list(RESIDUAL_TERMS), out=list(COORDS), inp=list(COORDS))
+            self._add_residuals(data_vars, coords, np.asarray(means(self.residual_learner_), float))
         if self.clusters_:
-            pole = np.full((n, n_modes), np.nan, complex)
-            residue = np.full((n, n_modes, 4, 4), np.nan, complex)
-            for cl, learner in zip(self.clusters_, self.cluster_learners_):
-                # a tight veering inside the cluster keeps its own poles, the ones ``modal`` reports
-                # (at the validation postures the low band's worst cross peak 18.8 -> 14.0 %)
-                lam, R = cluster_residues(cl, np.asarray(means(learner), float),
-                                          poles=tight[:, list(cl.modes)])
-                pole[:, list(cl.modes)], residue[:, list(cl.modes)] = lam, R
-            data_vars["cluster_pole"] = (("posture", "mode"), pole)
-            data_vars["cluster_residue"] = (("posture", "mode", "out", "inp"), residue)
-            coords.update(out=list(COORDS), inp=list(COORDS))
+            self._add_clusters(data_vars, coords, [np.asarray(means(lr), float) for lr in self.cluster_learners_],
+                               tight)
+        return self._prediction(data_vars, coords)
+
+    def _modal_arrays(self, mu_live, sd_live, n: int):
+        """The learnt columns' means and standard deviations (n, n_live) with the constant ones,
+        as ``modal`` and ``modal_std`` (n, mode, param) and ``phiL_1aY`` (n, mode), in the
+        dataset's normalisation."""
+        n_tasks, n_modes, n_p = len(self.tasks_), len(self.modes_), len(self.params_)
+        mu = np.tile(self.constant_, (n, 1))
+        sd = np.zeros((n, n_tasks))
+        sd[:, np.isnan(self.constant_)] = np.nan
+        mu[:, self.live_], sd[:, self.live_] = mu_live, sd_live
+        main = mu[:, :n_modes * n_p].reshape(n, n_modes, n_p)
+        main_sd = sd[:, :n_modes * n_p].reshape(n, n_modes, n_p)
+        ay = (mu[:, n_modes * n_p:n_modes * (n_p + 1)] + 1j * mu[:, n_modes * (n_p + 1):]
+              if n_tasks > n_modes * n_p else np.ones((n, n_modes), complex))
+        if self.vectors == "gauge":
+            ay_sd = sd[:, n_modes * n_p:n_modes * (n_p + 1)] + 1j * sd[:, n_modes * (n_p + 1):]
+            main, ay, main_sd, _ = from_gauge(main, ay, self.phiL_ref_, main_sd, ay_sd)
+        return main, main_sd, ay
+
+    def _tight_poles(self, moments, main, main_sd) -> np.ndarray:
+        """The tight veerings' poles from their learnt polynomials, (n, mode) complex rad/s (NaN
+        for other modes); their modes' f_n and ζ in ``main`` and ``main_sd`` are set from them."""
+        i_f, i_z = self.params_.index("f_n"), self.params_.index("zeta")
+        tight = np.full(main.shape[:2], np.nan, complex)
+        for cl, learner in zip(self.pole_clusters_, self.pole_learners_):
+            lam, lam_sd = cluster_poles(cl, *moments(learner))
+            tight[:, list(cl.modes)] = lam
+            idx, w = list(cl.modes), np.abs(lam)
+            main[:, idx, i_f], main[:, idx, i_z] = w / (2 * np.pi), -lam.real / w
+            main_sd[:, idx, i_f], main_sd[:, idx, i_z] = lam_sd[..., 0], lam_sd[..., 1]
+        return tight
+
+    def _add_residuals(self, data_vars: dict, coords: dict, y: np.ndarray) -> None:
+        """The bands' residual terms from their learner's means ``y`` (n, 2 x entries: real parts,
+        then imaginary), into ``data_vars`` and ``coords``."""
+        half = y.shape[1] // 2
+        z = (y[:, :half] + 1j * y[:, half:]).reshape(len(y), len(self.residual_bands_), len(RESIDUAL_TERMS), 4, 4)
+        data_vars["residual"] = (("posture", "fit_band", "term", "out", "inp"), z)
+        coords.update(fit_band=list(self.residual_bands_), residual_f_max=("fit_band", list(self.residual_f_max_)),
+                      term=list(RESIDUAL_TERMS), out=list(COORDS), inp=list(COORDS))
+
+    def _add_clusters(self, data_vars: dict, coords: dict, features: list, tight: np.ndarray) -> None:
+        """The veering clusters' poles and full residues from their learnt invariants (one (n, k)
+        array per cluster), into ``data_vars`` and ``coords``."""
+        n, n_modes = tight.shape
+        pole = np.full((n, n_modes), np.nan, complex)
+        residue = np.full((n, n_modes, 4, 4), np.nan, complex)
+        for cl, f in zip(self.clusters_, features):
+            # a tight veering inside the cluster keeps its own poles, the ones ``modal`` reports
+            # (at the validation postures the low band's worst cross peak 18.8 -> 14.0 %)
+            lam, R = cluster_residues(cl, f, poles=tight[:, list(cl.modes)])
+            pole[:, list(cl.modes)], residue[:, list(cl.modes)] = lam, R
+        data_vars["cluster_pole"] = (("posture", "mode"), pole)
+        data_vars["cluster_residue"] = (("posture", "mode", "out", "inp"), residue)
+        coords.update(out=list(COORDS), inp=list(COORDS))
+
+    def _prediction(self, data_vars: dict, coords: dict) -> xr.Dataset:
+        """The prediction dataset of its variables and coordinates, with its attributes."""
         out = xr.Dataset(
             data_vars, coords=coords,
             attrs={"kind": "modal_prediction", "model": self.model, "rmbench_version": __version__,
@@ -419,125 +496,17 @@ class PosturePredictor:
                                                            "R_r/(s-λ_r) + conj), m/N rad/s")
         return out
 
-    # -- plain-file persistence -------------------------------------------------------------------
+    # -- plain-file persistence (rmbench.predict.persist) -------------------------------------------
     def save(self, path) -> Path:
         """Write the predictor to one ``.npz`` (arrays + JSON metadata; no pickle), atomically."""
-        path = Path(path)
-        if self.model not in SAVEABLE:
-            raise InputError(f"only the Gaussian-process learners ({', '.join(SAVEABLE)}) are saved "
-                             f"as plain arrays; {self.model!r} would need pickle")
-        learner = self.learner_
-        models = learner.models_ if isinstance(learner, GroupedMTGP) else [learner]
-        groups = learner.groups if isinstance(learner, GroupedMTGP) else [list(range(len(self.live_)))]
-        arrays = {"X_train": self.X_train_, "live": self.live_, "constant": self.constant_}
-        for i, m in enumerate(models):
-            arrays.update({f"m{i}/{k}": v for k, v in _state(m).items()})
-        if self.residual_learner_ is not None:
-            arrays.update(_grouped_state("residual", self.residual_learner_))
-        for i, learner in enumerate(self.cluster_learners_):
-            arrays.update(_grouped_state(f"cluster{i}", learner))
-        for i, learner in enumerate(self.pole_learners_):
-            arrays.update(_grouped_state(f"poles{i}", learner))
-        meta = {"format": _FORMAT, "rmbench_version": __version__, "model": self.model,
-                "order": self.order, "vectors": self.vectors,
-                "tasks": list(self.tasks_), "modes": self.modes_.tolist(), "params": list(self.params_),
-                "mode_band": self.mode_band_.tolist(), "phiL_ref": self.phiL_ref_.tolist(),
-                "groups": [list(map(int, g)) for g in groups], "train_seconds": self.train_seconds_,
-                "source": self.source_, "residual_bands": list(self.residual_bands_),
-                "residual_f_max": list(self.residual_f_max_),
-                "residual_seconds": self.residual_seconds_, "clusters_option": self.clusters,
-                "entry_learners": "per column",
-                "clusters": [{"modes": list(map(int, c.modes)), "center": [c.center.real, c.center.imag],
-                              "radius": c.radius} for c in self.clusters_],
-                "cluster_seconds": self.cluster_seconds_,
-                "pole_clusters": [{"modes": list(map(int, c.modes)), "center": [c.center.real, c.center.imag],
-                                   "radius": c.radius} for c in self.pole_clusters_]}
-        return write_npz(path, meta, arrays)
+        return save_predictor(self, path)
 
     @classmethod
     def load(cls, path) -> "PosturePredictor":
         """Read a predictor written by :meth:`save` (arrays only; nothing is unpickled)."""
-        path = Path(path)
-        if not path.is_file():
-            raise InputError(f"predictor not found: {path}")
-        try:
-            meta, a = read_npz(path, _FORMAT)
-            # files written before the gauge learnt the dataset's normalisation
-            order = meta.get("order", "frequency")
-            self = cls(meta["model"], order, meta.get("vectors", "dataset"),
-                       meta.get("clusters_option", "auto" if order == "frequency" else "none"))
-            self.tasks_ = tuple(meta["tasks"])
-            self.modes_ = np.asarray(meta["modes"], int)
-            self.params_ = tuple(meta["params"])
-            self.mode_band_ = np.asarray(meta["mode_band"], str)
-            self.phiL_ref_ = np.asarray(meta["phiL_ref"], str)
-            self.train_seconds_ = float(meta["train_seconds"])
-            self.source_ = str(meta.get("source", ""))
-            self.X_train_ = np.asarray(a["X_train"], float)
-            self.live_ = np.asarray(a["live"], int)
-            self.constant_ = np.asarray(a["constant"], float)
-            models = [_from_state({k.split("/", 1)[1]: v for k, v in a.items()
-                                   if k.startswith(f"m{i}/")}) for i in range(len(meta["groups"]))]
-            # files written before the residual terms were learnt have none
-            self.residual_bands_ = tuple(meta.get("residual_bands", ()))
-            self.residual_f_max_ = tuple(float(v) for v in meta.get("residual_f_max", ()))
-            self.residual_seconds_ = float(meta.get("residual_seconds", 0.0))
-            # files written before the terms were learnt per column hold one Kronecker MTGP
-            per_column = meta.get("entry_learners") == "per column"
-            self.residual_learner_ = (_grouped_from_state("residual", a, per_column)
-                                      if self.residual_bands_ else None)
-            # files written before veering clusters were learnt have none
-            self.clusters_ = tuple(ModeCluster(tuple(c["modes"]), complex(*c["center"]), float(c["radius"]))
-                                   for c in meta.get("clusters", ()))
-            self.cluster_learners_ = [_grouped_from_state(f"cluster{i}", a, True)
-                                      for i in range(len(self.clusters_))]
-            self.cluster_seconds_ = float(meta.get("cluster_seconds", 0.0))
-            # files written before tight veerings took their frequencies from poles have none
-            self.pole_clusters_ = tuple(ModeCluster(tuple(c["modes"]), complex(*c["center"]), float(c["radius"]))
-                                        for c in meta.get("pole_clusters", ()))
-            self.pole_learners_ = [_grouped_from_state(f"poles{i}", a, True) for i in range(len(self.pole_clusters_))]
-        except (OSError, ValueError, KeyError, TypeError) as err:
-            raise InputError(f"{path}: not an rmbench predictor ({type(err).__name__}: {err})") from None
-        if meta["model"] in ("mtgp", "mtgp-lowrank"):
-            self.learner_ = models[0]
-        else:
-            g = GroupedMTGP(meta["groups"])
-            g.models_, g.n_tasks_ = models, len(self.live_)
-            self.learner_ = g
+        self = load_predictor(cls, path)
         self._hull()
         return self
-
-
-_STATE_SCALARS = ("n_tasks_", "dropped_")
-_STATE_ARRAYS = ("varying_", "constant_", "x_mean_", "x_scale_", "y_mean_", "y_scale_", "loo_scale_", "y_fit_",
-                 "loo_mu_", "loo_sd_")
-
-
-def _state(m: MTGP) -> dict:
-    """Plain arrays of a fitted MTGP (see :func:`_from_state`)."""
-    out = {k: np.asarray(getattr(m, k)) for k in _STATE_SCALARS + _STATE_ARRAYS if hasattr(m, k)}
-    if m.posterior_ is not None:
-        out.update({f"post/{k}": v for k, v in m.posterior_.arrays().items()})
-    return out
-
-
-def _from_state(a: dict) -> MTGP:
-    from rmbench.predict.posterior import KronPosterior
-
-    m = MTGP()
-    for k in _STATE_SCALARS:
-        setattr(m, k, int(a[k]))
-    for k in _STATE_ARRAYS:
-        if k in a:
-            setattr(m, k, np.asarray(a[k]))
-    # a group left unlearnt (its mode found at too few postures) has no varying tasks
-    m.varying_ = np.asarray(getattr(m, "varying_", ()), int)
-    if not hasattr(m, "loo_scale_"):       # a file saved before the scales were kept: uncalibrated
-        m.loo_scale_ = np.ones(m.n_tasks_)
-    post = {k[5:]: v for k, v in a.items() if k.startswith("post/")}
-    m.posterior_ = KronPosterior.from_arrays(post) if post else None
-    return m
-
 
 def _scale_of(learner, n_columns: int) -> np.ndarray:
     """A learner's leave-one-posture-out factors on its standard deviations (ones for a learner
@@ -567,109 +536,3 @@ def _pole_learner(model: str, n_columns: int):
     if model in MULTI_TASK:
         return GroupedMTGP([list(range(n_columns))])
     return PerTask(model)
-
-
-def _grouped_state(prefix: str, learner) -> dict:
-    """Plain arrays of a GroupedMTGP of single columns (``{prefix}/m{j}/...``)."""
-    if not isinstance(learner, GroupedMTGP):
-        raise InputError("only Gaussian-process learners are saved as plain arrays")
-    out = {f"{prefix}/groups": np.array([len(g) for g in learner.groups])}
-    for j, m in enumerate(learner.models_):
-        out.update({f"{prefix}/m{j}/{k}": v for k, v in _state(m).items()})
-    return out
-
-
-def _grouped_from_state(prefix: str, a: dict, per_column: bool):
-    if not per_column:                 # one Kronecker MTGP under ``{prefix}/``
-        return _from_state({k.split("/", 1)[1]: v for k, v in a.items() if k.startswith(f"{prefix}/")})
-    sizes = np.asarray(a[f"{prefix}/groups"], int)
-    start = np.concatenate([[0], np.cumsum(sizes)])
-    g = GroupedMTGP([list(range(start[j], start[j + 1])) for j in range(len(sizes))])
-    g.models_ = [_from_state({k[len(f"{prefix}/m{j}/"):]: v for k, v in a.items()
-                              if k.startswith(f"{prefix}/m{j}/")}) for j in range(len(sizes))]
-    g.n_tasks_ = int(start[-1])
-    return g
-
-
-def predicted_frf(pred: xr.Dataset, freq, posture: int | None = None, *, band: str | None = None) -> np.ndarray:
-    """Receptance matrices rebuilt from predicted (or fitted) modal parameters (Eq. 15).
-
-    By default every mode of every band contributes at every frequency, so each band's matrix
-    carries the other band's modes (only those) as residual terms. With ``band``, that band's modes
-    alone, plus its residual terms where the dataset has them (``residual``: the modal fit's
-    stand-ins for every mode outside the band, :mod:`rmbench.modal.residual`; valid within the
-    band's lines only): the form to use where a band's ``1a`` is its
-    own point (the bands' sensor spacings differ, so the other band's mode vectors do not apply).
-
-    Parameters
-    ----------
-    pred : xarray.Dataset
-        A prediction (or a modal fit): ``modal``, ``phiL_1aY``; optionally ``residual``.
-    freq : array_like, shape (n_freq,), Hz
-    posture : int, optional
-        One posture; by default all.
-    band : str, optional
-        One band's modes and residual terms.
-
-    Returns
-    -------
-    ndarray, shape (n_posture, n_freq, 4, 4) or (n_freq, 4, 4), complex, m/N; rows and columns
-    1X, 1Y, 1aX, 1aY.
-    """
-    if tuple(pred["param"].values) != PARAMS:
-        raise InputError("the FRF matrix needs all 16 parameters per mode (DATA.md order)")
-    freq = np.asarray(freq, float)
-    in_band = np.ones(pred.sizes["mode"], bool)
-    residual = None
-    if band is not None:
-        bands = pred["mode_band"].values if "mode_band" in pred.coords else np.array([])
-        in_band = bands == band
-        if not in_band.any():
-            raise InputError(f"no mode of the {band!r} band in the dataset")
-        if "residual" in pred and band in pred["residual"]["fit_band"].values:
-            r = pred["residual"].sel(fit_band=band)
-            residual = residual_frf(r.transpose("posture", "term", "out", "inp").values, freq,
-                                    float(r["residual_f_max"]))
-    which = range(pred.sizes["posture"]) if posture is None else [posture]
-    cl_pole = pred["cluster_pole"].values if "cluster_pole" in pred else None
-    out = []
-    for p in which:
-        prm = pred.modal.values[p]
-        ok = np.isfinite(prm[:, 0]) & np.isfinite(prm[:, 1]) & in_band
-        h = np.zeros((len(freq), 4, 4), complex)
-        if cl_pole is not None:         # veering clusters: their full residues (module docstring)
-            cl = np.isfinite(cl_pole[p]) & in_band
-            if cl.any():
-                s = 2j * np.pi * freq[:, None]
-                lam, R = cl_pole[p, cl], pred["cluster_residue"].transpose("posture", "mode", "out", "inp").values[p, cl]
-                h = (np.einsum("fm,moi->foi", 1 / (s - lam), R)
-                     + np.einsum("fm,moi->foi", 1 / (s - lam.conj()), R.conj()))
-                ok &= ~cl
-        vecs = [mode_vectors(pred, p, i) for i in np.flatnonzero(ok)]
-        wn, z = 2 * np.pi * prm[ok, 0], prm[ok, 1]
-        poles = -z * wn + 1j * wn * np.sqrt(1 - z**2)
-        h = h + synthesize(freq, poles, np.array([v[0] for v in vecs]).reshape(-1, 4),
-                           np.array([v[1] for v in vecs]).reshape(-1, 4))
-        if residual is not None and np.all(np.isfinite(residual[p])):
-            h = h + residual[p]
-        out.append(h)
-    return out[0] if posture is not None else np.stack(out)
-
-
-def frf_lines() -> np.ndarray:
-    """The default lines of a predicted FRF, Hz: 2-60 Hz every 0.05 Hz and 500-1500 Hz every
-    0.5 Hz (both campaign bands with margin, finer than their lines), shape (3160,)."""
-    return np.concatenate([np.arange(2.0, 60.0, 0.05), np.arange(500.0, 1500.0, 0.5)])
-
-
-def predicted_frf_dataset(pred: xr.Dataset, *, freq=None, model: str = "", source: str = "") -> xr.Dataset:
-    """The receptance matrices of a prediction (:func:`predicted_frf`) as a dataset with the
-    postures' coordinates, on ``freq`` (Hz; default :func:`frf_lines`); ``model`` and ``source``
-    (the predictor's kind and file) go into the attributes."""
-    freq = frf_lines() if freq is None else np.asarray(freq, float)
-    H = predicted_frf(pred, freq)
-    return xr.Dataset({"H": (("posture", "freq", "out", "inp"), H)},
-                      coords={"posture": pred.posture.values, "x": ("posture", pred["x"].values),
-                              "y": ("posture", pred["y"].values), "theta": ("posture", pred["theta"].values),
-                              "freq": freq, "out": list(COORDS), "inp": list(COORDS)},
-                      attrs={"kind": "predicted_frf", "units": "m/N", "model": model, "predictor": source})
