@@ -591,3 +591,12 @@ def test_one_biased_measured_mode_does_not_steer_the_calibration(irb, truth, des
         p = by[f"{joint}.stiffness"]
         assert p.value / (p.nominal * factor) == pytest.approx(1, abs=0.06), joint
     assert cal.heldout_summary()["after"]["f_err_p95"] < 0.01
+
+
+def test_chi2_per_residual_is_each_training_chi2_over_the_number_of_residuals():
+    from rmbench.calibrate.result import Calibration
+
+    cal = Calibration(params=(), u=np.zeros(0), cov_u=np.zeros((0, 0)), combinations=(), chi2_before=80.0,
+                      chi2_after=5.0, n_residuals=40, train=(0, 1), held=(), modes_train={}, modes_held={},
+                      xml="", iterations=3, seconds=0.1)
+    assert cal.chi2_per_residual == {"before": 2.0, "after": 0.125}

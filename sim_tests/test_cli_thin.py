@@ -51,16 +51,6 @@ ARRAY_METHODS = frozenset({"mean", "max", "min", "sum", "prod", "std", "var", "a
                            "ptp", "cumsum", "cumprod", "dot", "median", "quantile"})
 """Reductions called as a method (``a.mean()``); the receiver's type is not known from the AST."""
 
-ALLOWED = frozenset({
-    # Being moved into the library by other changes of issue 81 when this test was written; a pair
-    # leaves this list when its command no longer computes. Empty it, then delete it.
-    ("demo.py", ".argmin()"), ("demo.py", ".max()"), ("demo.py", ".sum()"), ("demo.py", "np.abs"),
-    ("demo.py", "np.argmin"), ("demo.py", "np.exp"), ("demo.py", "np.log"), ("demo.py", "np.median"),
-    ("demo.py", "np.nanmax"), ("demo.py", "np.nanmedian"), ("demo.py", "np.nanmin"),
-})
-"""``(module, call)`` pairs still tolerated."""
-
-
 def _dotted(node) -> list:
     """``np.linalg.norm`` -> ``["np", "linalg", "norm"]``; [] for a call of anything else."""
     parts = []
@@ -116,6 +106,6 @@ def test_unit_conversions_array_building_and_builtins_do_not_count():
 def test_no_command_computes_a_physical_quantity():
     found = computing_calls()
     offenders = [f"cli/{module}:{','.join(map(str, sorted(set(lines))))}: {call}"
-                 for (module, call), lines in sorted(found.items()) if (module, call) not in ALLOWED]
+                 for (module, call), lines in sorted(found.items())]
     assert not offenders, ("the command line computes; move it into the library (the result's own "
                            "method or a function beside it):\n" + "\n".join(offenders))

@@ -162,3 +162,13 @@ def test_chord_settling_from_a_nearby_equilibrium_reaches_the_same_state(irb):
     # 1e-10 of the largest joint stiffness in N·m is the settling tolerance: the states agree to
     # far below a micro-radian
     assert np.abs(chord.qpos - fresh.qpos).max() < 1e-9
+
+
+def test_the_nearest_mode_is_the_one_whose_natural_frequency_is_closest():
+    from rmbench.robot import ComplexModes
+
+    f = np.array([10.0, 25.0, 60.0])
+    zeta = np.array([0.01, 0.02, 0.03])
+    poles = 2 * np.pi * f * (-zeta + 1j * np.sqrt(1 - zeta ** 2))
+    modes = ComplexModes(poles, np.eye(3, dtype=complex), np.eye(3, dtype=complex), np.zeros(3, bool))
+    assert [modes.nearest(x) for x in (0.0, 17.0, 18.0, 1e4)] == [0, 0, 1, 2]

@@ -413,3 +413,21 @@ def test_a_motion_needs_two_knots_at_increasing_times_spanning_zero(irb_op, time
 
     with pytest.raises(InputError, match="two knots"):
         Motion.through([irb_op, irb_op], times)
+
+
+def test_comparing_lobes_scores_the_speeds_where_both_are_finite_against_the_reference():
+    from rmbench.stability import Lobes, compare_lobes
+
+    ref = _hand_lobes()
+    a = Lobes(ref.speed_rpm, np.array([1.65e-3, 1.0e-3, 0.72e-3]), "fdm")     # +10 %, -10 %
+    c = compare_lobes(a, ref)
+    assert c["n_speeds"] == 2 and c["a_lim_min"] == 0.72e-3 and c["a_lim_min_reference"] == 0.8e-3
+    assert c["rel_err_median"] == pytest.approx(0.1) and c["rel_err_max"] == pytest.approx(0.1)
+
+
+def test_lobes_on_other_speeds_cannot_be_compared():
+    from rmbench.stability import Lobes, compare_lobes
+
+    ref = _hand_lobes()
+    with pytest.raises(InputError, match="share their speeds"):
+        compare_lobes(Lobes(ref.speed_rpm + 100.0, ref.a_lim, "fdm"), ref)

@@ -5,7 +5,7 @@ import pytest
 
 from rmbench.errors import InputError
 from rmbench.io.tracker_csv import TrackerReadings, read_tracker_csv, write_tracker_csv
-from rmbench.tracker import judge_readings, register_readings
+from rmbench.tracker import judge_readings, reading_errors, register_readings
 
 HEADER = "location,q_j1,q_j2,x,y,z,x_nom,y_nom,z_nom"
 
@@ -68,6 +68,18 @@ def test_registration_removes_a_rigid_transform_between_model_and_tracker():
     rot *= np.sign(np.linalg.det(rot))
     measured = nominal @ rot.T + [3.0, -1.0, 0.5]
     assert np.max(np.abs(register_readings(measured, nominal))) < 1e-12
+
+
+def test_reading_errors_without_registration_are_measured_minus_nominal():
+    measured, nominal = np.array([[1.0, 2.0, 3.0], [0.5, 0.0, -1.0]]), np.array([[1.0, 1.5, 3.5], [0.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(reading_errors(measured, nominal, register=False), measured - nominal)
+
+
+def test_reading_errors_with_registration_are_the_registered_ones():
+    rng = np.random.default_rng(2)
+    nominal = rng.uniform(-1, 1, (12, 3))
+    measured = nominal + [0.2, 0.0, -0.1] + rng.normal(0, 1e-3, (12, 3))
+    np.testing.assert_array_equal(reading_errors(measured, nominal), register_readings(measured, nominal))
 
 
 def test_judging_lists_the_locations_the_sequential_test_would_remeasure():

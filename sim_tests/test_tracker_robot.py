@@ -152,3 +152,21 @@ def test_frame_refit_removes_small_base_and_tool_errors(chain, configs):
     errors = FrameRefit(p, r)._design @ planted
     left = FrameRefit(p, r)(np.arange(len(p)), errors)
     assert np.max(np.abs(left)) < 1e-15
+
+
+def test_a_soft_robot_is_softer_in_every_joint_within_the_bounds_asked(mh180):
+    from rmbench.tracker.simulator import soft_robot_simulator
+
+    sim = soft_robot_simulator(mh180, np.random.default_rng(0), softer=(0.6, 0.7))
+    ratio = sim.hidden.stiffness / nominal_stiffness(mh180)
+    assert np.all((ratio >= 0.6) & (ratio <= 0.7))
+
+
+def test_a_soft_robots_geometry_is_exact_but_for_the_reflector_offset(mh180):
+    from rmbench.tracker.simulator import soft_robot_simulator
+
+    sim = soft_robot_simulator(mh180, np.random.default_rng(0), reflector=(1e-3, 0.0, -2e-3))
+    expected = np.zeros_like(sim.hidden.twists)
+    expected[-1, :3] = [1e-3, 0.0, -2e-3]
+    np.testing.assert_array_equal(sim.hidden.twists, expected)
+    assert np.all(sim.hidden.offsets == 0.0) and sim.hidden.payload_mass == 0.0

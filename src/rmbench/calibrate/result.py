@@ -114,6 +114,13 @@ class Calibration:
     n_held: int = 0
     widening: float = 1.0
 
+    @property
+    def chi2_per_residual(self) -> dict:
+        """Training χ² per residual ``{"before": ..., "after": ...}`` of the nominal and the
+        calibrated model (about 1 where the model explains the data to its noise)."""
+        n = max(self.n_residuals, 1)
+        return {"before": self.chi2_before / n, "after": self.chi2_after / n}
+
     def heldout_summary(self) -> dict:
         """Mean and p95 of the held-out |f| and |ζ| errors before and after, unpaired counts."""
         return {k: error_summary(v) for k, v in self.modes_held.items()}
@@ -121,8 +128,7 @@ class Calibration:
     def to_dict(self) -> dict:
         """The account as plain JSON types: estimates, combinations, χ² per residual, errors, notes."""
         return {"params": [p.to_dict() for p in self.params], "combinations": list(self.combinations),
-                "chi2_per_residual": {"before": self.chi2_before / max(self.n_residuals, 1),
-                                      "after": self.chi2_after / max(self.n_residuals, 1)},
+                "chi2_per_residual": self.chi2_per_residual,
                 "chi2_prior": self.chi2_prior,
                 "chi2_per_residual_held": self.chi2_held / self.n_held if self.n_held else None,
                 "interval_widening": self.widening,
@@ -139,10 +145,10 @@ class Calibration:
     def summary(self) -> str:
         """A few readable lines: χ² per residual before and after, the held-out errors, and the
         parameters the data identify (value, 95 % interval and unit)."""
-        n = max(self.n_residuals, 1)
+        chi2 = self.chi2_per_residual
         lines = [f"calibrated on {len(self.train)} postures ({len(self.held)} held out), {len(self.params)} "
                  f"parameters, {self.iterations} evaluations{' (at its limit)' if self.at_limit else ''}",
-                 f"χ²/residual {self.chi2_before / n:.3g} before, {self.chi2_after / n:.3g} after "
+                 f"χ²/residual {chi2['before']:.3g} before, {chi2['after']:.3g} after "
                  f"({self.n_residuals} residuals)"
                  + (f"; held out {self.chi2_held / self.n_held:.3g} ({self.n_held})" if self.n_held else "")]
         if self.modes_held:

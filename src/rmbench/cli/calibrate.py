@@ -120,8 +120,9 @@ def cmd_calibrate(args) -> int:
 def _print(cal) -> None:
     from rmbench.calibrate.fit import error_summary
 
+    chi2 = cal.chi2_per_residual
     print(f"{len(cal.params)} parameters on {len(cal.train)} postures ({cal.n_residuals} residuals): "
-          f"χ²/residual {cal.chi2_before / cal.n_residuals:.3g} -> {cal.chi2_after / cal.n_residuals:.3g}, "
+          f"χ²/residual {chi2['before']:.3g} -> {chi2['after']:.3g}, "
           f"{cal.seconds:.1f} s")
     print(f"{'parameter':28s} {'nominal':>12s} {'calibrated':>12s} {'95 % interval':>27s}  identifiability")
     for p in cal.params:

@@ -148,7 +148,7 @@ def cmd_invalidate_run(args) -> int:
 
 def cmd_invalidate_readings(args) -> int:
     from rmbench.io.tracker_csv import read_tracker_csv
-    from rmbench.tracker import judge_readings, register_readings
+    from rmbench.tracker import judge_readings, reading_errors
 
     eta = _eta_m(args.eta)
     readings = read_tracker_csv(args.csv)
@@ -159,10 +159,7 @@ def cmd_invalidate_readings(args) -> int:
     if sigma is None or not args.no_register:
         sigma_rob, rotations = _robot_model(args, readings)
         sigma = sigma if sigma is not None else sigma_rob
-    if args.no_register:
-        errors = readings.measured - readings.nominal
-    else:
-        errors = register_readings(readings.measured, readings.nominal, rotations, sigma)
+    errors = reading_errors(readings.measured, readings.nominal, rotations, sigma, register=not args.no_register)
     verdict = judge_readings(readings.location, errors, sigma, eta, args.alpha,
                              args.max_per_location)
     if args.json:

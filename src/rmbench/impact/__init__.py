@@ -17,12 +17,13 @@ from rmbench.impact.hammer import Hit, draw_hit, pulse
 from rmbench.impact.measure import band_lines
 from rmbench.impact.sensors import SensorSet, sensor_set
 from rmbench.impact.summary import CampaignSummary
+from rmbench.impact.truth import frf_error_median, nearest_exact_frequency
 
 __all__ = ["Campaign", "CampaignConfig", "load_config", "parse_config", "bundled_configs",
            "run_campaign", "is_complete", "run_posture", "dry_run", "postures_of", "open_campaign", "save",
            "track_modes", "DATASET_VERSION", "Hit", "draw_hit", "pulse", "SensorSet", "sensor_set",
            "force_window", "exponential_window", "h1", "default_bands", "band_lines", "default_lines",
-           "CampaignSummary"]
+           "CampaignSummary", "frf_error_median", "nearest_exact_frequency"]
 
 
 def default_lines() -> dict:

@@ -65,6 +65,10 @@ class ComplexModes:
         """Damping ratios −Re λ/|λ|, shape (n_modes,)."""
         return -self.poles.real / np.abs(self.poles)
 
+    def nearest(self, f_hz: float) -> int:
+        """Index of the mode whose natural frequency is nearest ``f_hz`` (Hz); the first of a tie."""
+        return int(np.argmin(np.abs(self.f_n - f_hz)))
+
     def frf(self, freq: np.ndarray, out: np.ndarray, inp: np.ndarray) -> np.ndarray:
         """Receptance by modal superposition, m/N, shape (n_freq, n_out, n_in).
 

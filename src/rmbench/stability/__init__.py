@@ -13,11 +13,11 @@ oriented FRF matrix::
 from rmbench.stability.cutting import ALUMINIUM_6061, BENCHMARK, Cutting
 from rmbench.stability.fdm import fdm_spectral_radius
 from rmbench.stability.grids import DEPTH_MAX, SPEED_RANGES, benchmark_structure, depth_grid, speed_grid
-from rmbench.stability.lobes import METHODS, Lobes, lobes, lowest_envelope
+from rmbench.stability.lobes import METHODS, Lobes, compare_lobes, lobes, lowest_envelope
 from rmbench.stability.sdm import sdm_spectral_radius
 from rmbench.stability.structure import Structure
 from rmbench.stability.zoa import zoa_limit, zoa_limits, zoa_lobes
 
-__all__ = ["Cutting", "BENCHMARK", "ALUMINIUM_6061", "Structure", "Lobes", "lobes", "lowest_envelope",
+__all__ = ["Cutting", "BENCHMARK", "ALUMINIUM_6061", "Structure", "Lobes", "lobes", "lowest_envelope", "compare_lobes",
            "METHODS", "fdm_spectral_radius", "sdm_spectral_radius", "zoa_lobes", "zoa_limit", "zoa_limits", "speed_grid", "depth_grid",
            "benchmark_structure", "SPEED_RANGES", "DEPTH_MAX"]

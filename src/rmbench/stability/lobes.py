@@ -19,7 +19,7 @@ from rmbench.stability.fdm import check_grid, fdm_radius_pairs, fdm_spectral_rad
 from rmbench.stability.sdm import sdm_spectral_radius
 from rmbench.stability.structure import Structure
 
-__all__ = ["Lobes", "lobes", "lowest_envelope", "METHODS"]
+__all__ = ["Lobes", "lobes", "lowest_envelope", "compare_lobes", "METHODS"]
 
 METHODS = ("fdm", "sdm", "zoa")
 _POINTS = 4     # trial depths per multisection round
@@ -186,3 +186,25 @@ def lowest_envelope(*diagrams: Lobes) -> Lobes:
         if d.speed_rpm.shape != speeds.shape or not np.allclose(d.speed_rpm, speeds):
             raise InputError("lobes combined into an envelope must share their speeds")
     return Lobes(speeds, np.min([d.a_lim for d in diagrams], axis=0), "+".join(sorted({d.method for d in diagrams})))
+
+
+def compare_lobes(diagram: Lobes, reference: Lobes) -> dict:
+    """A diagram's critical depths against a reference's on the same speeds (a fitted model's
+    lobes against the exact model's).
+
+    Returns
+    -------
+    dict
+        ``a_lim_min`` and ``a_lim_min_reference``: each diagram's lowest critical depth, m (inf
+        where no depth in the range is unstable); ``n_speeds``: the speeds where both are finite;
+        ``rel_err_median`` and ``rel_err_max``: the median and largest ``|a_lim / a_lim_ref - 1|``
+        over those speeds (ratios, 0.01 = 1 %; NaN where there is none).
+    """
+    if diagram.speed_rpm.shape != reference.speed_rpm.shape or not np.allclose(diagram.speed_rpm, reference.speed_rpm):
+        raise InputError("lobes compared must share their speeds")
+    ok = np.isfinite(diagram.a_lim) & np.isfinite(reference.a_lim)
+    err = np.abs(diagram.a_lim[ok] / reference.a_lim[ok] - 1)
+    return {"a_lim_min": float(np.nanmin(diagram.a_lim)), "a_lim_min_reference": float(np.nanmin(reference.a_lim)),
+            "n_speeds": int(ok.sum()),
+            "rel_err_median": float(np.median(err)) if len(err) else float("nan"),
+            "rel_err_max": float(err.max()) if len(err) else float("nan")}

@@ -21,7 +21,7 @@ from rmbench.tracker.campaign import (MH180_CALIBRATION_BOX, MH180_JOINT_BOX, Ca
                                       TrackerCampaign)
 from rmbench.tracker.chain import SerialChain
 from rmbench.tracker.invalidation import InvalidationResult, invalidate
-from rmbench.tracker.readings import ReadingsJudgement, judge_readings, register_readings
+from rmbench.tracker.readings import ReadingsJudgement, judge_readings, reading_errors, register_readings
 from rmbench.tracker.registration import FrameRefit, kabsch
 from rmbench.tracker.rejection import p_star, rejection_statistic
 from rmbench.tracker.repeatability import iso9283_rp, joint_sigma_for_rp
@@ -38,6 +38,6 @@ __all__ = [
     "SerialChain", "TrackerSimulator", "TrackerSpec", "ErrorDistribution", "HiddenErrors",
     "GeometricCalibration", "CalibratedModel", "kabsch", "FrameRefit",
     "CampaignConfig", "TrackerCampaign", "MH180_JOINT_BOX", "MH180_CALIBRATION_BOX", "robot_test", "RobotTest",
-    "true_maximum", "workspace_errors", "judge_readings", "register_readings", "ReadingsJudgement",
+    "true_maximum", "workspace_errors", "judge_readings", "register_readings", "reading_errors", "ReadingsJudgement",
     "iso9283_rp", "joint_sigma_for_rp", "sobol_points", "quasi_random_order",
 ]

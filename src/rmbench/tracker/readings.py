@@ -21,7 +21,7 @@ from rmbench.tracker.registration import FrameRefit, kabsch
 from rmbench.tracker.rejection import (combined_p_star, log_acceptance, probability,
                                        rejection_statistic)
 
-__all__ = ["ReadingsJudgement", "judge_readings", "register_readings"]
+__all__ = ["ReadingsJudgement", "judge_readings", "register_readings", "reading_errors"]
 
 
 @dataclass(frozen=True)
@@ -90,6 +90,27 @@ def register_readings(measured, nominal, rotations=None, sigma=None) -> np.ndarr
         rotations = np.zeros((len(placed), 3, 3))  # base only: tool columns vanish
     refit = FrameRefit(placed, rot @ np.asarray(rotations, float), sigma, min_locations=3)
     return refit(np.arange(len(placed)), measured - placed)
+
+
+def reading_errors(measured, nominal, rotations=None, sigma=None, *, register: bool = True) -> np.ndarray:
+    """Errors of the readings, (n, 3), m: after the best-fit registration of base and tool frames
+    (:func:`register_readings`), or with ``register=False`` plain measured − nominal, for readings
+    whose model positions are already in the tracker's frame.
+
+    Parameters
+    ----------
+    measured, nominal : array_like, shape (n, 3), m
+        Readings (tracker frame) and model predictions.
+    rotations : array_like, shape (n, 3, 3), optional
+        Model TCP orientations (registration only: the tool offset is fitted too).
+    sigma : array_like, shape (n, 3), optional
+        Per-axis standard deviations, m (registration weights).
+    register : bool
+        Register first (default) or take the difference as it stands.
+    """
+    if register:
+        return register_readings(measured, nominal, rotations, sigma)
+    return np.asarray(measured, float) - np.asarray(nominal, float)
 
 
 def judge_readings(location, errors, sigma, eta: float, alpha: float = 0.9,

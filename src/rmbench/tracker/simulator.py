@@ -22,6 +22,7 @@ the robot base's place in that frame is unknown to the model and registered by a
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -31,7 +32,7 @@ from rmbench.errors import InputError, ModelError
 from rmbench.tracker.chain import SerialChain
 from rmbench.tracker.repeatability import joint_sigma_for_rp
 
-__all__ = ["ErrorDistribution", "HiddenErrors", "TrackerSpec", "TrackerSimulator",
+__all__ = ["ErrorDistribution", "HiddenErrors", "TrackerSpec", "TrackerSimulator", "soft_robot_simulator",
            "nominal_stiffness", "reading_sigma", "reading_covariance", "reference_joints"]
 
 
@@ -250,6 +251,34 @@ class TrackerSimulator:
         p = self.true_chain.position(self.link_angles(q, v)) @ rot.T + t
         noise = rng.normal(size=p.shape) * self.tracker.sigma(np.linalg.norm(p, axis=-1))[..., None]
         return p + noise
+
+
+def soft_robot_simulator(robot, rng: np.random.Generator, *, softer=(0.75, 0.85),
+                         reflector=(1.2e-3, -1.4e-3, 0.6e-3)) -> TrackerSimulator:
+    """A robot off its data sheet in the ordinary parameters a calibration fits, and in nothing
+    else: every joint's stiffness its MJCF one times a factor drawn uniform in ``softer``, and the
+    reflector displaced from the modelled TCP by ``reflector``; geometry, masses, payload and
+    gears exact.
+
+    Parameters
+    ----------
+    robot : rmbench.robot.Robot
+    rng : numpy.random.Generator
+        Draws (after :meth:`TrackerSimulator.from_robot`'s draws) one factor per arm joint.
+    softer : (float, float)
+        Bounds of the stiffness factors (ratios to the nominal; 0.75-0.85: 15-25 % softer).
+    reflector : (float, float, float)
+        The reflector's offset from the modelled TCP (the TCP placement's translation,
+        :meth:`SerialChain.perturbed`), m.
+    """
+    exact = ErrorDistribution(offset_sd=0.0, length_sd=0.0, twist_sd=0.0, tool_sd=0.0, stiffness_sd=0.0,
+                              mass_sd=0.0, payload=(0.0, 0.0), gear_amplitude=(0.0, 0.0))
+    sim = TrackerSimulator.from_robot(robot, rng, distribution=exact)
+    twists = sim.hidden.twists.copy()
+    twists[-1, :3] = reflector
+    hidden = dataclasses.replace(sim.hidden, twists=twists,
+                                 stiffness=nominal_stiffness(robot) * rng.uniform(*softer, len(robot.arm_joints)))
+    return dataclasses.replace(sim, hidden=hidden, true_chain=sim.nominal.perturbed(twists))
 
 
 def nominal_stiffness(robot) -> np.ndarray:
