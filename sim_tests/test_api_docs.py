@@ -3,10 +3,11 @@
 Read from the code, without sphinx: each stage's page documents the names in its ``__all__``, so
 each of them has a docstring (a constant: a ``#:`` comment or a docstring where it is assigned),
 and a function that takes arrays says their shape or unit (STYLE.md: "shape and SI unit of every
-array"). What is not there yet is listed below: the lists may only shrink.
+array"). No known gaps: every public name is documented.
 """
 
 import ast
+import functools
 import importlib
 import inspect
 import re
@@ -35,35 +36,6 @@ UNIT = re.compile(r"m/N|\bHz\b|\brad\b|rad/s|\bkg\b|N·?m|N/m|m/s|\brpm\b|\bPa\b
                   r"|\b(?:metres?|seconds?|radians?|degrees?|newtons?)\b"
                   r"|(?<![\w'’])(?:m|s|N)(?=[,;.)]|$)", re.MULTILINE)   # "depth, m;", "(s)", "in m."
 UNIT_SUFFIX = re.compile(r"_(?:m|mm|s|hz|rpm|deg|rad|n)$", re.IGNORECASE)   # speeds_rpm: the name says it
-
-# Known gaps, by public name (lead: document them, then delete them here; the xfail tests turn
-# into failures once a list is all done, so the list and its xfail go together).
-CLASSES_WITHOUT_DOCSTRING = frozenset()
-METHODS_WITHOUT_DOCSTRING = frozenset({
-    "predict.CVScores.to_dict", "predict.IDWNeighbours.fit", "predict.IDWNeighbours.predict",
-    "predict.PerTask.fit", "predict.PerTask.predict", "predict.STGP.fit", "predict.STGP.predict",
-    "predict.MTGP.fit", "predict.GroupedMTGP.fit", "rcsa.Contact.to_dict", "rcsa.ToolChange.to_dataarray",
-    "path.PathMilling.summary", "calibrate.ParameterEstimate.to_dict", "calibrate.ModalData.subset",
-    "calibrate.TestDesign.band", "calibrate.TestDesign.hit_points", "calibrate.TestDesign.with_offsets",
-    "calibrate.TestDesign.averages", "calibrate.TestDesign.lines", "gap.frf.EffectResult.to_dict",
-    "gap.frf.Effect.lower", "gap.frf.Effect.upper", "gap.frf.Effect.steps", "gap.frf.Change.is_null",
-    "gap.tracker.PoseErrorMap.describe", "gap.tracker.PoseErrorMap.to_dict", "gap.frf.RemainingGap.to_dict",
-    "control.Weights.as_dict", "control.Weights.acceleration", "control.Weights.position",
-    "control.Weights.force", "control.Controller.ss",
-})
-CONSTANTS_WITHOUT_DOC = frozenset({
-    "gap.frf.KINDS", "robot.COORDS", "robot.PARAMS", "robot.TOOLS", "impact.DATASET_VERSION",
-    "predict.LEARNERS", "predict.MULTI_TASK", "predict.SAVEABLE", "stability.METHODS", "tracker.METHODS",
-    "tracker.SEED_TABLE1", "control.CONTROLLER_VERSION",
-})
-ARRAYS_WITHOUT_SHAPE_OR_UNIT = frozenset({
-    "predict.folds_of", "predict.IDWNeighbours.fit", "predict.IDWNeighbours.predict", "predict.PerTask.fit",
-    "predict.PerTask.predict", "predict.STGP.fit", "predict.STGP.predict", "predict.MTGP.fit",
-    "predict.GroupedMTGP.fit", "predict.PosturePredictor.outside_hull", "predict.PosturePredictor.hull_distance",
-    "path.ChainResult", "path.predicted_lobes", "tracker.accuracy_level", "tracker.outlier_rejection",
-    "tracker.mean_error", "tracker.SerialChain.walk", "tracker.TrackerCampaign.frame_refit",
-    "calibrate.ModalModel.sensitivity", "control.plant_from_frf", "control.reduction", "control.peak_near",
-})
 
 
 def _module(package):
@@ -164,6 +136,13 @@ def _methods_without_docstring() -> set[str]:
     return {public for public, _, doc, method in _routines() if method and not doc.strip()}
 
 
+def _properties_without_docstring() -> set[str]:
+    return {f"{public}.{name}" for public, obj in _exported() if inspect.isclass(obj)
+            for name, attr in vars(obj).items()
+            if isinstance(attr, (property, functools.cached_property)) and not name.startswith("_")
+            and not (attr.__doc__ or "").strip()}
+
+
 def _constants_without_doc() -> set[str]:
     return {public for public, obj in _exported() if not _is_routine_or_class(obj) and not inspect.ismodule(obj)
             and not _constant_doc(*public.rsplit(".", 1))}
@@ -202,33 +181,21 @@ def test_every_exported_class_and_function_has_a_docstring(package):
     module = _module(package)
     missing = {f"{_home(package, name, obj)}.{name}" for name, obj in vars(module).items()
                if name in module.__all__ and _is_routine_or_class(obj) and not _own_docstring(obj)}
-    assert missing - CLASSES_WITHOUT_DOCSTRING == set()
+    assert missing == set()
 
 
-def test_no_public_method_lacks_a_docstring_beyond_the_known():
-    assert _methods_without_docstring() - METHODS_WITHOUT_DOCSTRING == set()
-
-
-@pytest.mark.xfail(strict=True, reason=f"{len(METHODS_WITHOUT_DOCSTRING)} public methods have no docstring")
 def test_every_public_method_has_a_docstring():
     assert _methods_without_docstring() == set()
 
 
-def test_no_exported_constant_lacks_a_doc_comment_beyond_the_known():
-    assert _constants_without_doc() - CONSTANTS_WITHOUT_DOC == set()
+def test_every_public_property_has_a_docstring():
+    assert _properties_without_docstring() == set()
 
 
-@pytest.mark.xfail(strict=True, reason=f"{len(CONSTANTS_WITHOUT_DOC)} exported constants have no #: comment")
 def test_every_exported_constant_has_a_doc_comment():
     assert _constants_without_doc() == set()
 
 
-def test_no_function_taking_arrays_omits_shape_and_unit_beyond_the_known():
-    assert _arrays_without_shape_or_unit() - ARRAYS_WITHOUT_SHAPE_OR_UNIT == set()
-
-
-@pytest.mark.xfail(strict=True, reason=f"{len(ARRAYS_WITHOUT_SHAPE_OR_UNIT)} functions taking arrays state "
-                                       "neither a shape nor a unit")
 def test_every_function_taking_arrays_states_a_shape_or_unit():
     assert _arrays_without_shape_or_unit() == set()
 

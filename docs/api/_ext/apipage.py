@@ -17,6 +17,7 @@ import re
 
 from docutils import nodes
 from docutils.statemachine import StringList
+from sphinx import addnodes
 from sphinx.pycode import ModuleAnalyzer
 from sphinx.util.docutils import SphinxDirective
 from sphinx.util.nodes import nested_parse_with_titles
@@ -31,6 +32,9 @@ DOCUMENTED = sorted([
 ], key=lambda name: -name.count("."))
 
 _LITERAL = re.compile(r"(``.*?``|`[^`]*`)")
+# a lower-case word in a type field: a builtin (float), a word (optional) or a shape's dimension
+# (n_postures), never one of rmbench's classes (CamelCase)
+_NOT_A_CLASS = re.compile(r"[a-z_][a-z0-9_]*")
 
 
 def defining_module(package: str, name: str) -> str:
@@ -96,6 +100,16 @@ def escape_bars(app, what, name, obj, options, lines):
             indent_of_literal = indent
 
 
+def unlink_words(app, doctree):
+    """Keep a type field's lower-case words as text: Sphinx makes every word of a parameter's type
+    a fuzzy class reference, and ``shape (n_postures, 3)`` would link ``n_postures`` to whichever
+    public property of that name it finds (an ambiguity warning where several have it)."""
+    for ref in list(doctree.findall(addnodes.pending_xref)):
+        if (ref.get("refdomain") == "py" and ref.get("reftype") == "class"
+                and _NOT_A_CLASS.fullmatch(ref.get("reftarget", ""))):
+            ref.replace_self(ref.children)
+
+
 class ApiPage(SphinxDirective):
     """``.. apipage:: package``: its public API, re-exports linked to their own page."""
 
@@ -147,5 +161,6 @@ def constant(package: str, name: str) -> list[str]:
 
 def setup(app):
     app.connect("autodoc-process-docstring", escape_bars)
+    app.connect("doctree-read", unlink_words)
     app.add_directive("apipage", ApiPage)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -68,9 +68,12 @@ class ModalData:
 
     @property
     def n_modes(self) -> int:
+        """Measured modes over all postures and the data's bands."""
         return sum(len(per[b]) for per in self.modes for b in self.bands if b in per)
 
     def subset(self, idx) -> "ModalData":
+        """The data at the postures ``idx`` (a sequence of posture indices, in that order; a
+        repeated index repeats its posture), with the same bands, design and source."""
         idx = [int(i) for i in idx]
         return ModalData(tuple(self.postures[i] for i in idx), tuple(self.modes[i] for i in idx),
                          self.bands, self.design, self.source,

@@ -92,7 +92,7 @@ class TestDesign:
 
     Attributes
     ----------
-    config : CampaignConfig
+    config : rmbench.impact.CampaignConfig
         The campaign configuration with everything but the test design neutralised (robot
         ``irb6660`` placeholder, seed 0, method ``linear``, noise scale 1).
     offsets : tuple of SensorOffset
@@ -140,13 +140,17 @@ class TestDesign:
 
     @property
     def band_names(self) -> tuple[str, ...]:
+        """The design's bands, in the configuration's order."""
         return tuple(self.config.bands)
 
     def band(self, name: str) -> Band:
+        """The band ``name`` as a :class:`~rmbench.robot.model.Band`: its frequency range (Hz) and
+        the distance of point 1a up the tool from the tip (m; the configuration's mm converted)."""
         b = self.config.bands[name]
         return Band(name, b.f_min, b.f_max, 1e-3 * b.s_1a_mm)
 
     def hit_points(self) -> tuple[str, ...]:
+        """The coordinates hit with the hammer, of ``1X, 1Y, 1aX, 1aY``, in the configuration's order."""
         return tuple(self.config.hits.points)
 
     def sensors(self, band: str) -> SensorSet:
@@ -165,9 +169,12 @@ class TestDesign:
                          full_range=s.full_range, highpass=s.highpass, gain=s.gain)
 
     def with_offsets(self, offsets) -> "TestDesign":
+        """The design with the sensor placement errors ``offsets`` (:class:`SensorOffset`) assumed
+        on top of its own."""
         return TestDesign(self.config, tuple(self.offsets) + tuple(offsets))
 
     def averages(self) -> int:
+        """Hits per hit point averaged into each measured FRF."""
         return int(self.config.hits.averages)
 
     def direction_scatter(self) -> dict:
@@ -176,6 +183,8 @@ class TestDesign:
                 for b, c in self.config.bands.items()}
 
     def lines(self, band: str) -> np.ndarray:
+        """The band's frequency lines, Hz, shape (n_freq,): the multiples of its line spacing
+        inside [f_min, f_max]."""
         from rmbench.impact.measure import band_lines
 
         return band_lines(self.config.bands[band])

@@ -96,6 +96,7 @@ class ModalModel:
 
     @property
     def n_postures(self) -> int:
+        """Postures: rows of ``q_cmd``."""
         return len(self.q_cmd)
 
     def _model(self, u, band):
@@ -184,10 +185,26 @@ class ModalModel:
         and centres of mass move the equilibrium and the gravity stiffness, so the robot is
         settled again (from the equilibrium at ``u``) and linearised for each.
 
+        Parameters
+        ----------
+        u : ndarray, shape (n_params,)
+            Parameter values in ``u`` (:mod:`rmbench.robot.parameters`: log factors or steps of
+            the parameter's unit).
+        p : int
+            Posture index.
+        band : str
+        steps : ndarray, shape (n_params,)
+            Each parameter's step, in ``u``.
+        freq : ndarray, shape (n_freq,), Hz, optional
+            Lines to compute the receptances at.
+
         Returns
         -------
         base : (ModelModes, ndarray or None)
+            The modes at ``u`` and the receptance as tested, m/N, shape (n_freq, 4, 4) (None
+            without ``freq``).
         stepped : list of (ModelModes, ndarray or None), one per parameter
+            The same with that parameter stepped.
         """
         u = np.asarray(u, float)
         op = self._settle(u, p, band, self._work(band, 0))

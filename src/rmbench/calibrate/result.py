@@ -46,6 +46,9 @@ class ParameterEstimate:
     on_bound: bool
 
     def to_dict(self) -> dict:
+        """The estimate as plain JSON types: its name, group and display ``unit``, the nominal,
+        calibrated value and 95 % ``interval`` (a two-element list) in that unit, its
+        identifiability, ``posterior_over_prior_sd`` (the dimensionless shrink) and ``on_bound``."""
         return {"name": self.name, "group": self.group, "unit": self.unit, "nominal": self.nominal,
                 "value": self.value, "interval": list(self.interval),
                 "identifiability": self.identifiability, "posterior_over_prior_sd": self.shrink,

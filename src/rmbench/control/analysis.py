@@ -56,7 +56,28 @@ def sensitivity(plant: Plant, controller: Controller | None, freq) -> dict:
 
 
 def peak_near(freq, mag, f0: float, window: float = 0.25) -> tuple[float, float]:
-    """Largest value of ``mag`` within ``f0·(1 ± window)`` and its frequency."""
+    """Largest value of ``mag`` within ``f0·(1 ± window)`` and its frequency.
+
+    Parameters
+    ----------
+    freq : array_like, shape (n_freq,), Hz
+    mag : array_like, shape (n_freq,)
+        Magnitudes at ``freq``, in any unit (|a/d| in m/s²/N, say).
+    f0 : float
+        Centre frequency, Hz.
+    window : float
+        Relative half-width of the window (dimensionless; 0.25: ±25 %).
+
+    Returns
+    -------
+    (float, float)
+        The largest magnitude, in ``mag``'s unit, and its frequency, Hz.
+
+    Raises
+    ------
+    ValueError
+        No line of ``freq`` within the window.
+    """
     freq = np.asarray(freq, float)
     sel = np.abs(freq - f0) <= window * f0
     if not np.any(sel):
@@ -66,5 +87,17 @@ def peak_near(freq, mag, f0: float, window: float = 0.25) -> tuple[float, float]
 
 
 def reduction(freq, open_mag, closed_mag, f0: float, window: float = 0.25) -> float:
-    """``1 − max closed / max open`` within ``f0·(1 ± window)``."""
+    """``1 − max closed / max open`` within ``f0·(1 ± window)``: dimensionless (0.8: the peak
+    reduced by 80 %).
+
+    Parameters
+    ----------
+    freq : array_like, shape (n_freq,), Hz
+    open_mag, closed_mag : array_like, shape (n_freq,)
+        Magnitudes without and with control, in one unit (|a/d| in m/s²/N, say).
+    f0 : float
+        Centre frequency (the axis's mode), Hz.
+    window : float
+        Relative half-width of the window, dimensionless.
+    """
     return 1.0 - peak_near(freq, closed_mag, f0, window)[0] / peak_near(freq, open_mag, f0, window)[0]

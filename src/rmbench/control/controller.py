@@ -24,6 +24,8 @@ from rmbench.errors import InputError
 
 __all__ = ["Controller", "CONTROLLER_VERSION", "write_npz"]
 
+#: Version of the controller file format, written into a file's ``meta`` as
+#: ``rmbench_controller_version``; :meth:`Controller.load` reads only this version.
 CONTROLLER_VERSION = 1
 
 
@@ -70,9 +72,12 @@ class Controller:
 
     @property
     def order(self) -> int:
+        """The controller's states ``n_k``."""
         return self.A.shape[0]
 
     def ss(self) -> ct.StateSpace:
+        """The controller as a python-control ``StateSpace`` named ``K``: inputs ``acc_<axis>``
+        (m/s²) then ``pos_<axis>`` (m), outputs ``u_<axis>`` (N); continuous time, s in rad/s."""
         return ct.ss(self.A, self.B, self.C, self.D,
                      inputs=[f"acc_{a}" for a in self.axes] + [f"pos_{a}" for a in self.axes],
                      outputs=[f"u_{a}" for a in self.axes], name="K")

@@ -35,10 +35,12 @@ class ModeFit:
 
     @property
     def f_n(self) -> float:
+        """Undamped natural frequency ``√(K/M) / 2π``, Hz."""
         return float(np.sqrt(self.K / self.M) / (2 * np.pi))
 
     @property
     def zeta(self) -> float:
+        """Damping ratio ``B / (2√(KM))``, dimensionless."""
         return float(self.B / (2 * np.sqrt(self.K * self.M)))
 
 
@@ -118,6 +120,26 @@ def plant_from_frf(freq, accelerance, rm: ReactionMass, *, axis: str = "tangenti
 
     ``single_mode=True`` keeps only the largest resonance (the seed's model); by default every
     resonance in the band is kept, so the design knows the modes around the one it targets.
+
+    Parameters
+    ----------
+    freq : array_like, shape (n_freq,), Hz
+    accelerance : array_like, shape (n_freq,), complex, m/s²/N
+        The robot's acceleration per disturbance force at the suppressor, along ``axis``.
+    rm : ReactionMass
+        The suppressor's hardware.
+    axis : str
+        The axis the plant acts along.
+    f_min, f_max : float
+        Band of the mode fit, Hz.
+    single_mode : bool
+        Fit only the largest resonance (:func:`fit_mode`) instead of every one (:func:`fit_modes`).
+
+    Returns
+    -------
+    Plant
+        Source ``measured``; ``info`` adds the targeted mode's damping ratio ``zeta`` and the
+        fitted modes' frequencies ``modes_hz`` (Hz).
     """
     modes = [fit_mode(freq, accelerance, f_min, f_max)] if single_mode else fit_modes(freq, accelerance, f_min, f_max)
     p = two_mass_plant([m.M for m in modes], [m.K for m in modes], [m.B for m in modes], rm, axis=axis,

@@ -64,10 +64,12 @@ class Plant:
 
     @property
     def n_axes(self) -> int:
+        """Axes ``n`` (each a disturbance, a force, an acceleration and a position)."""
         return len(self.axes)
 
     @property
     def order(self) -> int:
+        """States ``n_x``."""
         return self.A.shape[0]
 
     def ss(self) -> ct.StateSpace:

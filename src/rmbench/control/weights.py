@@ -84,15 +84,22 @@ class Weights:
         return replace(self, **changes)
 
     def as_dict(self) -> dict:
+        """The weights by field name (units as in the attributes: frequencies in Hz)."""
         return asdict(self)
 
     # transfer functions ----------------------------------------------------------------------
     def acceleration(self, f0: float) -> ct.TransferFunction:
+        """The acceleration weight ``W_a(s)``, a band-pass of gain ``k_a`` (1/(m/s²)) at the mode
+        ``f0`` (Hz) and relative width ``zeta_w``; ``s`` in rad/s."""
         w0 = 2 * np.pi * f0
         return ct.tf([self.k_a * 2 * self.zeta_w * w0, 0], [1, 2 * self.zeta_w * w0, w0**2])
 
     def position(self) -> ct.TransferFunction:
+        """The reaction-mass position weight ``W_p(s) = k_p (s + ω_pz) / (s + ω_pl)``, 1/m
+        (``k_p`` at high frequency, ``k_p f_pz / f_pl`` at DC); ``s`` in rad/s."""
         return self.k_p * ct.tf([1, 2 * np.pi * self.f_pz], [1, 2 * np.pi * self.f_pl])
 
     def force(self) -> ct.TransferFunction:
+        """The control-force weight ``W_u(s) = k_u (s + ω_uz) / (s + ω_ul)``, 1/N (``k_u`` at high
+        frequency, ``k_u f_uz / f_ul`` at DC); ``s`` in rad/s."""
         return self.k_u * ct.tf([1, 2 * np.pi * self.f_uz], [1, 2 * np.pi * self.f_ul])

@@ -108,15 +108,20 @@ class Campaign:
 
     @functools.cached_property
     def bands(self) -> dict[str, Band]:
+        """Per band name, its :class:`~rmbench.robot.model.Band` (f_min, f_max in Hz, s_1a in m)."""
         return {name: Band(name, b.f_min, b.f_max, 1e-3 * b.s_1a_mm) for name, b in self.config.bands.items()}
 
     @functools.cached_property
     def sensors(self) -> dict:
+        """Per band name, its :class:`~rmbench.impact.sensors.SensorSet`, with calibration errors
+        drawn once per campaign (from the seed)."""
         rng = np.random.default_rng([self.config.seed, 1_000_003])  # calibration: once per campaign
         return {name: sensor_set(b, self.config, rng) for name, b in self.config.bands.items()}
 
     @functools.cached_property
     def hammer_gain(self) -> dict[str, float]:
+        """Per band name, the load cell's actual over nominal sensitivity (dimensionless; 1 plus
+        the band's relative calibration error times a normal draw, once per campaign)."""
         rng = np.random.default_rng([self.config.seed, 1_000_033])
         return {name: 1 + b.hammer.calibration_error * rng.standard_normal()
                 for name, b in self.config.bands.items()}
@@ -145,10 +150,12 @@ class Campaign:
 
     @property
     def freq(self) -> np.ndarray:
+        """Every band's frequency lines, band after band, Hz, shape (n_freq,)."""
         return np.concatenate([band_lines(b) for b in self.config.bands.values()])
 
     @property
     def band_of_line(self) -> np.ndarray:
+        """The band name of each line of :attr:`freq`, shape (n_freq,)."""
         return np.concatenate([[name] * len(band_lines(b)) for name, b in self.config.bands.items()])
 
 

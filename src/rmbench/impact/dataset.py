@@ -24,6 +24,8 @@ from rmbench.modeshape import pair_modes
 __all__ = ["DATASET_VERSION", "PartStore", "save", "open_campaign", "track_modes", "posture_positions",
            "exact_modes_dataset", "find_posture"]
 
+#: Version of the campaign dataset format, written as the ``rmbench_dataset_version`` attribute;
+#: :func:`open_campaign` reads this version and older.
 DATASET_VERSION = 1
 
 

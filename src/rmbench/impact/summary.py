@@ -69,10 +69,12 @@ class CampaignSummary:
 
     @property
     def n_postures(self) -> int:
+        """Postures in the campaign."""
         return len(self.ok)
 
     @property
     def n_ok(self) -> int:
+        """Postures measured."""
         return int(np.sum(self.ok))
 
     @property
@@ -82,6 +84,7 @@ class CampaignSummary:
 
     @property
     def steps_total(self) -> int:
+        """Integrator steps simulated over all postures."""
         return int(np.sum(self.steps))
 
     def to_dict(self) -> dict:

@@ -30,7 +30,23 @@ __all__ = ["ChainResult", "tool_structures", "predicted_tool_structures", "predi
 
 @dataclass(frozen=True)
 class ChainResult:
-    """Per band: the target tool's predicted tip FRFs, its fitted modes as a Structure, and lobes."""
+    """Per band: the target tool's predicted tip FRFs, its fitted modes as a Structure, and lobes.
+
+    Attributes
+    ----------
+    freq : dict of str to ndarray, shape (n_freq,)
+        Per band, its frequency lines, Hz.
+    tip : dict of str to ndarray, shape (n_freq, 2, 2), complex
+        Per band, the RCSA prediction of the target tool's tip receptances [[H_xx, H_xy],
+        [H_yx, H_yy]], m/N.
+    structures : dict of str to Structure
+        Per band, the modes fitted to the target's predicted receptances.
+    lobes : dict of str to Lobes
+        Per band, the stability lobes of that band's structure (critical depth in m per speed
+        in rev/min).
+    envelope : Lobes
+        The bands' lowest critical depth at each speed.
+    """
 
     freq: dict
     tip: dict            # band -> (n_freq, 2, 2) m/N, the RCSA prediction
@@ -101,7 +117,30 @@ def predicted_tool_structures(prediction, bands: dict, reference: ToolGeometry, 
 
 def predicted_lobes(prediction, bands: dict, reference: ToolGeometry, target: ToolGeometry, cutting: Cutting,
                     speeds_rpm, depths, *, every: int = 5, target_contact: Contact | None = None) -> ChainResult:
-    """Lobes of the target tool from a predicted reference posture (both bands, lowest envelope)."""
+    """Lobes of the target tool from a predicted reference posture (both bands, lowest envelope).
+
+    Parameters
+    ----------
+    prediction : xarray.Dataset
+        :meth:`PosturePredictor.predict` at one posture, as for :func:`predicted_tool_structures`.
+    bands : dict of str to (freq ndarray (Hz), s_1a float (m))
+        Each band's lines and sensor spacing.
+    reference, target : ToolGeometry
+        The tool the predictor learnt and the tool put on by RCSA.
+    cutting : Cutting
+    speeds_rpm : ndarray, shape (n_speed,), rev/min
+        Spindle speeds of every band's diagram.
+    depths : ndarray, shape (n_depth,), m
+        Axial depth scan grid, increasing (:func:`rmbench.stability.lobes`).
+    every : int
+        Scan every ``every``-th grid depth first (:func:`rmbench.stability.lobes`).
+    target_contact : Contact, optional
+        The target's tool-holder contact (default: the one built into ``target``).
+
+    Returns
+    -------
+    ChainResult
+    """
     freqs, tips, structures = predicted_tool_structures(prediction, bands, reference, target,
                                                         target_contact=target_contact)
     per = {b: lobes(s, cutting, speeds_rpm, depths, every=every) for b, s in structures.items()}

@@ -99,6 +99,12 @@ class PathMilling:
         return float(np.mean(self.chatter[d] == self.expected[d])) if d.any() else None
 
     def summary(self) -> dict:
+        """The cuts' tally as plain JSON types: the schedule, the number of cuts, the depth
+        (``depth_mm``, mm) and speed (``speed_rpm``, rev/min), whether the cuts were asked to move
+        and how many held their posture, how many were decided and how many fell inside the band,
+        the share of decided cuts agreeing with the plan (``agreement``) and with the exact model's
+        critical depth (``exact_agreement``; both None when none was decided, dimensionless
+        otherwise), and the counts of cuts that chattered and that the plan expected to."""
         d = self.decided
         return {"schedule": self.schedule, "cuts": len(self.index), "depth_mm": 1e3 * self.depth,
                 "speed_rpm": self.speed_rpm, "moving": self.moving,

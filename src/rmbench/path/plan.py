@@ -70,6 +70,7 @@ class Schedule:
 
     @property
     def min_margin(self) -> float:
+        """The smallest margin along the schedule, in the margin's unit (m for a critical depth)."""
         return float(np.min(self.margin))
 
     @property

@@ -47,6 +47,21 @@ class IDWNeighbours(_Scaled):
         self.k, self.ks, self.power = k, tuple(ks), float(power)
 
     def fit(self, X, y) -> "IDWNeighbours":
+        """Learn ``y`` over the postures ``X``; k by leave-one-out error unless given.
+
+        Parameters
+        ----------
+        X : ndarray, shape (n_postures, 3)
+            Training postures: x, y (m), θ (rad). Standardised per column (the training set's
+            mean and standard deviation) before distances are taken.
+        y : ndarray, shape (n_postures,)
+            One task's values, in its own units; finite (the caller drops NaN rows).
+
+        Returns
+        -------
+        IDWNeighbours
+            ``self``, fitted: ``k_`` the number of neighbours used.
+        """
         Z = self._scale_fit(X)
         self.y_ = np.asarray(y, float)
         self.tree_ = cKDTree(Z)
@@ -63,6 +78,8 @@ class IDWNeighbours(_Scaled):
         return self
 
     def predict(self, X) -> np.ndarray:
+        """The inverse-distance-weighted mean of the ``k_`` nearest training values, shape
+        (n_query,), in ``y``'s units, at postures ``X`` of shape (n_query, 3): x, y (m), θ (rad)."""
         Z = self._scale(X)
         d, i = self.tree_.query(Z, k=list(range(1, self.k_ + 1)))
         return self._weighted(d, i)
@@ -95,6 +112,21 @@ class PerTask:
         self.name = name
 
     def fit(self, X, Y) -> "PerTask":
+        """One learner per column of ``Y``, each on the rows where that column is finite; a column
+        with fewer than two finite values or no spread is kept as its constant (NaN if none).
+
+        Parameters
+        ----------
+        X : ndarray, shape (n_postures, 3)
+            Training postures: x, y (m), θ (rad).
+        Y : ndarray, shape (n_postures, n_tasks)
+            The tasks' values, each in its own units; NaN where missing.
+
+        Returns
+        -------
+        PerTask
+            ``self``, fitted.
+        """
         X, Y = np.asarray(X, float), np.asarray(Y, float)
         self.models_ = []
         for j in range(Y.shape[1]):
@@ -107,6 +139,9 @@ class PerTask:
         return self
 
     def predict(self, X, return_std: bool = False):
+        """The tasks' predicted values at postures ``X`` of shape (n_query, 3) (x, y in m, θ in
+        rad): an array of shape (n_query, n_tasks) in the tasks' units; with ``return_std`` also
+        their standard deviations, the same shape and all NaN."""
         X = np.atleast_2d(np.asarray(X, float))
         mu = np.column_stack([np.full(len(X), m) if isinstance(m, float) else m.predict(X)
                               for m in self.models_])
@@ -131,8 +166,10 @@ def _enet():
     return ElasticNetCV(l1_ratio=(0.1, 0.5, 0.9, 1.0), cv=3, max_iter=20_000)
 
 
+#: Names of the learners :func:`make_learner` makes, the default (``mtgp-grouped``) first.
 LEARNERS = ("mtgp-grouped", "mtgp", "mtgp-lowrank", "stgp", "knn", "rf", "gb", "enet")
-# fitted on all parameters at once (one gpytorch batch or one Kronecker model), not task by task
+#: The learners fitted on all parameters at once (one gpytorch batch or one Kronecker model),
+#: ``fit(X, Y)``, not task by task.
 MULTI_TASK = ("mtgp-grouped", "mtgp", "mtgp-lowrank", "stgp")
 LOW_RANK = 8   # columns of B in the low-rank all-parameter model (K_c = B Bᵀ + diag v)
 

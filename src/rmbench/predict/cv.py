@@ -63,6 +63,10 @@ class CVScores:
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
+        """The scores as plain JSON types: the learner and split, the mean R² (dimensionless) over
+        the scored tasks and the mean of their spreads over the folds (None when no task was
+        scored), each scored task's ``r2_mean`` and ``r2_std``, and the skipped tasks and fit notes
+        (``{task: reason}``). The per-fold scores and the out-of-fold predictions are left out."""
         ok = np.isfinite(self.r2_mean)
         return {"learner": self.learner, "split": self.split,
                 "r2_mean": float(np.mean(self.r2_mean[ok])) if ok.any() else None,
@@ -73,7 +77,31 @@ class CVScores:
 
 
 def folds_of(X: np.ndarray, split: str, folds: int, seed: int = 0) -> list[np.ndarray]:
-    """Held-out row indices of each fold."""
+    """Held-out row indices of each fold.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n_postures, 3)
+        Postures: x, y (m) and redundant angle θ (rad); the ``angle`` split groups the rows by θ
+        (equal to within 1e-9 rad).
+    split : str
+        ``random`` (``folds`` folds of the shuffled rows) or ``angle`` (one fold per distinct θ;
+        ``folds`` is then ignored).
+    folds : int
+        Folds of the ``random`` split, 2 ≤ folds ≤ n_postures.
+    seed : int
+        Seed of the ``random`` split's shuffle.
+
+    Returns
+    -------
+    list of ndarray of int
+        Each fold's held-out row indices of ``X``, sorted; every row in exactly one fold.
+
+    Raises
+    ------
+    rmbench.errors.InputError
+        An unknown split, fewer than two angles for ``angle``, or folds out of range for ``random``.
+    """
     n = len(X)
     if split == "angle":
         angles = np.unique(np.round(X[:, 2], 9))

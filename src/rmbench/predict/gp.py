@@ -100,6 +100,18 @@ class MTGP:
         self.rank, self.iterations, self.seed = rank, int(iterations), int(seed)
 
     def fit(self, X, Y) -> "MTGP":
+        """Maximise the marginal likelihood of one Kronecker model of all columns of ``Y``; returns
+        ``self``, fitted (the attributes above). :class:`~rmbench.errors.InputError` when fewer
+        than three postures have every task.
+
+        Parameters
+        ----------
+        X : ndarray, shape (n_postures, 3)
+            Training postures: x, y (m), θ (rad); standardised per column before the fit.
+        Y : ndarray, shape (n_postures, m) or (n_postures,)
+            The tasks' values, each in its own units. A posture where any task is NaN is left out
+            (``dropped_``); a task without spread is kept as its constant, not learnt.
+        """
         prep = self._prepare(X, Y)
         if prep is not None:
             Xs, Ys, rank = prep
@@ -211,6 +223,9 @@ class STGP(MTGP):
         super().__init__(rank=1, iterations=iterations, seed=seed)
 
     def fit(self, X, y) -> "STGP":
+        """Fit the GP of one task: ``X`` of shape (n_postures, 3), x, y (m) and θ (rad); ``y`` of
+        shape (n_postures,) in the task's units, NaN postures left out. Returns ``self``; an
+        :class:`~rmbench.errors.InputError` when ``y`` is not 1-D or has fewer than three finite values."""
         y = np.asarray(y, float)
         if y.ndim != 1:
             raise InputError(f"STGP fits one task: y must have shape (n,), not {y.shape}")
@@ -220,6 +235,9 @@ class STGP(MTGP):
         return self
 
     def predict(self, X, return_std: bool = False, *, source: str = "posterior"):
+        """Mean at postures ``X`` of shape (n_query, 3) (x, y in m, θ in rad), shape (n_query,)
+        in the task's units, and with ``return_std`` the latent standard deviation (same shape and
+        units); ``source`` as :meth:`MTGP.predict`'s."""
         out = super().predict(X, return_std, source=source)
         return (out[0][:, 0], out[1][:, 0]) if return_std else out[:, 0]
 

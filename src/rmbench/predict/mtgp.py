@@ -87,6 +87,24 @@ class GroupedMTGP:
         self._stack = None
 
     def fit(self, X, Y) -> "GroupedMTGP":
+        """Fit one :class:`MTGP` per group (groups of the same task count and complete postures
+        as one gpytorch batch).
+
+        Parameters
+        ----------
+        X : ndarray, shape (n_postures, 3)
+            Training postures: x, y (m), θ (rad).
+        Y : ndarray, shape (n_postures, n_tasks)
+            The tasks' values, each in its own units, NaN where missing; a group's model leaves out
+            the postures where any of its tasks is NaN. A group with fewer than three complete
+            postures is not learnt (``unlearnt_``: it predicts NaN).
+
+        Returns
+        -------
+        GroupedMTGP
+            ``self``, fitted: ``models_`` one per group, ``dropped_`` and ``retries_``,
+            ``jitter_added_`` over them.
+        """
         Y = np.asarray(Y, float)
         self.n_tasks_ = Y.shape[1]
         self._stack = None

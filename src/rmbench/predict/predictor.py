@@ -75,6 +75,8 @@ from rmbench.threads import run_concurrently
 __all__ = ["PosturePredictor", "ExtrapolationWarning", "predicted_frf", "frf_lines", "predicted_frf_dataset",
            "SAVEABLE"]
 
+#: The learners a :class:`PosturePredictor` can be saved with (plain arrays, no pickle) and whose
+#: ``predict`` takes ``source="loo" | "data"``: the Gaussian-process ones.
 SAVEABLE = MULTI_TASK
 _OVERLAP = 1.0      # veering_clusters: peaks closer than their half-power bandwidths
 # frequencies and damping ratios from a cluster's poles only where the modes come far closer (module
@@ -327,12 +329,15 @@ class PosturePredictor:
                             coords={"mode": self.modes_, "param": list(self.params_)})
 
     def outside_hull(self, X) -> np.ndarray:
-        """Whether each posture (x, y, θ row) lies outside the training postures' convex hull."""
+        """Whether each posture of ``X``, shape (n_postures, 3) (x, y in m, θ in rad), lies outside
+        the training postures' convex hull (:meth:`hull_distance` above 1e-9): bool, shape
+        (n_postures,)."""
         return self.hull_distance(X) > 1e-9
 
     def hull_distance(self, X) -> np.ndarray:
-        """How far each posture (x, y, θ row) lies outside the training postures' convex hull, in
-        the training postures' standard deviations per coordinate (0 inside; the largest distance
+        """How far each posture of ``X``, shape (n_postures, 3) (x, y in m, θ in rad), lies
+        outside the training postures' convex hull, shape (n_postures,): dimensionless, in the
+        training postures' standard deviations per coordinate (0 inside; the largest distance
         beyond a facet's plane, which is the distance to the hull where the nearest point is on a
         facet and less than it near an edge or corner); inf where the training postures span no
         volume."""

@@ -66,4 +66,6 @@ class Contact:
         return out
 
     def to_dict(self) -> dict:
+        """The four coefficients by name, SI: ``{"k_t": N/m, "k_r": N·m/rad, "c_t": N·s/m,
+        "c_r": N·m·s/rad}``."""
         return asdict(self)

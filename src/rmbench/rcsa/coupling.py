@@ -77,6 +77,11 @@ class ToolChange:
         return self.t[:, 0::2, 0::2]
 
     def to_dataarray(self):
+        """The target tool's tip receptance matrix ``t`` as an ``xarray.DataArray`` of dims
+        (freq, out, inp), shape (n_freq, 4, 4), complex: ``freq`` in Hz, ``out`` and ``inp`` in
+        ``FULL_COORDS`` order (tip displacement and rotation in X, then in Y), so its
+        entries are m/N, m/(N·m), rad/N or rad/(N·m); attrs name the reference and target tools,
+        whether the shank change was corrected and how many lines are ill-conditioned (NaN)."""
         import xarray as xr
 
         return xr.DataArray(self.t, dims=("freq", "out", "inp"),

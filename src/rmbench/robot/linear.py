@@ -123,6 +123,7 @@ class LinearModel:
 
     @property
     def n_dof(self) -> int:
+        """Degrees of freedom: the size of M, C and K."""
         return len(self.dof_names)
 
     def dynamic_stiffness(self, freq: np.ndarray) -> np.ndarray:

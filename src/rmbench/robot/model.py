@@ -28,6 +28,8 @@ from rmbench.robot.spec import custom_numeric, custom_text, graft_tool, load_spe
 
 __all__ = ["Robot", "OperatingPoint", "Band", "COORDS"]
 
+#: The four measurement coordinates, in the FRF matrices' order: displacement along base X and Y
+#: at the tool tip (1) and at point 1a, the band's ``s_1a`` (m) up the tool.
 COORDS = ("1X", "1Y", "1aX", "1aY")
 _DIRECTIONS = {"X": np.array([1.0, 0, 0]), "Y": np.array([0, 1.0, 0]), "Z": np.array([0, 0, 1.0])}
 
@@ -163,6 +165,8 @@ class Robot:
 
     @property
     def kinematics(self) -> Kinematics:
+        """Forward and inverse kinematics of the arm's actuated joints to the tool tip (built on
+        first use)."""
         if self._kin is None:
             self._kin = Kinematics(self.xml, self.arm_joints, self.limits, self.tcp)
         return self._kin

@@ -13,6 +13,9 @@ import numpy as np
 
 __all__ = ["ModeTable", "PARAMS", "mode_table"]
 
+#: The 16 real parameters of a mode, DATA.md's ``param`` order: natural frequency ``f_n`` (Hz),
+#: damping ratio ``zeta`` (dimensionless), then the real and imaginary parts of φL at 1X, 1aX, 1Y
+#: (dimensionless; φL at 1aY is fixed at 1) and of φR at 1X, 1aX, 1Y, 1aY (s/kg).
 PARAMS = ("f_n", "zeta",
           "phiL_1X_re", "phiL_1X_im", "phiL_1aX_re", "phiL_1aX_im", "phiL_1Y_re", "phiL_1Y_im",
           "phiR_1X_re", "phiR_1X_im", "phiR_1aX_re", "phiR_1aX_im", "phiR_1Y_re", "phiR_1Y_im",

@@ -168,6 +168,8 @@ class ToolGeometry:
         return self.overhang**3 / (3 * self.ei) + self.overhang / self.kappa_ga
 
 
+#: The bundled tools by name: ``dummy`` (the reference carbide rod) and ``endmill`` (a 2-flute
+#: PCD end mill), each with its tool-holder contact (SI, :class:`ToolGeometry`).
 TOOLS: dict[str, ToolGeometry] = {
     # METHODS.md §4: carbide rod, seed contact values of the reference tool.
     "dummy": ToolGeometry(

@@ -21,6 +21,8 @@ from rmbench.stability.structure import Structure
 
 __all__ = ["Lobes", "lobes", "lowest_envelope", "compare_lobes", "METHODS"]
 
+#: The stability methods :func:`lobes` knows: full discretisation, semi-discretisation and the
+#: zero-order (frequency-domain) method.
 METHODS = ("fdm", "sdm", "zoa")
 _POINTS = 4     # trial depths per multisection round
 

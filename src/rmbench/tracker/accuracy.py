@@ -87,9 +87,12 @@ def accuracy_level(measure, locations, sigma, alpha: float = 0.9, max_per_locati
 
     Parameters
     ----------
-    measure, locations, sigma, alpha, max_per_location, rng
+    measure, sigma, alpha, max_per_location, rng
         As for :func:`~rmbench.tracker.invalidate` (``rng`` fixes the visiting order, shared by
-        every test of the search).
+        every test of the search); ``sigma`` in the errors' unit.
+    locations : array_like, shape (n_loc,) or (n_loc, n_coord)
+        Candidate locations, as for :func:`~rmbench.tracker.invalidate` (joint configurations in
+        rad, say).
     search : {"bisect", "scan"}
         Search rule (module docstring).
     repeats : int

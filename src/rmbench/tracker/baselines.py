@@ -102,8 +102,10 @@ def outlier_rejection(measure, locations, rng: np.random.Generator | None = None
 
     Parameters
     ----------
-    measure, locations, rng, max_measurements, correct
+    measure, rng, max_measurements, correct
         As for :func:`largest_error`.
+    locations : array_like, shape (n_loc,) or (n_loc, n_coord)
+        Candidate locations, as for :func:`largest_error` (joint configurations in rad, say).
     k : float
         Half-width of the kept interval in standard deviations of all measurements (> 0).
 
@@ -126,8 +128,10 @@ def mean_error(measure, locations, rng: np.random.Generator | None = None, *,
 
     Parameters
     ----------
-    measure, locations, rng, max_measurements, correct
+    measure, rng, max_measurements, correct
         As for :func:`largest_error`; with a budget, the last location may have fewer.
+    locations : array_like, shape (n_loc,) or (n_loc, n_coord)
+        Candidate locations, as for :func:`largest_error` (joint configurations in rad, say).
     n_per_location : int
         Measurements averaged at each location.
 

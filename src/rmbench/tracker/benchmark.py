@@ -23,8 +23,12 @@ from rmbench.tracker.baselines import largest_error, mean_error, outlier_rejecti
 __all__ = ["ErrorProfile", "NoisyMeasure", "sine_profile", "Table1", "table1",
            "accuracy_vs_measurements", "METHODS", "SEED_TABLE1"]
 
+#: The accuracy-identification methods the benchmark compares, in the order of its tables'
+#: ``estimator`` dimension: the three baselines and model invalidation.
 METHODS = ("largest_error", "outlier_rejection", "mean_error", "model_invalidation")
 
+#: Seed 004 (Paper I), Table 1: each method's identified accuracy at noise σ = 0.1, 0.5 and 1.0 on
+#: the sine profile (true accuracy 1); dimensionless, the profile's unit.
 SEED_TABLE1 = {  # seed 004, Paper I, Table 1: identified accuracy at noise 0.1 / 0.5 / 1.0
     "noise": (0.1, 0.5, 1.0),
     "largest_error": (1.21, 2.49, 3.85),

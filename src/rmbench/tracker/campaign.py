@@ -214,7 +214,9 @@ class TrackerCampaign:
         return measure
 
     def frame_refit(self, q) -> FrameRefit:
-        """Best-fit base and tool re-registration at configurations q (``correct`` hook)."""
+        """Best-fit base and tool re-registration at configurations ``q``, shape (n_loc, n_joint),
+        rad (``correct`` hook): a :class:`FrameRefit` over the model's TCP poses there, weighted by
+        :meth:`sigma` (m); called as ``correct(index, errors)``, ``index`` counts ``q``'s rows."""
         p, r = self.model.pose(q)
         return FrameRefit(p, r, self.sigma(q))
 

@@ -205,7 +205,8 @@ class SerialChain:
         return replace(self, masses=self.masses * np.asarray(scale, float))
 
     def walk(self, q) -> "ChainState":
-        """Every frame of the chain at configurations ``q`` (see :class:`ChainState`)."""
+        """Every frame of the chain at configurations ``q``, shape (..., n_joint), rad: a
+        :class:`ChainState` of the ``m`` configurations flattened in C order (positions in m)."""
         q = self._configs(q)
         m = len(q)
         rot = np.broadcast_to(np.eye(3), (m, 3, 3)).copy()

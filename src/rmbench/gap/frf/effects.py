@@ -46,6 +46,7 @@ from rmbench.robot.parameters import Parameter
 
 __all__ = ["Param", "Change", "Effect", "library", "KINDS"]
 
+#: The effect kinds the library knows (the table above), in the library's order.
 KINDS = ("joint_stiffness", "joint_damping", "load_dependent_stiffness", "servo_stiffness",
          "tool_contact_stiffness", "spindle_stiffness", "base_compliance", "added_mass",
          "sensor_misplacement", "sensor_misalignment", "non_reciprocity")
@@ -131,6 +132,8 @@ class Change:
                       load_stiffness=self.load_stiffness, spindle_rpm=self.spindle_rpm)
 
     def is_null(self) -> bool:
+        """Whether the change changes nothing: equal to ``Change()`` (no values, masses, base,
+        load stiffness or sensor offsets, spindle at 0 rev/min)."""
         return self == Change()
 
 
@@ -165,19 +168,24 @@ class Effect:
 
     @property
     def name(self) -> str:
+        """``kind@location``."""
         return f"{self.kind}@{self.location}"
 
     @property
     def n_params(self) -> int:
+        """Search axes (:attr:`params`)."""
         return len(self.params)
 
     def lower(self) -> np.ndarray:
+        """Lower bounds of the search axes, shape (n_params,), each in its :attr:`Param.unit`."""
         return np.array([p.lower for p in self.params])
 
     def upper(self) -> np.ndarray:
+        """Upper bounds of the search axes, shape (n_params,), each in its :attr:`Param.unit`."""
         return np.array([p.upper for p in self.params])
 
     def steps(self) -> np.ndarray:
+        """Screening steps of the search axes, shape (n_params,), each in its :attr:`Param.unit`."""
         return np.array([p.step for p in self.params])
 
     def change(self, values) -> Change:

@@ -74,6 +74,7 @@ class ModelBench:
 
     @property
     def n_postures(self) -> int:
+        """Postures: rows of ``q_cmd``."""
         return len(self.q_cmd)
 
     # -- robots ---------------------------------------------------------------------------------

@@ -55,6 +55,8 @@ class EffectResult:
     chosen: bool = False
 
     def to_dict(self) -> dict:
+        """The result's fields by name for JSON output (``shrink_interval`` as a two-element list;
+        ``params`` in their units, ``shrink`` and ``confidence`` dimensionless)."""
         return {"name": self.name, "kind": self.kind, "location": self.location,
                 "params": self.params, "description": self.description,
                 "heldout_before": self.heldout_before, "heldout_after": self.heldout_after,
@@ -238,6 +240,9 @@ class RemainingGap:
     seconds: float
 
     def to_dict(self) -> dict:
+        """The fields by name for JSON output: the χ² (dimensionless), residual count and largest
+        residual of the first test, both verdicts, the null recalibration's account (or None) and
+        the time taken, s."""
         return {"chi2_all": self.chi2_all, "n_all": self.n_all, "peak_all": self.peak_all,
                 "first_significant": self.first_significant, "null": self.null,
                 "significant": self.significant, "seconds": self.seconds}

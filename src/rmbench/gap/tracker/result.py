@@ -149,6 +149,7 @@ class TrackerDiagnosis:
 
     @property
     def chosen(self) -> tuple:
+        """The sources of the chosen model (marked ``chosen``), in :attr:`sources`' order."""
         return tuple(s for s in self.sources if s.chosen)
 
     def to_dict(self) -> dict:

@@ -122,10 +122,12 @@ class Source:
 
     @property
     def name(self) -> str:
+        """``kind@location``."""
         return f"{self.kind}@{self.location}"
 
     @property
     def n_params(self) -> int:
+        """Parameters the source fits (:attr:`parameters`)."""
         return len(self.parameters)
 
     def params_dict(self, values) -> dict:

@@ -51,12 +51,17 @@ class PoseErrorMap:
         return sorted(self.explains.items(), key=lambda kv: -kv[1])[:n]
 
     def describe(self) -> str:
+        """One line: the rms error overall and per axis and the largest error (mm), the share
+        above the noise (%) and the three regressors that explain most (% of the variance)."""
         tops = ", ".join(f"{k} {100 * v:.0f} %" for k, v in self.top(3))
         return (f"rms {1e3 * self.rms_total:.3f} mm (x {1e3 * self.rms[0]:.3f}, y {1e3 * self.rms[1]:.3f}, "
                 f"z {1e3 * self.rms[2]:.3f}), max {1e3 * self.max_total:.3f} mm, "
                 f"{100 * self.above_noise:.0f} % above the noise; explained best by {tops}")
 
     def to_dict(self) -> dict:
+        """The map as JSON types, SI: ``rms`` (3 floats, m), ``rms_total``, ``max_total``,
+        ``noise_rms`` (m), ``above_noise`` (0-1), ``explains`` (R² per regressor) and per bin set
+        its ``edges`` (rad or m), ``rms`` (m) and the indices of its ``empty`` bins."""
         return {"rms": self.rms.tolist(), "rms_total": self.rms_total, "max_total": self.max_total,
                 "noise_rms": self.noise_rms, "above_noise": self.above_noise,
                 "explains": self.explains,
