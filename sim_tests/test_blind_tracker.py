@@ -72,6 +72,7 @@ def test_a_gear_harmonic_a_joints_lost_motion_beats_held_out_is_not_named():
     assert abs(first["size"]) == pytest.approx(real.source["angle"], rel=0.05)
 
 
+@pytest.mark.slow
 def test_a_reflector_offset_beside_a_bending_forearm_is_named_beside_the_model_form():
     """Bench robot 16 of tracker seed 96533: the reflector sits 1.57 mm off its nominal place on a
     robot whose forearm bends and whose upper arm warms along its length. No model reaches the
@@ -88,6 +89,7 @@ def test_a_reflector_offset_beside_a_bending_forearm_is_named_beside_the_model_f
     assert any(n.startswith("beside the gap no source closes") for n in dg.notes)
 
 
+@pytest.mark.slow
 def test_a_gear_harmonic_removing_a_sliver_of_a_bending_arms_gap_is_not_named():
     """Bench robot 27 of tracker seed 11082 has no source: its lower arm bends at four times the
     bench's median compliance. j2's first gear harmonic, a function of the arm's angle as the

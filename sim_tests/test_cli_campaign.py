@@ -28,6 +28,7 @@ def test_dry_run_lists_postures_and_estimates(cli, tiny):
     assert est["steps_total"] > 0 and est["estimated_core_seconds"] > 0
 
 
+@pytest.mark.slow
 def test_run_export_import_plot(cli, tiny, tmp_path):
     data = tmp_path / "tiny.nc"
     code, out, _ = cli("campaign", "run", tiny, "--out", data, "--workers", 0, "--no-progress", "--json")

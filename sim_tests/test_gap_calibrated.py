@@ -211,6 +211,7 @@ def _remaining(data, groups):
                              settings=DiagnosisSettings(calibrate=groups))
 
 
+@pytest.mark.slow
 def test_a_gap_the_gearboxes_cannot_take_up_remains_after_their_recalibration(spread_and_contact):
     # the tool holder 2.5 times stiffer moves the high band's tool modes, which no gearbox
     # stiffness reaches: both noise tests fail the calibrated model, the null recalibration's too
@@ -219,6 +220,7 @@ def test_a_gap_the_gearboxes_cannot_take_up_remains_after_their_recalibration(sp
     assert rg.null["significant"] and rg.significant
 
 
+@pytest.mark.slow
 def test_no_gap_remains_where_an_ordinary_parameter_takes_the_effect_up(spread_and_contact):
     # the same holder is an ordinary parameter of the tool group, 2.5 times inside its spread:
     # calibrated with it, the data leave nothing a structural search could find

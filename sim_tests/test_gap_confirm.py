@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rmbench.calibrate import TestDesign
-from rmbench.gap.frf.confirm import _terms, confirmable
+from rmbench.gap.frf.confirm import candidate_terms, confirmable
 from rmbench.gap.selection import bootstrap_shrink
 from rmbench.gap.frf.effects import library
 from rmbench.impact import load_config
@@ -24,7 +24,7 @@ def calibrated_library(irb):
 def test_a_holder_candidate_frees_the_calibrated_contact_and_reads_back_against_the_nominal(irb, calibrated_library):
     effect = calibrated_library["tool_contact_stiffness@tool_contact"]
     cal_u = {"tool_contact.translation": 0.1, "tool_contact.rotation": -0.2}
-    terms = _terms(effect, cal_u, ("joints", "tool"), irb)
+    terms = candidate_terms(effect, cal_u, ("joints", "tool"), irb)
     # the tool group already holds the contact: nothing added, both freed
     assert terms.extra == () and set(terms.free) == set(cal_u)
     # and back: the recalibrated contact in the effect's units (ln factors), against the nominal
@@ -34,7 +34,7 @@ def test_a_holder_candidate_frees_the_calibrated_contact_and_reads_back_against_
 
 def test_a_sliding_foundation_candidate_is_the_lateral_compliance_added(irb, calibrated_library):
     effect = calibrated_library["base_compliance@base"]
-    terms = _terms(effect, {}, ("joints", "base"), irb)
+    terms = candidate_terms(effect, {}, ("joints", "base"), irb)
     assert terms.extra[0] == "base.lateral_compliance" and terms.free == ("base.lateral_compliance",)
     assert terms.values({"base.lateral_compliance": 60.0})[0] == pytest.approx(60.0)
 
@@ -44,7 +44,7 @@ def test_a_sliding_foundation_candidate_fits_the_plates_mass_within_its_prior(ir
     as a slide about 1.5 times too soft (the same sway frequency), so the plate's mass is fitted
     too, held by its prior, not freed."""
     effect = calibrated_library["base_compliance@base"]
-    terms = _terms(effect, {}, ("joints", "base"), irb)
+    terms = candidate_terms(effect, {}, ("joints", "base"), irb)
     assert "base_mount.mass" in terms.extra and "base_mount.mass" not in terms.free
 
 
@@ -55,7 +55,7 @@ def test_the_foundations_plate_is_no_body_a_mass_is_added_to(calibrated_library)
 def test_a_heavier_body_candidate_reads_back_as_mass_added_to_the_nominal(irb, calibrated_library):
     effect = calibrated_library["added_mass@wrist"]
     m0 = float(irb.model.body("wrist").mass[0])
-    terms = _terms(effect, {"wrist.mass": np.log(1.1)}, ("masses",), irb)
+    terms = candidate_terms(effect, {"wrist.mass": np.log(1.1)}, ("masses",), irb)
     assert terms.extra == () and terms.free == ("wrist.mass",)
     assert terms.values({"wrist.mass": np.log(1.4)})[0] == pytest.approx(0.4 * m0)
 
@@ -72,19 +72,19 @@ def test_a_turned_sensor_candidate_is_freed_from_its_fitted_size(irb, calibrated
     the design turned by the joint search's angle and frees the angle from there (in degrees), so
     the size reported is the fitted one plus what the recalibration moved it."""
     effect = calibrated_library["sensor_misalignment@high:1Y"]
-    terms = _terms(effect, {}, ("joints",), irb, size=[-8.0])
+    terms = candidate_terms(effect, {}, ("joints",), irb, size=[-8.0])
     name = "sensor.high:1Y.angle"
     assert terms.extra == (name,) and terms.free == (name,) and terms.groups == ("joints",)
     (offset,) = terms.change.offsets
     assert offset.angle == pytest.approx(np.radians(-8.0))
     assert terms.values({name: 0.5}) == pytest.approx([-7.5])
     with pytest.raises(ValueError, match="fitted size"):
-        _terms(effect, {}, ("joints",), irb)
+        candidate_terms(effect, {}, ("joints",), irb)
 
 
 def test_a_spinning_spindle_candidate_frees_the_speed_in_thousands_of_rev_per_min(irb, calibrated_library):
     effect = next(e for e in calibrated_library.values() if e.kind == "non_reciprocity")
-    terms = _terms(effect, {}, ("joints",), irb)
+    terms = candidate_terms(effect, {}, ("joints",), irb)
     assert terms.extra == ("spindle.speed",) and terms.free == ("spindle.speed",)
     assert terms.values({"spindle.speed": 17.5}) == pytest.approx([17500.0])
     assert terms.change.is_null()     # the data are read through the design as it is

@@ -74,6 +74,7 @@ def test_the_updated_variant_is_a_robot_with_the_fix(diagnosis, tmp_path):
     assert all((tmp_path / "out" / f).is_file() for f in ("effects.csv", "gap_modes.csv", "gap_modes.png"))
 
 
+@pytest.mark.slow
 def test_the_nominal_robots_own_data_show_no_significant_gap(tmp_path):
     data = _campaign(tmp_path, "irb6660")
     with warnings.catch_warnings():
@@ -104,7 +105,7 @@ def test_modes_that_pair_with_none_of_the_models_are_refused():
     """Measured modes 50 % above every model mode (another robot, tool or sensor layout) pair
     with none: a diagnosis would explain nothing, so the data are refused."""
     from rmbench.gap import MeasuredModes, ModelBench, TestDesign
-    from rmbench.gap.frf.prepare import _check_match
+    from rmbench.gap.frf.prepare import check_match
     from rmbench.gap.frf.effects import Change
     from rmbench.impact import load_config
     from rmbench.robot import Posture
@@ -119,7 +120,7 @@ def test_modes_that_pair_with_none_of_the_models_are_refused():
         meas[0][band] = MeasuredModes(f_n=1.5 * m.f_n, zeta=m.zeta, f_std=np.zeros(n),
                                       zeta_std=np.zeros(n), residue=m.residue, residue_std=np.zeros(n))
     with pytest.raises(InputError, match="do not look like this model"):
-        _check_match(bench, meas, ("low", "high"))
+        check_match(bench, meas, ("low", "high"))
 
 
 def test_data_whose_bands_miss_the_models_are_refused(stiffer_j3):

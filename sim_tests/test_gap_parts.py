@@ -297,27 +297,27 @@ def _single(name, chi2_train, chi2_held):
 
 def test_pairs_are_built_on_the_best_single_and_the_next_one_that_is_no_look_alike():
     """j1 stiffness and servo a1 are springs in series: pairs on both would repeat each other."""
-    from rmbench.gap.frf.pairs import _pair_bases
+    from rmbench.gap.frf.pairs import pair_bases
 
     singles = [_single("servo@a1", 100, 100), _single("joint@j1", 101, 101), _single("base", 150, 150)]
-    bases = _pair_bases(singles, (("servo@a1", "joint@j1"),))
+    bases = pair_bases(singles, (("servo@a1", "joint@j1"),))
     assert [f.name for f in bases] == ["servo@a1", "base"]
 
 
 def test_a_far_worse_second_single_gets_no_pairs_of_its_own():
     """A second single with more than twice the best's training χ² would need its partner to do
     the best's work; the best's own screening already offers that pair."""
-    from rmbench.gap.frf.pairs import _pair_bases
+    from rmbench.gap.frf.pairs import pair_bases
 
-    bases = _pair_bases([_single("a", 100, 100), _single("b", 250, 260)])
+    bases = pair_bases([_single("a", 100, 100), _single("b", 250, 260)])
     assert [f.name for f in bases] == ["a"]
 
 
 def test_a_single_refitted_from_a_pair_replaces_its_stalled_fit():
-    from rmbench.gap.frf.pairs import _better_singles
+    from rmbench.gap.frf.pairs import better_singles
 
     stalled, refit, other = _single("base", 6000, 4900), _single("base", 85, 52), _single("j1", 9e4, 9e4)
-    out = _better_singles([stalled, other], [refit, _single("mass", 9e5, 9e5)])
+    out = better_singles([stalled, other], [refit, _single("mass", 9e5, 9e5)])
     assert {f.name: f.chi2_held for f in out} == {"base": 52, "j1": 9e4, "mass": 9e5}
 
 

@@ -337,16 +337,16 @@ def test_at_the_noise_a_calibrated_model_takes_a_source_only_on_decisive_evidenc
     five of the spread bench took a gear harmonic for it); a payload's drop of ~100 does not."""
     from types import SimpleNamespace
 
-    from rmbench.gap.tracker.diagnosis import _decisive
+    from rmbench.gap.tracker.diagnosis import decisive
 
     def fit(chi2, k):
         return SimpleNamespace(chi2_held=chi2, chi2_prior=0.0, k=k)
 
     calibrated = fit(740.0, 40)
-    assert not _decisive(calibrated, fit(723.0, 42), 30, 1e-3)
-    assert _decisive(calibrated, fit(640.0, 41), 30, 1e-3)
+    assert not decisive(calibrated, fit(723.0, 42), 30, 1e-3)
+    assert decisive(calibrated, fit(640.0, 41), 30, 1e-3)
     # a source that makes the held-out readings worse is never decisive
-    assert not _decisive(calibrated, fit(760.0, 41), 30, 1e-3)
+    assert not decisive(calibrated, fit(760.0, 41), 30, 1e-3)
 
 
 def test_carrying_the_calibrations_uncertainty_whitens_the_held_out_residuals_jointly(mh180):
@@ -355,7 +355,7 @@ def test_carrying_the_calibrations_uncertainty_whitens_the_held_out_residuals_jo
     residuals are whitened by ``C = I + J Σ Jᵀ`` as a whole. C ⪰ I, so the whitened χ² never
     exceeds the plain one, and it falls with the number of parameters fitted."""
     from rmbench.gap.tracker.data import split_readings
-    from rmbench.gap.tracker.diagnosis import ORDINARY, TrackerSettings, _prior_sd
+    from rmbench.gap.tracker.diagnosis import ORDINARY, TrackerSettings, prior_sd
     from rmbench.gap.tracker.engine import Engine
 
     chain = SerialChain.from_kinematics(mh180.kinematics, mh180.arm_joints)
@@ -368,7 +368,7 @@ def test_carrying_the_calibrations_uncertainty_whitens_the_held_out_residuals_jo
     train, held, _, _ = split_readings(data, 0.5)
     eng = Engine(model, data, train, held)
     base = tuple(s for s in source_library(chain, comp, masses=True) if s.kind in ORDINARY)
-    eng.prior = {s.name: _prior_sd(s, TrackerSettings()) for s in base}
+    eng.prior = {s.name: prior_sd(s, TrackerSettings()) for s in base}
     fit = eng.fit(base, iterations=4)
     plain = eng.held_residual(fit.sources, fit.values, fit.rotation, fit.translation)
     eng.carry(fit)
@@ -399,13 +399,13 @@ def test_a_source_is_confident_only_where_its_model_leaves_noise():
     per configuration: the best partial model of something outside the library) wins every
     resample yet leaves no resample at the noise, so it carries no confidence; nor does one whose
     largest residual is beyond the noise test's bound."""
-    from rmbench.gap.tracker.diagnosis import TrackerSettings, _adequate_confidences
+    from rmbench.gap.tracker.diagnosis import TrackerSettings, adequate_confidences
 
     settings = TrackerSettings()
     nominal = _unit_fit((), np.full(40, 30.0), 0)
-    found = _adequate_confidences([nominal, _unit_fit(("a",), np.full(40, 6.0), 1)], [6] * 40, settings)
-    partial = _adequate_confidences([nominal, _unit_fit(("b",), np.full(40, 15.0), 1)], [6] * 40, settings)
-    peaked = _adequate_confidences([nominal, _unit_fit(("c",), np.full(40, 6.0), 1, peak=8.0)], [6] * 40, settings)
+    found = adequate_confidences([nominal, _unit_fit(("a",), np.full(40, 6.0), 1)], [6] * 40, settings)
+    partial = adequate_confidences([nominal, _unit_fit(("b",), np.full(40, 15.0), 1)], [6] * 40, settings)
+    peaked = adequate_confidences([nominal, _unit_fit(("c",), np.full(40, 6.0), 1, peak=8.0)], [6] * 40, settings)
     assert found["a"] == pytest.approx(1.0)
     assert partial.get("b", 0.0) == 0.0 and peaked.get("c", 0.0) == 0.0
 

@@ -32,7 +32,8 @@ def test_the_gcode_feed_and_speed_are_read_in_si_units(tmp_path):
 
 
 @pytest.mark.parametrize("block, word", [("G2 X1600 Y100 I50 J0", "G2"), ("G20", "G20"), ("G91", "G91"),
-                                         ("G1 X1600 T3", "T3")])
+                                         ("G1 X1600 T3", "T3")],
+                         ids=["arc", "inches", "incremental", "tool-change"])
 def test_an_unsupported_gcode_word_is_a_one_line_error_naming_it_and_its_line(tmp_path, block, word):
     f = tmp_path / "p.ngc"
     f.write_text(f"G21 G90\nG0 X1500 Y0\n{block}\nG1 X1700\n")
@@ -407,6 +408,7 @@ def test_the_path_report_renders_its_3d_view_and_every_plot(browser, planned_cli
     assert r.n_plots >= 5       # the plane and 3-D views, θ, the critical depth, the milling
 
 
+@pytest.mark.slow
 def test_path_mill_mills_a_saved_plan_as_the_plan_says(small_predictor, tmp_path, capsys):
     """The plan directory holds the whole plan (plan.npz, no pickle): milled from it, the cuts are
     those of the plan in memory, at the plan's poses and predicted depths."""
@@ -504,10 +506,9 @@ def test_the_depth_bands_centre_is_the_predicted_depth_veering_clusters_included
     cluster's residues, also where the cluster's pole is the mode's own (a tight veering inside a
     looser cluster), as in a predictor trained on the seed's 112 postures."""
     from rmbench.path import depth_band
-    from rmbench.path.margin import N_FREQ, _freq, tip_modes
+    from rmbench.path.margin import TipModes, tip_modes
     from rmbench.predict import PosturePredictor
     from rmbench.stability import ALUMINIUM_6061
-    from rmbench.stability.zoa import zoa_limit
 
     pred = PosturePredictor.load(small_predictor)
     X = np.array([[1.5, 0.0, 0.0], [1.7, 0.1, 0.3]])
@@ -526,7 +527,9 @@ def test_the_depth_bands_centre_is_the_predicted_depth_veering_clusters_included
 
     band = depth_band(Fixed(), X[:, :2], X[:, 2], ALUMINIUM_6061, 9000.0, draws=2, bands=("high",))
     poles, res = tip_modes(ds, "high")
-    want = zoa_limit(poles, res, ALUMINIUM_6061, 9000.0, _freq(poles, N_FREQ))
+    # the planner's depth of the same modes: two postures, one angle each
+    planned = TipModes((2, 1), {"high": poles}, {"high": res}, np.arange(2), np.zeros((2, 1), bool))
+    want = planned.depths(ALUMINIUM_6061, 9000.0).a_lim.ravel()
     np.testing.assert_allclose(band.a_lim, want, rtol=1e-12)
 
 
@@ -584,6 +587,7 @@ def test_poses_beyond_the_training_postures_are_counted_with_their_distance(irb,
     assert s_out["outside_hull"] >= 1 and s_out["hull_distance_max"] > 0.2
 
 
+@pytest.mark.slow
 def test_a_stable_cut_through_the_contours_rounded_corner_reads_stable_on_the_moving_robot(irb, small_predictor):
     """Location 73 of the bundled contour, θ held at 0, lies where the joint path's curvature
     changes (a rounded corner running into a straight). Milled at 60 % of its critical depth the

@@ -148,6 +148,7 @@ def stgp():
     return get
 
 
+@pytest.mark.slow
 def test_the_predictor_follows_the_receptance_through_a_veering_with_clusters(stgp):
     """Trained on the seed's grid (x = 1.3, 1.5, 1.7, 1.9 m), predicted at x = 1.6 m, where the
     modes have swapped half way: from the cluster's invariants the 4 x 4 receptance is within 2 % of
@@ -165,6 +166,7 @@ def test_the_predictor_follows_the_receptance_through_a_veering_with_clusters(st
     assert err["none"] > 5 * err["auto"]
 
 
+@pytest.mark.slow
 def test_a_predictor_with_clusters_saves_and_reloads_to_the_same_receptance(tmp_path):
     ds = _dataset(_grid(), slope=0.4)
     pred = PosturePredictor("mtgp-grouped").fit(ds)
@@ -217,6 +219,7 @@ def test_pole_std_is_the_first_order_effect_of_the_coefficients():
         np.testing.assert_allclose(std[0, :, 1], dz[0], rtol=1e-3, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_tight_veerings_take_their_frequencies_from_the_cluster_poles(stgp):
     """The two modes meet within 0.22 of their bandwidths' sum on the grid (tight): between the grid
     lines their frequencies and damping ratios come from the learnt polynomial's roots, within

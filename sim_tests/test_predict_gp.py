@@ -230,6 +230,7 @@ def test_seed_groups_follow_the_seeds_rule():
     assert ["mode0:phiR_1X_re", "mode0:phiR_1aX_re"] in [[tasks[i] for i in g] for g in groups]
 
 
+@pytest.mark.slow
 def test_cross_validation_scores_every_gp_learner_on_a_smooth_dependence():
     """Noise-free smooth functions on the seed's grid: CV R² above 0.999 for the STGPs, the grouped
     and the Kronecker MTGP (the grid resolves them; GPs interpolate smooth functions almost exactly)."""
@@ -261,6 +262,7 @@ def _modal_dataset(n_modes=2):
     return ds
 
 
+@pytest.mark.slow
 def test_saved_predictor_reloads_to_the_same_predictions_without_pickle(tmp_path):
     ds = _modal_dataset()
     pred = PosturePredictor("mtgp-grouped").fit(ds)
@@ -420,6 +422,7 @@ def _with_residuals(ds):
         term=list(RESIDUAL_TERMS), out=["1X", "1Y", "1aX", "1aY"], inp=["1X", "1Y", "1aX", "1aY"])
 
 
+@pytest.mark.slow
 def test_out_of_band_terms_are_learnt_and_saved_with_the_predictor(tmp_path):
     """The bands' out-of-band terms are learnt beside the modes and come back from a saved file.
     At a training posture the GP reproduces them to 1 % (smooth, noise-free data: it nearly

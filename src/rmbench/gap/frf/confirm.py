@@ -47,7 +47,8 @@ from rmbench.gap.frf.model import ModelBench
 from rmbench.gap.frf.search import Objective, peak_residual
 from rmbench.gap.selection import significant
 
-__all__ = ["CONFIRMABLE", "DESIGN_KINDS", "Confirmed", "ConfirmSetup", "ConfirmOptions", "confirmable", "confirm"]
+__all__ = ["CONFIRMABLE", "DESIGN_KINDS", "Confirmed", "ConfirmSetup", "ConfirmOptions", "CandidateTerms",
+           "candidate_terms", "confirmable", "confirm"]
 
 CONFIRMABLE = ("tool_contact_stiffness", "spindle_stiffness", "base_compliance", "added_mass",
                "sensor_misplacement", "sensor_misalignment", "non_reciprocity")
@@ -233,8 +234,9 @@ class ConfirmOptions:
 
 
 @dataclass(frozen=True)
-class _Terms:
-    """How a candidate maps onto model parameters."""
+class CandidateTerms:
+    """How a candidate maps onto model parameters (:func:`candidate_terms`), named as the
+    calibration names them (``"base.lateral_compliance"``)."""
 
     extra: tuple           # parameters to add to the calibration
     free: tuple            # parameters to fit without a prior
@@ -250,7 +252,7 @@ def confirmable(effect: Effect) -> bool:
     return effect.kind in CONFIRMABLE
 
 
-def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=None) -> _Terms:
+def candidate_terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=None) -> CandidateTerms:
     """The candidate's parameters (added where the first calibration, of ``cal_u``, lacks them),
     and its size read back from a recalibration in the effect's units, relative to the nominal.
     A sensor candidate reads the data through the design corrected by ``size`` (its joint-search
@@ -258,28 +260,31 @@ def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=None) -> _T
     (:func:`rmbench.calibrate.design.sensor_parameter`, in the effect's units: mm, degrees):
     the joint search fitted it against ordinary parameters the first calibration had bent, so
     its size is a start, not the answer (a sensor turned 6.02°, found 5.69° there, left a held-out
-    peak of 16 σ)."""
+    peak of 16 σ). ``cal_u``: ``{parameter name: u}`` in the calibration's units (ln factors);
+    ``groups``: the first calibration's; ``nominal``: the nominal Robot; ``size``: shape
+    (effect.n_params,). Raises ValueError for a kind no calibration fits (:func:`confirmable`)."""
     k = effect.kind
     if k in DESIGN_KINDS:
         if size is None:
             raise ValueError(f"{effect.name} is confirmed from a fitted size: none given")
         v = np.asarray(size, float)
         name = f"sensor.{effect.location}.{'along' if k == 'sensor_misplacement' else 'angle'}"
-        return _Terms((name,), (name,), groups, lambda u: v + u[name], change=effect.change(v), reread=True)
+        return CandidateTerms((name,), (name,), groups, lambda u: v + u[name], change=effect.change(v),
+                              reread=True)
     if k == "non_reciprocity":         # the rotor's speed, in thousands of rev/min added to the nominal's
-        return _Terms(("spindle.speed",), ("spindle.speed",), groups, lambda u: np.array([1e3 * u["spindle.speed"]]),
-                      reread=True)
+        return CandidateTerms(("spindle.speed",), ("spindle.speed",), groups,
+                              lambda u: np.array([1e3 * u["spindle.speed"]]), reread=True)
     if k in ("tool_contact_stiffness", "spindle_stiffness"):
         stem = "tool_contact" if k == "tool_contact_stiffness" else "spindle"
         names = (f"{stem}.translation", f"{stem}.rotation") if stem == "tool_contact" else \
             (f"{stem}.radial", f"{stem}.tilt")
-        return _Terms(tuple(n for n in names if n not in cal_u), names, groups,
-                      lambda u: np.array([u[n] for n in names]))
+        return CandidateTerms(tuple(n for n in names if n not in cal_u), names, groups,
+                              lambda u: np.array([u[n] for n in names]))
     if k == "added_mass":
         name = f"{effect.location}.mass"
         m0 = float(nominal.model.body(effect.location).mass[0])
-        return _Terms(() if name in cal_u else (name,), (name,), groups,
-                      lambda u: np.array([m0 * np.exp(u[name]) - m0]))
+        return CandidateTerms(() if name in cal_u else (name,), (name,), groups,
+                              lambda u: np.array([m0 * np.exp(u[name]) - m0]))
     if k == "base_compliance":
         # the plate's mass is fitted too, with its prior (half to three times): a foundation's moving
         # mass is never known, and its sway frequency fixes compliance and mass together, so a mass
@@ -287,10 +292,10 @@ def _terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=None) -> _T
         # the foundation 48 % too soft: 56.3 against 38.0 µm/kN)
         lat, plate = "base.lateral_compliance", "base_mount.mass"
         if effect.n_params == 1:          # lateral only, on a calibrated foundation
-            return _Terms((lat, plate), (lat,), groups, lambda u: np.array([u[lat]]))
+            return CandidateTerms((lat, plate), (lat,), groups, lambda u: np.array([u[lat]]))
         tilt = "base.tilt_compliance"
         groups = groups if "base" in groups else groups + ("base",)
-        return _Terms((lat, plate), (lat, tilt), groups, lambda u: np.array([u[lat], u[tilt]]))
+        return CandidateTerms((lat, plate), (lat, tilt), groups, lambda u: np.array([u[lat], u[tilt]]))
     raise ValueError(f"{effect.name} maps onto no model parameter")
 
 
@@ -319,8 +324,8 @@ class _Recalibration:
         t0 = time.perf_counter()
         setup, max_iter = self.setup, self.options.max_iter
         settings, nominal, data = setup.settings, setup.nominal, setup.data
-        terms = None if effect is None else _terms(effect, self.cal_u, tuple(settings.groups), nominal,
-                                                    self.sizes.get(effect.name))
+        terms = None if effect is None else candidate_terms(effect, self.cal_u, tuple(settings.groups), nominal,
+                                                            self.sizes.get(effect.name))
         change = Change() if terms is None else terms.change
         # a sensor candidate: the data read through the corrected design
         used = data if change.is_null() else replace(data, design=data.design.with_offsets(change.offsets))

@@ -7,7 +7,7 @@ from __future__ import annotations
 from rmbench.gap.frf.evidence import equivalent
 from rmbench.gap.frf.search import GRID_PAIR
 
-__all__ = ["pairs"]
+__all__ = ["pairs", "pair_bases", "better_singles"]
 
 
 def pairs(refiner, obj_train, effects, singles, screens, pairs_of: int) -> tuple[list, list]:
@@ -18,7 +18,7 @@ def pairs(refiner, obj_train, effects, singles, screens, pairs_of: int) -> tuple
     # the second effect is screened on every other training posture (the pairs are refined on
     # all): half the cost, and the screening only has to rank
     coarse = obj_train.subset(obj_train.postures[::2])
-    for first in _pair_bases(singles, equivalent(screens)):
+    for first in pair_bases(singles, equivalent(screens)):
         base = first.change()
         e1 = coarse.vector(base)
         others = refiner.screen([e for e in effects if e.name != first.effects[0].name],
@@ -32,15 +32,19 @@ def pairs(refiner, obj_train, effects, singles, screens, pairs_of: int) -> tuple
         # and a pair whose second effect does nothing must lose to its first
         best_pair = min(pairs, key=lambda f: f.score)
         again = refiner.run([((e,), (v,)) for e, v in zip(best_pair.effects, best_pair.values)])
-        singles = _better_singles(singles, again)
+        singles = better_singles(singles, again)
     return singles, pairs
 
 
-def _pair_bases(singles, equivalent=(), *, within: float = 2.0) -> list:
+def pair_bases(singles, equivalent=(), *, within: float = 2.0) -> list:
     """The singles that pairs are built on: the best, and the next best that is not
     indistinguishable from it, if its training χ² is within a factor ``within`` of the best's (a
     look-alike repeats the best's pairs; a far worse second adds pairs the best's screening
-    already offers: its partner would have to do the best's work)."""
+    already offers: its partner would have to do the best's work).
+
+    ``singles``: fitted single-effect models (:class:`~rmbench.gap.frf.search.Fitted`), ranked by
+    their score; ``equivalent``: groups of effect names the data cannot tell apart
+    (:func:`~rmbench.gap.frf.evidence.equivalent`). Returns one or two of ``singles``, best first."""
     ranked = sorted(singles, key=lambda f: f.score)
     if not ranked:
         return []
@@ -52,8 +56,11 @@ def _pair_bases(singles, equivalent=(), *, within: float = 2.0) -> list:
     return [first]
 
 
-def _better_singles(singles, refits) -> list:
-    """``singles`` with each refit in place of the same effect's fit if it scores better (or added)."""
+def better_singles(singles, refits) -> list:
+    """``singles`` with each refit in place of the same effect's fit if it scores better (or added).
+
+    Both are single-effect :class:`~rmbench.gap.frf.search.Fitted` models, matched by their
+    effect's name; the order of ``singles`` is kept, new effects follow."""
     out = {f.effects[0].name: f for f in singles}
     for f in refits:
         name = f.effects[0].name

@@ -25,7 +25,7 @@ from rmbench.errors import InputError, UnreachablePosture
 from rmbench.gap.frf.effects import Change
 from rmbench.gap.frf.model import ModelBench
 
-__all__ = ["SearchData", "load_data", "prepare"]
+__all__ = ["SearchData", "check_match", "load_data", "prepare"]
 
 
 @dataclass(frozen=True)
@@ -119,7 +119,7 @@ def prepare(nominal, data, test, tool, workers, settings, say, t) -> SearchData:
     modal = fitted_modal_data(ds, design, bands, source_name(data), workers=workers)
     t["fit"] = time.perf_counter()
     say("measured FRFs fitted")
-    _check_match(bench, modal.modes, bands)
+    check_match(bench, modal.modes, bands)
     train, held = _split(ds, settings.heldout)
     train, held = _spread(train, settings.max_train), _spread(held, settings.max_held)
     return SearchData(robot, modal, bench, ds, tuple(train), tuple(held))
@@ -144,8 +144,26 @@ def _bands(ds, design, robot) -> list[str]:
     return out
 
 
-def _check_match(bench, meas, bands, *, least: float = 0.3) -> None:
-    """Data of another robot or sensor layout: most measured modes have no model partner."""
+def check_match(bench, meas, bands, *, least: float = 0.3) -> None:
+    """Refuse data of another robot, tool or sensor layout: most measured modes have no model partner.
+
+    Parameters
+    ----------
+    bench : ModelBench
+        The model under the test design at the measured postures (its modes per posture and band).
+    meas : sequence of dict
+        Per posture of ``bench``, ``{band: MeasuredModes}``.
+    bands : sequence of str
+        The bands compared.
+    least : float
+        The share of measured modes (pooled over postures and bands) that must pair with a model
+        mode (within 15 % in frequency and alike in shape).
+
+    Raises
+    ------
+    InputError
+        No measured modes at all, or fewer than ``least`` of them paired.
+    """
     total = paired = 0
     for p in range(bench.n_postures):
         for b in bands:

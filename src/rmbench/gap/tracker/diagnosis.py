@@ -54,7 +54,7 @@ _IMPLAUSIBLE = 0.025   # m rms after registration: no calibration error is that 
 
 __all__ = ["TrackerData", "TrackerSettings", "SourceResult", "PoseErrorMap", "TrackerDiagnosis",
            "FittedPose", "diagnose_tracker", "pose_error_map", "tracker_data", "default_sigma",
-           "default_covariance"]
+           "default_covariance", "adequate_confidences", "decisive", "prior_sd"]
 
 
 @dataclass(frozen=True)
@@ -134,7 +134,7 @@ def diagnose_tracker(nominal, data: TrackerData, *, settings: TrackerSettings = 
     weights = selection_weights([np.asarray(f.chi2_held_unit) + f.chi2_prior / len(f.chi2_held_unit)
                                  for f in scored], n_units, [f.k for f in scored], n_boot=settings.bootstrap)
     # a source a generic joint augmentation beats held out is no confident answer
-    conf = {} if rival else _adequate_confidences(scored, n_units, settings)
+    conf = {} if rival else adequate_confidences(scored, n_units, settings)
     if verdict in ("model form", "unexplained") and base and len(best.sources) > len(base):
         held = {n: float(sum(w for f, w in zip(scored, weights) if n in f.names)) for n in best.names}
         beside, notes = _beside_form(eng, start, best, base, located, held, len(library), settings.p_noise)
@@ -227,7 +227,7 @@ def _calibrated(eng: Engine, base: tuple, nominal: Fit, settings: TrackerSetting
     """The ordinary sources ``base`` fitted with their priors (the calibration), their
     uncertainty carried into the held-out residuals (:meth:`Engine.carry`): the start of the
     structural search and the calibration's account."""
-    eng.prior = {s.name: _prior_sd(s, settings) for s in base}
+    eng.prior = {s.name: prior_sd(s, settings) for s in base}
     start = eng.fit(base, iterations=8)
     eng.carry(start)
     start = eng.score(start.sources, start.values, start.rotation, start.translation)
@@ -293,7 +293,7 @@ def _beside_form(eng: Engine, start: Fit, best: Fit, base: tuple, located, held:
     form error at once). A chosen source is named where, added alone to the calibration, it
     removes a quarter of the held-out rms gap (``FOUND``, as a localisation must), its held-out
     drop is decisive (beyond what the best of the library's candidates reaches on noise,
-    :func:`_decisive` at level ``p``) and no joint's generic augmentation beats it held out
+    :func:`decisive` at level ``p``) and no joint's generic augmentation beats it held out
     (:func:`_place_fit`: a backlash's look-alike, a gear harmonic, is not named); its confidence is
     ``held[name]``, the bootstrap selection frequency of the models that hold it."""
     out, notes, place = {}, [], _place_fit(start, located)
@@ -303,7 +303,7 @@ def _beside_form(eng: Engine, start: Fit, best: Fit, base: tuple, located, held:
         # (a form-only robot's bending lower arm took a j2 gear harmonic, decisive on 750
         # residuals, that removed 3 % of it)
         main = start.chi2_held > 0 and 1.0 - np.sqrt(alone.chi2_held / start.chi2_held) >= FOUND
-        if not main or not _decisive(start, alone, n_candidates, p) or (place and place[1] < alone.score):
+        if not main or not decisive(start, alone, n_candidates, p) or (place and place[1] < alone.score):
             continue
         out[s.name] = held[s.name]
         notes.append(f"beside the gap no source closes, {s.describe(v)} (held-out χ² {start.chi2_held:.4g} → "
@@ -380,7 +380,7 @@ def _search(eng: Engine, library, start: Fit, base: tuple, e_all: np.ndarray, se
             say(f"{len(step_best.sources)} source(s): {step_best.name}")
             if step_best.score >= best.score:
                 break
-            if base and not _above(best, settings) and not _decisive(best, step_best, len(free), settings.p_noise):
+            if base and not _above(best, settings) and not decisive(best, step_best, len(free), settings.p_noise):
                 break
             best = step_best
             if not _above(best, settings):
@@ -401,15 +401,18 @@ def _search(eng: Engine, library, start: Fit, base: tuple, e_all: np.ndarray, se
 
 # -- helpers -----------------------------------------------------------------------------------
 
-def _adequate_confidences(scored, n_units, settings: TrackerSettings, seed: int = 0) -> dict:
+def adequate_confidences(scored, n_units, settings: TrackerSettings, seed: int = 0) -> dict:
     """``{source: share of bootstrap resamples of the held-out configurations whose winning model
-    holds it and leaves noise}``. The selection's weights alone (:func:`selection_weights`, the
-    same resamples and scores) assume the library holds the truth; where the winner's held-out
-    residuals stay above the noise (χ² of the resample, and the full sample's largest residual,
-    at the verdict's level) the resample credits no source: a source named inside an
-    "unexplained" verdict, the best partial model of something outside the library, is not
-    reported as a confident answer (a backlash's best look-alike, a gear harmonic, was named at
-    0.90-1.0 there)."""
+    holds it and leaves noise}``, from the ``scored`` models (each with ``names``, ``k``,
+    ``score``, ``chi2_prior``, ``n_held``, ``peak_held`` and ``chi2_held_unit``: its held-out χ²
+    per configuration, shape (n_configurations,)) and ``n_units``, the residuals per held-out
+    configuration, shape (n_configurations,). The selection's weights alone
+    (:func:`selection_weights`, the same resamples and scores) assume the library holds the
+    truth; where the winner's held-out residuals stay above the noise (χ² of the resample, and
+    the full sample's largest residual, at the verdict's level) the resample credits no source:
+    a source named inside an "unexplained" verdict, the best partial model of something outside
+    the library, is not reported as a confident answer (a backlash's best look-alike, a gear
+    harmonic, was named at 0.90-1.0 there)."""
     chi2 = np.array([np.asarray(f.chi2_held_unit, float) for f in scored])
     score_unit = chi2 + np.array([f.chi2_prior / chi2.shape[1] for f in scored])[:, None]
     n_res = np.asarray(n_units, float)
@@ -434,9 +437,11 @@ def _adequate_confidences(scored, n_units, settings: TrackerSettings, seed: int 
     return out
 
 
-def _decisive(before: Fit, after: Fit, n_candidates: int, p: float) -> bool:
+def decisive(before: Fit, after: Fit, n_candidates: int, p: float) -> bool:
     """Whether ``after``'s held-out drop (χ² and prior) from ``before`` is beyond what the best
-    of ``n_candidates`` sources of its size would reach on noise, at level ``p``."""
+    of ``n_candidates`` sources of its size would reach on noise, at level ``p``: a χ² with the
+    added parameters' count (``after.k - before.k``, at least 1) as degrees of freedom,
+    Bonferroni-corrected. A drop that is not positive is never decisive."""
     from scipy.stats import chi2 as chi2_dist
 
     drop = (before.chi2_held + before.chi2_prior) - (after.chi2_held + after.chi2_prior)
@@ -444,8 +449,9 @@ def _decisive(before: Fit, after: Fit, n_candidates: int, p: float) -> bool:
     return drop > 0 and float(chi2_dist.sf(drop, k)) * max(n_candidates, 1) < p
 
 
-def _prior_sd(source: Source, settings: TrackerSettings) -> np.ndarray:
-    """Prior σ of an ordinary source's parameters (SI)."""
+def prior_sd(source: Source, settings: TrackerSettings) -> np.ndarray:
+    """Prior σ of an ordinary source's parameters, shape (source.n_params,), SI (rad for an
+    offset or a twist, m for a length, fractions for a mass or a compliance), from ``settings``."""
     if source.kind == "joint_offset":
         return np.array([settings.offset_sd])
     if source.kind == "link_geometry":
