@@ -75,6 +75,15 @@ def _dataset(X, slope=0.6):
                               "phiL_ref": ("mode", ["1aY"] * 2), "param": list(PARAMS)})
 
 
+def _training_grid():
+    """Every other posture of the seed's grid (56): the modes depend on x alone, and all four x lines
+    (1.3, 1.5, 1.7, 1.9 m, 14 postures each) and all seven angles remain, so the veerings, which of
+    them are tight and what a GP learns of them are the full grid's, at a third of the fitting time
+    (measured against the full grid: the clusters' receptance and frequency errors below moved by
+    under 0.3 % of their bounds, and each mode learnt alone still erred over 50 times more)."""
+    return _grid()[::2]
+
+
 def _cluster_of(f, z):
     lam = poles_of(f, z)
     c = complex(lam.mean())
@@ -142,7 +151,7 @@ def stgp():
     def get(slope: float = 0.6, clusters: str = "auto") -> PosturePredictor:
         if (slope, clusters) not in fitted:
             fitted[slope, clusters] = PosturePredictor("stgp", clusters=clusters).fit(
-                _dataset(_grid(), slope=slope))
+                _dataset(_training_grid(), slope=slope))
         return fitted[slope, clusters]
 
     return get
@@ -150,7 +159,7 @@ def stgp():
 
 @pytest.mark.slow
 def test_the_predictor_follows_the_receptance_through_a_veering_with_clusters(stgp):
-    """Trained on the seed's grid (x = 1.3, 1.5, 1.7, 1.9 m), predicted at x = 1.6 m, where the
+    """Trained on the grid lines x = 1.3, 1.5, 1.7, 1.9 m, predicted at x = 1.6 m, where the
     modes have swapped half way: from the cluster's invariants the 4 x 4 receptance is within 2 % of
     the exact one (the invariants are low-order polynomials in x); from each mode's own learnt
     parameters it is off by far more (their shapes turn between the grid lines)."""
@@ -168,7 +177,7 @@ def test_the_predictor_follows_the_receptance_through_a_veering_with_clusters(st
 
 @pytest.mark.slow
 def test_a_predictor_with_clusters_saves_and_reloads_to_the_same_receptance(tmp_path):
-    ds = _dataset(_grid(), slope=0.4)
+    ds = _dataset(_training_grid(), slope=0.4)
     pred = PosturePredictor("mtgp-grouped").fit(ds)
     again = PosturePredictor.load(pred.save(tmp_path / "p.npz"))
     X = [[1.6, 0.1, 0.2]]
@@ -185,7 +194,7 @@ def test_a_predictor_with_clusters_saves_and_reloads_to_the_same_receptance(tmp_
 def test_clusters_are_learnt_only_in_order_of_frequency():
     """Tracked modes may swap identity at a posture, so a cluster's modes are not the same set of
     frequency-ordered slots everywhere: with ``order="tracked"`` no cluster is learnt."""
-    ds = _dataset(_grid())
+    ds = _dataset(_training_grid())
     assert PosturePredictor("stgp", order="tracked").fit(ds).clusters_ == ()
     with pytest.raises(InputError, match="unknown clusters"):
         PosturePredictor("stgp", clusters="maybe")

@@ -262,10 +262,15 @@ def _modal_dataset(n_modes=2):
     return ds
 
 
+@pytest.fixture(scope="module")
+def one_mode_stgp():
+    """Single-task GPs of one mode's parameters over the seed's grid."""
+    return PosturePredictor("stgp", vectors="dataset").fit(_modal_dataset(1))
+
+
 @pytest.mark.slow
-def test_saved_predictor_reloads_to_the_same_predictions_without_pickle(tmp_path):
-    ds = _modal_dataset()
-    pred = PosturePredictor("mtgp-grouped").fit(ds)
+def test_saved_predictor_reloads_to_the_same_predictions_without_pickle(grouped_with_residuals, tmp_path):
+    _, pred = grouped_with_residuals
     path = pred.save(tmp_path / "p.npz")
     with np.load(path, allow_pickle=False) as z:          # plain arrays only
         meta = json.loads(str(z["meta"]))
@@ -276,9 +281,11 @@ def test_saved_predictor_reloads_to_the_same_predictions_without_pickle(tmp_path
     np.testing.assert_array_equal(a.modal_std.values, b.modal_std.values)
 
 
-def test_prediction_outside_the_training_hull_warns_and_is_less_certain():
-    """1 m beyond the grid the GP reverts towards its mean: flagged, warned, wider spread."""
-    pred = PosturePredictor("stgp").fit(_modal_dataset(1))
+def test_prediction_outside_the_training_hull_warns_and_is_less_certain(one_mode_stgp):
+    """1 m beyond the grid the GP reverts towards its mean: flagged, warned, wider spread. (The
+    shared predictor learns the vectors as the dataset normalised them: the hull is the postures',
+    and f_n is no vector component.)"""
+    pred = one_mode_stgp
     with pytest.warns(ExtrapolationWarning, match="1 of 2 postures"):
         out = pred.predict([[1.6, 0.0, 0.0], [2.9, 0.0, 0.0]])
     assert list(out.outside_hull.values) == [False, True]
@@ -286,8 +293,8 @@ def test_prediction_outside_the_training_hull_warns_and_is_less_certain():
     assert sd[1] > 10 * sd[0]
 
 
-def test_grid_corners_are_inside_the_hull():
-    pred = PosturePredictor("stgp").fit(_modal_dataset(1))
+def test_grid_corners_are_inside_the_hull(one_mode_stgp):
+    pred = one_mode_stgp
     with warnings.catch_warnings():
         warnings.simplefilter("error", ExtrapolationWarning)
         out = pred.predict(_grid()[[0, -1]])
@@ -367,14 +374,25 @@ def test_grouped_mtgp_evaluates_all_its_models_at_once_as_each_would_alone():
     assert np.all(sd[:, 3] == 0) and np.all(mu[:, 3] == 3.0)   # a constant task is that constant
 
 
-def test_cli_trains_saves_and_predicts_at_a_posture(tmp_path, capsys):
+@pytest.fixture(scope="module")
+def cli_trained(tmp_path_factory):
+    """``rmbench predict train`` of one mode's single-task GPs over the seed's grid, run once for the
+    CLI tests (they read mode 0 and the 4 x 4 FRF only, which a second mode would not change):
+    the exit code and the saved predictor's path."""
     from rmbench.cli.main import main
 
-    path = tmp_path / "m.nc"
-    _modal_dataset().to_netcdf(path, engine="h5netcdf", invalid_netcdf=True)
-    pred = tmp_path / "p.npz"
-    assert main(["predict", "train", str(path), "--model", "stgp", "--out", str(pred)]) == 0
-    capsys.readouterr()
+    folder = tmp_path_factory.mktemp("cli_predictor")
+    path = folder / "m.nc"
+    _modal_dataset(1).to_netcdf(path, engine="h5netcdf", invalid_netcdf=True)
+    pred = folder / "p.npz"
+    return main(["predict", "train", str(path), "--model", "stgp", "--out", str(pred)]), pred
+
+
+def test_cli_trains_saves_and_predicts_at_a_posture(cli_trained, tmp_path, capsys):
+    from rmbench.cli.main import main
+
+    code, pred = cli_trained
+    assert code == 0
     frf = tmp_path / "h.nc"
     assert main(["predict", "at", str(pred), "--posture", "1600,0,10", "--frf", str(frf), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -386,14 +404,11 @@ def test_cli_trains_saves_and_predicts_at_a_posture(tmp_path, capsys):
     assert H.shape[1:] == (H.sizes["freq"], 4, 4) and np.all(np.isfinite(H.values))
 
 
-def test_cli_warns_about_a_posture_outside_the_training_grid(tmp_path, capsys):
+def test_cli_warns_about_a_posture_outside_the_training_grid(cli_trained, capsys):
     from rmbench.cli.main import main
 
-    path = tmp_path / "m.nc"
-    _modal_dataset(1).to_netcdf(path, engine="h5netcdf", invalid_netcdf=True)
-    pred = tmp_path / "p.npz"
-    assert main(["predict", "train", str(path), "--model", "stgp", "--out", str(pred)]) == 0
-    capsys.readouterr()
+    code, pred = cli_trained
+    assert code == 0
     assert main(["predict", "at", str(pred), "--posture", "2500,0,0"]) == 0
     out = capsys.readouterr().out
     assert "warning: 1 of 1 postures lie outside" in out and "[outside the training hull]" in out
@@ -422,14 +437,22 @@ def _with_residuals(ds):
         term=list(RESIDUAL_TERMS), out=["1X", "1Y", "1aX", "1aY"], inp=["1X", "1Y", "1aX", "1aY"])
 
 
+@pytest.fixture(scope="module")
+def grouped_with_residuals():
+    """The seed's grouped MTGPs of two modes and the bands' out-of-band terms, learnt once for the
+    persistence tests, and the dataset they learnt from. Every other posture of the seed's grid: the
+    192 term columns' GPs are most of the fitting time, and what a saved predictor holds does not
+    depend on how many postures it learnt from."""
+    ds = _with_residuals(_modal_dataset()).isel(posture=slice(None, None, 2))
+    return ds, PosturePredictor("mtgp-grouped").fit(ds)
+
+
 @pytest.mark.slow
-def test_out_of_band_terms_are_learnt_and_saved_with_the_predictor(tmp_path):
+def test_out_of_band_terms_are_learnt_and_saved_with_the_predictor(grouped_with_residuals, tmp_path):
     """The bands' out-of-band terms are learnt beside the modes and come back from a saved file.
     At a training posture the GP reproduces them to 1 % (smooth, noise-free data: it nearly
-    interpolates). Every other posture of the seed's grid: the 192 term columns' GPs are most of
-    the fitting time."""
-    ds = _with_residuals(_modal_dataset(1)).isel(posture=slice(None, None, 2))
-    pred = PosturePredictor("mtgp-grouped").fit(ds)
+    interpolates)."""
+    ds, pred = grouped_with_residuals
     X = np.column_stack([ds[c].values for c in ("x", "y", "theta")])[[7]]
     out = pred.predict(X)
     truth = ds.residual.values[7]
@@ -474,12 +497,6 @@ def test_leave_one_out_residuals_are_those_of_the_model_without_that_posture(m):
         var = np.diag(Kc + np.diag(noise) - k @ np.linalg.solve(C, k.T))
         np.testing.assert_allclose(r[i], Y[i] - mu, rtol=1e-8, atol=1e-10)
         np.testing.assert_allclose(sd[i], np.sqrt(var), rtol=1e-8)
-
-
-@pytest.fixture(scope="module")
-def one_mode_stgp():
-    """Single-task GPs of one mode's parameters over the seed's grid."""
-    return PosturePredictor("stgp", vectors="dataset").fit(_modal_dataset(1))
 
 
 def test_calibrated_standard_deviations_are_the_latent_ones_times_the_leave_one_out_factor(one_mode_stgp, tmp_path):
