@@ -280,7 +280,11 @@ def test_cli_builds_a_robot_and_its_starter_campaign(cli, tmp_path):
 @pytest.mark.slow
 def test_gap_diagnosis_names_a_planted_stiffness_error_on_the_generated_robot(tmp_path):
     """The UR10 (bundled, built from its URDF) with its second gearbox 20 % softer than the model's:
-    linear-path data, so only sensor noise; the held-out fit of j2_flex closes the gap."""
+    linear-path data, so only sensor noise; the held-out fit of j2_flex closes the gap. Four
+    postures (the grid's middle x and y lines at θ = 0): a softer gearbox moves the modes at every
+    posture, so the redundant angle adds no evidence the search needs. Measured: 8 postures (x, y
+    lines at θ = ±20°) gave the same verdict and effect, factor 0.7999971 and shrink 0.991, in 17 s
+    of CPU; these 4 give 0.7999970 and 0.993 in 9 s."""
     from rmbench.gap import diagnose
     from rmbench.impact import open_campaign, parse_config, run_campaign
     from rmbench.robot.variant import make_variant
@@ -291,7 +295,7 @@ def test_gap_diagnosis_names_a_planted_stiffness_error_on_the_generated_robot(tm
     y = sorted({float(round(1000 * p.y, 3)) for p in robot.grid()})
     toml = (f'seed = 1\nmethod = "linear"\n[robot]\nname = "{tmp_path / "true.xml"}"\ntool = "dummy"\n'
             f'commands_from = "ur10"\n[grid]\nkind = "product"\nx_mm = {x[1:3]}\ny_mm = {y[1:3]}\n'
-            'theta_deg = [-20.0, 20.0]\n')
+            'theta_deg = [0.0]\n')
     run_campaign(parse_config(toml), tmp_path / "meas.nc", toml=toml, workers=0, progress=False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")   # the data's ground truth is set aside, with a warning
