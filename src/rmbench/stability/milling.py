@@ -233,19 +233,24 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
 
 def _tooth_forces(cutting: Cutting, depth: float, feed_per_tooth: float):
     """``force(phase, dq)``: the cutting force on the tool tip, shape (2,), N, in the feed and
-    normal directions, at cutter angle ``phase`` (rad) with the tip displaced by ``dq`` (m, shape
-    (2,)) from where the previous tooth left the surface; a tooth whose chip vanishes cuts nothing."""
+    normal directions, at cutter angle ``phase`` (rad) with the tip displaced by ``dq`` (m, a pair
+    (x, y)) from where the previous tooth left the surface; a tooth whose chip vanishes cuts nothing."""
     st, ex = cutting.angles
+    # each tooth's angle behind the first, and the force coefficients, as the loop would compute them
+    offsets = [2 * np.pi * j / cutting.teeth for j in range(cutting.teeth)]
+    kt, kn, turn = cutting.k_t * depth, cutting.k_n * depth, 2 * np.pi
+    sin, cos = np.sin, np.cos
 
     def force(phase, dq):
         fx = fy = 0.0
-        for j in range(cutting.teeth):
-            phi = (phase + 2 * np.pi * j / cutting.teeth) % (2 * np.pi)
+        dx, dy = dq
+        for off in offsets:
+            phi = (phase + off) % turn
             if st <= phi <= ex:
-                s, c = np.sin(phi), np.cos(phi)
-                h = feed_per_tooth * s + dq[0] * s + dq[1] * c
+                s, c = sin(phi), cos(phi)
+                h = feed_per_tooth * s + dx * s + dy * c
                 if h > 0:
-                    ft, fn = cutting.k_t * depth * h, cutting.k_n * depth * h
+                    ft, fn = kt * h, kn * h
                     fx += -ft * c - fn * s
                     fy += ft * s - fn * c
         return np.array([fx, fy])
@@ -285,32 +290,42 @@ def _cut(m: mujoco.MjModel, d: mujoco.MjData, force, held, sampled, q0: np.ndarr
     omega = 2 * np.pi * rpm / 60
     lag = period / dt
     q = np.empty((n, 2))
+    # the history again as Python floats for the delayed reads (the same arithmetic per component,
+    # without an array operation's overhead at every step); MjData's arrays and warning counters
+    # are live views, bound once
+    hist, q0 = [], (float(q0[0]), float(q0[1]))
+    qpos, ctrl, qfrc = d.qpos, d.ctrl, d.qfrc_applied
+    bad_qacc, step, isfinite = d.warning[mujoco.mjtWarning.mjWARN_BADQACC], mujoco.mj_step, np.isfinite
     for i in range(n):
         if sampled is not None:
             q_eq, rows = sampled[0][i], sampled[3][i]
-            d.ctrl[:] = sampled[2][i]
-        qi = rows @ (d.qpos - q_eq)
+            ctrl[:] = sampled[2][i]
+        qi = rows @ (qpos - q_eq)
         q[i] = qi
-        f = force(omega * i * dt, qi - _delayed(q, i, lag, q0))
-        d.qfrc_applied[:] = rows.T @ f
-        mujoco.mj_step(m, d)
+        x, y = qi.tolist()
+        hist.append((x, y))
+        px, py = _delayed(hist, i, lag, q0)
+        f = force(omega * i * dt, (x - px, y - py))
+        qfrc[:] = rows.T @ f
+        step(m, d)
         # a bad acceleration or a non-finite state: the vibration ran away (MuJoCo would reset the
         # state), chatter beyond the model's validity that only the tool leaving the cut limited
-        if (d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number or not np.all(np.isfinite(d.qpos))
-                or abs(qi).max() > runaway):
+        if bad_qacc.number or not isfinite(qpos).all() or abs(x) > runaway or abs(y) > runaway:
             return q[:i + 1], True
     return q, False
 
 
-def _delayed(q: np.ndarray, i: int, lag: float, q0: np.ndarray) -> np.ndarray:
-    """The tip one tooth period (``lag`` steps) before step ``i``, interpolated linearly in the
-    history ``q``; ``q0`` (the static deflection) before the run began."""
+def _delayed(hist: list, i: int, lag: float, q0: tuple) -> tuple:
+    """The tip's (x, y), m, one tooth period (``lag`` steps) before step ``i``, interpolated
+    linearly in the history ``hist`` (a list of (x, y), up to step ``i``); ``q0`` (the static
+    deflection) before the run began."""
     k = i - lag
     if k < 0:
         return q0
     k0 = int(k)
     w = k - k0
-    return q[k0] * (1 - w) + q[min(k0 + 1, i)] * w
+    (x0, y0), (x1, y1) = hist[k0], hist[min(k0 + 1, i)]
+    return x0 * (1 - w) + x1 * w, y0 * (1 - w) + y1 * w
 
 
 def _less_motion(q: np.ndarray, m: mujoco.MjModel, op, sampled, dt: float) -> np.ndarray:
