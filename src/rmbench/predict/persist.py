@@ -85,8 +85,8 @@ def load_predictor(cls, path):
         pred.X_train_ = np.asarray(a["X_train"], float)
         pred.live_ = np.asarray(a["live"], int)
         pred.constant_ = np.asarray(a["constant"], float)
-        models = [from_state({k.split("/", 1)[1]: v for k, v in a.items()
-                              if k.startswith(f"m{i}/")}) for i in range(len(meta["groups"]))]
+        groups = _children(a, "")
+        models = [from_state(groups.get(f"m{i}", {})) for i in range(len(meta["groups"]))]
         # files written before the residual terms were learnt have none
         pred.residual_bands_ = tuple(meta.get("residual_bands", ()))
         pred.residual_f_max_ = tuple(float(v) for v in meta.get("residual_f_max", ()))
@@ -166,7 +166,19 @@ def grouped_from_state(prefix: str, a: dict, per_column: bool):
     sizes = np.asarray(a[f"{prefix}/groups"], int)
     start = np.concatenate([[0], np.cumsum(sizes)])
     g = GroupedMTGP([list(range(start[j], start[j + 1])) for j in range(len(sizes))])
-    g.models_ = [from_state({k[len(f"{prefix}/m{j}/"):]: v for k, v in a.items()
-                             if k.startswith(f"{prefix}/m{j}/")}) for j in range(len(sizes))]
+    models = _children(a, f"{prefix}/")
+    g.models_ = [from_state(models.get(f"m{j}", {})) for j in range(len(sizes))]
     g.n_tasks_ = int(start[-1])
     return g
+
+
+def _children(a: dict, prefix: str) -> dict:
+    """``{child: {rest: array}}`` of the keys ``f"{prefix}{child}/{rest}"`` of ``a``: each saved
+    learner's arrays, found in one pass over the file's keys (a predictor holds thousands)."""
+    out: dict = {}
+    for k, v in a.items():
+        if k.startswith(prefix):
+            child, sep, rest = k[len(prefix):].partition("/")
+            if sep:
+                out.setdefault(child, {})[rest] = v
+    return out
