@@ -40,10 +40,17 @@ def _gearboxes_off(irb) -> Robot:
     return Robot(ET.tostring(root, encoding="unicode"), name="real", tool="dummy")
 
 
-def test_a_robot_off_only_in_its_ordinary_parameters_passes_the_form_test(irb, design):
+@pytest.fixture(scope="module")
+def gearboxes_off_checked(irb, design):
+    """The form test of the calibration of :func:`_gearboxes_off` (computed once, read by the two
+    tests below)."""
+    return _checked(irb, _gearboxes_off(irb), design)
+
+
+def test_a_robot_off_only_in_its_ordinary_parameters_passes_the_form_test(gearboxes_off_checked):
     # noise-free modes: what the calibration leaves at the held-out postures is its own
     # convergence, far inside the calibration's uncertainty carried there
-    form = _checked(irb, _gearboxes_off(irb), design)
+    form = gearboxes_off_checked
     assert not form.flagged
     assert form.p > 0.01 and form.beyond == 0
 
@@ -60,8 +67,8 @@ def test_a_bending_link_fails_the_form_test(irb, design, link):
     assert form.p < 1e-6 and form.beyond >= 2
 
 
-def test_the_form_test_reads_as_strict_json_one_row_per_heldout_mode(irb, design):
-    form = _checked(irb, _gearboxes_off(irb), design)
+def test_the_form_test_reads_as_strict_json_one_row_per_heldout_mode(gearboxes_off_checked):
+    form = gearboxes_off_checked
     d = json.loads(strict_dumps(form.to_dict()))
     assert d["n"] == len(d["rows"]) == form.n > 0
     assert {r["posture"] for r in d["rows"]} == {6, 7}

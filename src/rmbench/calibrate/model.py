@@ -90,6 +90,7 @@ class ModalModel:
         self._tested = {b: with_sensors(robot, design, b) for b in self.bands}
         self._built = {}
         self._scratch = {}      # reusable MjData to settle in (:meth:`_work`)
+        self._at = {}           # the settled postures at the last values asked (:meth:`_tested_at`)
         # the test design's parameters: read through the design, not written into the model
         self._sensor = np.array([p.kind in _SENSOR for p in params], bool)
         self._speed = next((i for i, p in enumerate(params) if p.kind == "spindle_speed"), None)
@@ -135,12 +136,28 @@ class ModalModel:
         shell.settle(self.q_cmd[p], data)
         return OperatingPoint(shell, None, self.q_cmd[p], None, data, linearize(shell.model, data))
 
-    def _work(self, band: str, which: int) -> mujoco.MjData:
-        """A reusable ``MjData`` of the band's models (``which``: 0 the settled state, 1 a step)."""
+    def _work(self, band: str, which) -> mujoco.MjData:
+        """A reusable ``MjData`` of the band's models (``which``: ``("at", p)`` posture ``p``'s
+        settled state, 1 a step)."""
         key = (band, which)
         if key not in self._scratch:
             self._scratch[key] = mujoco.MjData(self._tested[band].model)
         return self._scratch[key]
+
+    def _tested_at(self, u, p: int, band: str) -> tuple:
+        """``(op, seen, responses)``: the operating point with the values at ``u`` settled at
+        posture ``p`` in ``band``, its modes as tested, and the responses read of them so far
+        (``{freq key: response}``). Those of the last ``u`` are kept: a solver asks for the
+        Jacobian where it has just had the residuals, and a sensitivity's base is that residual's
+        model (settled from a reset state, so the same bit for bit)."""
+        key = u.tobytes()
+        if self._at.get("u") != key:
+            self._at = {"u": key}
+        hit = self._at.get((p, band))
+        if hit is None:
+            op = self._settle(u, p, band, self._work(band, ("at", p)))
+            hit = self._at[(p, band)] = (op, as_tested(op, self._design(u), band), {})
+        return hit
 
     def _settled_from(self, op: OperatingPoint, v, band: str, inertial: bool = False):
         """The linearisation with the values at ``v``, settled from the equilibrium of ``op`` (the
@@ -172,8 +189,11 @@ class ModalModel:
     def response(self, u, p: int, band: str, freq=None) -> tuple:
         """Modes at posture ``p`` in ``band`` with the values at ``u``, and the exact receptance as
         tested at ``freq`` (Hz; m/N, shape (n_freq, 4, 4); None without ``freq``)."""
-        op = self._settle(u, p, band, self._work(band, 0))
-        return as_tested(op, self._design(u), band).response(freq)
+        _, seen, responses = self._tested_at(np.asarray(u, float), p, band)
+        key = None if freq is None else np.asarray(freq, float).tobytes()
+        if key not in responses:
+            responses[key] = seen.response(freq)
+        return responses[key]
 
     def sensitivity(self, u, p: int, band: str, steps, freq=None) -> tuple:
         """Modes at ``u`` and with each parameter stepped by ``steps[i]`` (in ``u``), and with
@@ -207,10 +227,9 @@ class ModalModel:
             The same with that parameter stepped.
         """
         u = np.asarray(u, float)
-        op = self._settle(u, p, band, self._work(band, 0))
-        seen = as_tested(op, self._design(u), band)
+        op, seen, _ = self._tested_at(u, p, band)
         lin, cm = op.linear, seen.cm
-        base = seen.response(freq)
+        base = self.response(u, p, band, freq)
         model = op.robot.model
         names = list(lin.dof_names)
         k = len(self.params)
