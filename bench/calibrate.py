@@ -84,6 +84,7 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 CACHE = HERE / ".cache"
 N_UNSEEN = 200
+N_CAMPAIGN = 16        # postures of a robot's campaign (the seed grid's 112, drawn)
 
 
 def _digest() -> str:
@@ -159,6 +160,7 @@ def measured(xml: str, postures, args, seed: int, i: int, *, placement=None, rpm
     import hashlib
 
     size = "" if scale == 1.0 else f"_x{scale:.4f}"
+    size += "" if len(postures) == N_CAMPAIGN else f"_p{len(postures)}"
     # the robot itself in the name: keyed by seed, robot and size alone, a draw made after a
     # rejected one read the rejected draw's campaign at the same size (seed 16587, robot 2: a tool
     # holder read a heavier forearm's, χ² 763.9 both)
@@ -239,13 +241,13 @@ def run_case(i: int, seed: int, args) -> dict:
     nominal = Robot.load("irb6660", tool="dummy")
     xml, truth = draw_truth(nominal.xml, rng, base=bool(i % 2))
     grid = seed_grid()
-    postures = [grid[k] for k in sorted(rng.choice(len(grid), 16, replace=False))]
+    postures = [grid[k] for k in sorted(rng.choice(len(grid), args.campaign, replace=False))]
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         data = load_modal_data(measured(xml, postures, args, seed, i), workers=args.workers)
     t1 = time.perf_counter()
-    held = [1, 5, 9, 13]
+    held = list(range(1, args.campaign, 4))     # a quarter held out: 1, 5, 9, 13 of 16
     settings = CalibrationSettings(groups=parse_groups(args.groups), workers=args.workers)
     cal = calibrate(nominal, data, held=held, settings=settings)
     t2 = time.perf_counter()
@@ -563,6 +565,8 @@ def main(argv=None) -> None:
     ap.add_argument("--lines", default=None, help="JSON-lines file (default: bench/results/calibrate_<key>.jsonl)")
     ap.add_argument("--unseen", type=int, default=N_UNSEEN,
                     help="quasi-random unseen postures each calibrated model is checked at against the truth")
+    ap.add_argument("--campaign", type=int, default=N_CAMPAIGN, metavar="N",
+                    help=f"--plain: postures of each robot's campaign, a quarter held out (default {N_CAMPAIGN})")
     ap.add_argument("--cache", default=str(CACHE), metavar="DIR",
                     help="where the measured FRFs are kept and read back (default: bench/.cache; a fresh "
                          "folder measures every robot again)")
@@ -571,7 +575,10 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     seed = args.seed if args.seed is not None else fresh_seed()
     groups = args.groups if args.plain else "gap-" + args.gap_groups
-    key = f"s{seed}_{args.method}_{groups.replace(',', '-')}_{_digest()}"
+    if not args.plain and args.campaign != N_CAMPAIGN or args.campaign < 5:
+        ap.error(f"--campaign: at least 5 postures, and only with --plain (got {args.campaign})")
+    size = "" if args.campaign == N_CAMPAIGN else f"_p{args.campaign}"
+    key = f"s{seed}_{args.method}_{groups.replace(',', '-')}{size}_{_digest()}"
     print(f"seed {seed}; key {key}", flush=True)
     lines = Path(args.lines) if args.lines else RESULTS / f"calibrate_{key}.jsonl"
     lines.parent.mkdir(parents=True, exist_ok=True)

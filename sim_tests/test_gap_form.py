@@ -52,6 +52,13 @@ def _first(nominal, real, postures=POSTURES, bands=("low",), n_held=2, linearise
 
 
 @pytest.fixture(scope="module")
+def bent(nominal):
+    root = ET.fromstring(nominal.xml)
+    apply_form(root, median_form("bending_link", "lower_arm", scale=3.0))
+    return _first(nominal, Robot(ET.tostring(root, encoding="unicode"), name="real", tool="dummy"))
+
+
+@pytest.fixture(scope="module")
 def inside(nominal):
     root = ET.fromstring(nominal.xml)
     for joint in root.iter("joint"):
@@ -67,6 +74,18 @@ def _diagnosis(verdict: str) -> Diagnosis:
 
 
 @pytest.mark.parametrize("verdict", ["unexplained", "no significant gap"])
+def test_a_gap_no_effect_explains_on_a_robot_of_another_form_is_called_model_form(bent, verdict):
+    dg = with_form(_diagnosis(verdict), *bent, say=lambda msg: None)
+    assert dg.verdict == "model form"
+    assert dg.form["flagged"] and any(verdict in n for n in dg.notes)
+
+
+def test_an_explained_gap_stays_explained_when_the_form_is_also_wrong(bent):
+    dg = with_form(_diagnosis("explained"), *bent, say=lambda msg: None)
+    assert dg.verdict == "explained" and dg.form["flagged"]
+
+
+@pytest.mark.parametrize("verdict", ["unexplained", "no significant gap"])
 def test_a_robot_inside_the_model_keeps_its_verdict(inside, verdict):
     dg = with_form(_diagnosis(verdict), *inside, say=lambda msg: None)
     assert dg.verdict == verdict and not dg.form["flagged"]
@@ -76,8 +95,7 @@ def test_a_robot_inside_the_model_keeps_its_verdict(inside, verdict):
 @pytest.fixture(scope="module")
 def bent_campaign(nominal):
     """The bending lower arm measured as a diagnosis sees it: twelve postures, both bands, four
-    held out. The verdict tests read it too: the same robot of another form, already calibrated
-    for the localisation below (with_form's verdict rests on the form test, which flags it)."""
+    held out."""
     root = ET.fromstring(nominal.xml)
     apply_form(root, median_form("bending_link", "lower_arm", scale=3.0))
     real = Robot(ET.tostring(root, encoding="unicode"), name="real", tool="dummy")
@@ -90,18 +108,6 @@ def bent_located(bent_campaign):
     (its lack-of-fit test and, the verdict turned to "model form", where the form lies): computed
     once, read by the tests below."""
     return with_form(_diagnosis("unexplained"), *bent_campaign, say=lambda msg: None)
-
-
-@pytest.mark.parametrize("verdict", ["unexplained", "no significant gap"])
-def test_a_gap_no_effect_explains_on_a_robot_of_another_form_is_called_model_form(bent_campaign, verdict):
-    dg = with_form(_diagnosis(verdict), *bent_campaign, say=lambda msg: None)
-    assert dg.verdict == "model form"
-    assert dg.form["flagged"] and any(verdict in n for n in dg.notes)
-
-
-def test_an_explained_gap_stays_explained_when_the_form_is_also_wrong(bent_campaign):
-    dg = with_form(_diagnosis("explained"), *bent_campaign, say=lambda msg: None)
-    assert dg.verdict == "explained" and dg.form["flagged"]
 
 
 def test_model_form_says_where_it_lies(bent_located):
