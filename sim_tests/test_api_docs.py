@@ -21,7 +21,7 @@ SRC = ROOT / "src" / "rmbench"
 # the packages with a page in docs/api; a re-exported object counts under the package it lives in
 PACKAGES = ("robot", "impact", "modal", "predict", "rcsa", "stability", "path", "tracker", "calibrate",
             "gap", "gap.frf", "gap.tracker", "control", "report", "io", "errors", "parallel", "threads",
-            "modeshape")
+            "modeshape", "plotting")
 
 # parameters that hold arrays when not annotated as such (frequency lines, FRFs, joint angles, ...)
 ARRAY_NAMES = {"freq", "freqs", "H", "h", "h_ref", "h_alone", "h_coupled", "h_part", "h_robot", "h_target",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from rmbench.plotting import axes_or_new
 
 __all__ = ["plot_estimates"]
 
@@ -23,16 +24,9 @@ def plot_estimates(params, ax=None):
     params : sequence of ParameterEstimate
         A calibration's estimates (:attr:`Calibration.params`).
     ax : matplotlib Axes, optional
-        Where to draw (default: a new figure's).
-
-    Returns
-    -------
-    matplotlib Axes
+        Where to draw (:func:`rmbench.plotting.axes_or_new`); returned.
     """
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        _, ax = plt.subplots(figsize=(7, 0.3 * len(params) + 1.5))
+    ax = axes_or_new(ax, (7, 0.3 * len(params) + 1.5))
     drawn = [p for p in params if p.nominal != 0]
     ratio = np.array([p.value / p.nominal for p in drawn]).reshape(-1)
     ends = np.array([sorted((p.interval[0] / p.nominal, p.interval[1] / p.nominal)) for p in drawn]).reshape(-1, 2)

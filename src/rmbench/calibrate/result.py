@@ -166,14 +166,8 @@ class Calibration:
         """Each parameter's estimate and 95 % interval relative to its nominal, the identifiable
         ones marked (:func:`~rmbench.calibrate.plot.plot_estimates`).
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
         from rmbench.calibrate.plot import plot_estimates
 

@@ -37,6 +37,7 @@ from rmbench.control.schedule import Schedule
 from rmbench.control.trajectory import Trajectory
 from rmbench.errors import InputError, RmbenchError
 from rmbench.robot.simulate import stepping_model
+from rmbench.plotting import axes_or_new
 
 __all__ = ["Hardware", "LoopRecord", "LoopDiverged", "run_loop", "eccentric_force_amplitude"]
 
@@ -193,19 +194,10 @@ class LoopRecord:
     def plot(self, ax=None):
         """The recorded accelerations over time, one line per axis (m/s² against s).
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
-        if ax is None:
-            import matplotlib.pyplot as plt
-
-            _, ax = plt.subplots(figsize=(7, 3))
+        ax = axes_or_new(ax, (7, 3))
         for i, a in enumerate(self.axes):
             ax.plot(self.t, self.acc[:, i], lw=0.8, label=a)
         ax.set_xlabel("time, s")

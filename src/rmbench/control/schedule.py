@@ -31,6 +31,7 @@ from rmbench.control.design import controller_order, design
 from rmbench.control.plant import Plant, first_strong_mode
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError
+from rmbench.plotting import axes_or_new
 
 __all__ = ["Schedule", "grid_posture", "design_schedule", "Certificate", "certify", "blend_plants", "loop_margin"]
 
@@ -366,19 +367,10 @@ class Certificate:
         one-joint schedule, else over the first two joints' angles (colour); grid postures as
         circles, unstable points as red crosses.
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
-        if ax is None:
-            import matplotlib.pyplot as plt
-
-            _, ax = plt.subplots(figsize=(6, 4))
+        ax = axes_or_new(ax, (6, 4))
         deg = np.degrees(self.variables)
         bad = self.max_real >= 0
         if deg.shape[1] == 1:

@@ -18,6 +18,7 @@ import xarray as xr
 from rmbench.control.controller import Controller
 from rmbench.control.experiments import eccentric_test, excitation_frequencies, reduction_at, sine_sweep
 from rmbench.errors import InputError
+from rmbench.plotting import axes_or_new
 
 __all__ = ["SUPPRESSION_TESTS", "SuppressionTest", "suppression_test", "suppression_frequencies"]
 
@@ -105,19 +106,10 @@ class SuppressionTest:
         """|sensitivity| over frequency, uncontrolled and controlled, for each of :attr:`axes`, each
         mode marked.
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
-        if ax is None:
-            import matplotlib.pyplot as plt
-
-            _, ax = plt.subplots(figsize=(7, 3.5))
+        ax = axes_or_new(ax, (7, 3.5))
         for name, ds in self.runs.items():
             for a in self.axes:
                 f = ds.freq.values

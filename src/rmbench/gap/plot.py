@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from rmbench.plotting import axes_or_new
 
 __all__ = ["plot_diagnosis", "plot_mode_gaps", "plot_workspace", "plot_effects", "plot_sources", "plot_pose_errors",
            "plot_location"]
@@ -33,9 +34,7 @@ def _axes(ax, figsize=(9, 4.5)):
 
 def plot_mode_gaps(where, ax=None, *, title="frequency gap of each tracked mode"):
     """Model-minus-measured frequency (%) of each tracked mode against the posture."""
-    plt = _plt()
-    if ax is None:
-        _, ax = plt.subplots(figsize=(9, 4.5))
+    ax = axes_or_new(ax, (9, 4.5))
     keys = sorted({(r["band"], r["mode"]) for r in where.records})
     for k, key in enumerate(keys):
         rs = [r for r in where.records if (r["band"], r["mode"]) == key and r["paired"]]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from rmbench.plotting import axes_or_new
 
 __all__ = ["plot_frf_matrix", "plot_campaign_summary"]
 
@@ -66,16 +67,9 @@ def plot_campaign_summary(summary, ax=None):
     ----------
     summary : CampaignSummary
     ax : matplotlib Axes, optional
-        Where to draw (default: a new figure's).
-
-    Returns
-    -------
-    matplotlib Axes
+        Where to draw (:func:`rmbench.plotting.axes_or_new`); returned.
     """
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        _, ax = plt.subplots(figsize=(7, 3))
+    ax = axes_or_new(ax, (7, 3))
     index = np.arange(summary.n_postures)
     ok = np.asarray(summary.ok, bool)
     ax.bar(index[ok], summary.seconds[ok], color="tab:blue", label="measured")

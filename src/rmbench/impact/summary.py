@@ -108,14 +108,8 @@ class CampaignSummary:
         """Wall time per posture (s), measured postures in one colour, failed ones in another
         (:func:`~rmbench.impact.plot.plot_campaign_summary`).
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
         from rmbench.impact.plot import plot_campaign_summary
 

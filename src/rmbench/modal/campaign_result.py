@@ -88,14 +88,8 @@ class CampaignFit:
         """The fitted natural frequencies over the postures, one series per tracked mode (Hz, log
         scale); band fits that need a look are marked on the posture axis.
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
         from rmbench.modal.plot import plot_campaign_frequencies
 

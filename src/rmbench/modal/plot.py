@@ -8,6 +8,7 @@ matplotlib is imported only when a figure is drawn.
 from __future__ import annotations
 
 import numpy as np
+from rmbench.plotting import axes_or_new
 
 __all__ = ["plot_fit", "plot_stabilisation", "plot_campaign_frequencies"]
 
@@ -73,8 +74,7 @@ def plot_stabilisation(fit, ax=None, *, freq=None, H=None):
     -------
     matplotlib Axes
     """
-    if ax is None:
-        _, ax = _plt().subplots(figsize=(10, 6))
+    ax = axes_or_new(ax, (10, 6))
     fit.stabilization_.plot(ax, freq=freq, H=H)
     # the fitted modes: the diagram's clusters after the information criterion merged, added or
     # removed poles
@@ -96,14 +96,9 @@ def plot_campaign_frequencies(modal, *, ax=None):
     modal : xarray.Dataset
         :func:`~rmbench.modal.campaign_fit.fit_campaign`'s dataset.
     ax : matplotlib Axes, optional
-        Where to draw (default: a new figure's).
-
-    Returns
-    -------
-    matplotlib Axes
+        Where to draw (:func:`rmbench.plotting.axes_or_new`); returned.
     """
-    if ax is None:
-        _, ax = _plt().subplots(figsize=(8, 4.5))
+    ax = axes_or_new(ax, (8, 4.5))
     f = modal["modal"].sel(param="f_n").values          # (posture, mode), Hz
     posture = np.arange(f.shape[0])
     for m in range(f.shape[1]):

@@ -13,6 +13,7 @@ from scipy.cluster.hierarchy import fcluster, linkage
 
 from rmbench.modal.plscf import PolyMaxOrder
 from rmbench.modeshape import mac
+from rmbench.plotting import axes_or_new
 
 __all__ = ["Stabilization", "StabilityCriteria", "stabilize"]
 
@@ -125,10 +126,7 @@ class Stabilization:
         -------
         matplotlib Axes
         """
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots()
+        ax = axes_or_new(ax)
         f = self.freq
         ax.plot(f[~self.stable], self.order[~self.stable], "o", ms=3, mfc="none", color="0.6",
                 label="pole")

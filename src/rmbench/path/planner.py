@@ -246,14 +246,8 @@ class PathPlan:
         """The critical depth along the path for the planned and the fixed-θ schedules, the band and
         the depth cut where known (:func:`rmbench.path.plot.plot_plan`).
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
         from rmbench.path.plot import plot_plan
 

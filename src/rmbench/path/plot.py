@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from rmbench.plotting import axes_or_new
 
 __all__ = ["plot_plan"]
 
@@ -15,16 +16,9 @@ def plot_plan(plan, ax=None):
     ----------
     plan : PathPlan
     ax : matplotlib Axes, optional
-        Where to draw (default: a new figure's).
-
-    Returns
-    -------
-    matplotlib Axes
+        Where to draw (:func:`rmbench.plotting.axes_or_new`); returned.
     """
-    import matplotlib.pyplot as plt
-
-    if ax is None:
-        _, ax = plt.subplots(figsize=(8, 3.5))
+    ax = axes_or_new(ax, (8, 3.5))
     s = 1e3 * plan.toolpath.arc_length()
 
     def mm(a):

@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from rmbench.plotting import axes_or_new
 
 __all__ = ["plot_cv", "plot_maps", "plot_postures"]
 
@@ -20,8 +21,7 @@ def plot_postures(X, *, ax=None, title: str = ""):
 
     Draws on ``ax`` (default: a new figure's) and returns it.
     """
-    if ax is None:
-        _, ax = _plt().subplots(figsize=(5, 4))
+    ax = axes_or_new(ax, (5, 4))
     X = np.asarray(X, float)
     pts = ax.scatter(1e3 * X[:, 0], 1e3 * X[:, 1], c=np.degrees(X[:, 2]), s=12, cmap="viridis")
     ax.figure.colorbar(pts, ax=ax, label="θ (°)")

@@ -304,14 +304,8 @@ class PosturePredictor:
     def plot(self, ax=None):
         """The training postures in the workspace, x against y (mm), coloured by θ (degrees).
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
         from rmbench.predict.plot import plot_postures
 

@@ -85,14 +85,8 @@ class Lobes:
         """Critical depth (mm) against spindle speed (rev/min)
         (:func:`rmbench.stability.plot.draw_lobes`).
 
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Where to draw (default: a new figure's).
-
-        Returns
-        -------
-        matplotlib Axes
+        Drawn on ``ax`` or a new figure's Axes (:func:`rmbench.plotting.axes_or_new`), which it
+        returns.
         """
         from rmbench.stability.plot import draw_lobes
 

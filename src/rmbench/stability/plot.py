@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from rmbench.plotting import axes_or_new
 
 __all__ = ["plot_lobes", "draw_lobes"]
 
@@ -48,10 +49,7 @@ def draw_lobes(diagrams: dict, ax=None, *, title: str = "", points=None):
     -------
     matplotlib Axes
     """
-    if ax is None:
-        import matplotlib.pyplot as plt
-
-        _, ax = plt.subplots(figsize=(8, 4.5))
+    ax = axes_or_new(ax, (8, 4.5))
     for k, (name, d) in enumerate(diagrams.items()):
         a = np.where(np.isfinite(d.a_lim), d.a_lim, np.nan)
         ax.plot(d.speed_rpm, 1e3 * a, color="k" if name == "envelope" else f"C{k}",
