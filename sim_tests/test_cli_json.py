@@ -76,11 +76,12 @@ COMMANDS = {
 }
 
 
-def test_print_json_writes_null_inside_arrays_and_numpy_scalars(capsys):
-    from rmbench.cli._common import print_json
+def test_json_text_writes_null_inside_arrays_and_numpy_scalars():
+    """Every ``--json`` prints :func:`rmbench.io.strict_json.strict_dumps` of its result."""
+    from rmbench.io.strict_json import strict_dumps
 
-    print_json({"a": np.array([1.0, np.nan, np.inf]), "s": np.float32("nan"), "n": np.int64(2)})
-    assert strict_loads(capsys.readouterr().out) == {"a": [1.0, None, None], "s": None, "n": 2}
+    text = strict_dumps({"a": np.array([1.0, np.nan, np.inf]), "s": np.float32("nan"), "n": np.int64(2)})
+    assert strict_loads(text) == {"a": [1.0, None, None], "s": None, "n": 2}
 
 
 @pytest.mark.parametrize("argv", COMMANDS.values(), ids=COMMANDS.keys())
@@ -128,27 +129,24 @@ def test_tracker_gap_bins_name_the_empty_ones(cli, files, tmp_path):
             assert b["empty"] == [i for i, v in enumerate(b["rms"]) if v is None]
 
 
-def test_mill_out_file_is_strict_and_a_runaway_resumes_unbounded(tmp_path, monkeypatch):
+def test_mill_out_file_is_strict_and_a_runaway_resumes_unbounded(tmp_path):
     """A runaway cut's metric and growth are infinite: null in the JSON-lines file, inf again
-    when a rerun resumes from it."""
+    when a rerun resumes from it. A runaway threshold of 1 nm (below the static deflection) runs
+    away at the first step; the rerun, at the default 5 mm, would not give that cut again: it
+    reads it back rather than simulating it."""
     from rmbench.robot import Posture
     from rmbench.stability import ALUMINIUM_6061
-    from rmbench.stability import milling
+    from rmbench.stability.milling import mill_grid
 
-    runaway = milling.MillingRun(9000.0, 1e-3, True, "runaway", np.inf, np.inf, 1.0, np.nan).to_dict()
-    monkeypatch.setattr(milling, "_grid_task", lambda task: dict(runaway))
     out = tmp_path / "m.jsonl"
     p = Posture.from_mm_deg(1800, 200, 0)
-    first = milling.mill_grid("irb6660", "endmill", p, ALUMINIUM_6061, [9000.0], [1e-3], out=out)
+    first = mill_grid("irb6660", "endmill", p, ALUMINIUM_6061, [9000.0], [1e-3], out=out, runaway=1e-9)
+    assert first[0].kind == "runaway"
     line = strict_loads(out.read_text())
-    assert line["metric"] is None and line["growth"] is None and line["amplitude"] is None
+    assert line["metric"] is None and line["growth"] is None
 
-    def no_simulation(task):
-        raise AssertionError("a finished cut was simulated again")
-
-    monkeypatch.setattr(milling, "_grid_task", no_simulation)
-    again = milling.mill_grid("irb6660", "endmill", p, ALUMINIUM_6061, [9000.0], [1e-3], out=out)
-    assert again[0].metric == again[0].growth == np.inf and again[0].kind == first[0].kind == "runaway"
+    again = mill_grid("irb6660", "endmill", p, ALUMINIUM_6061, [9000.0], [1e-3], out=out)
+    assert again[0].metric == again[0].growth == np.inf and again == first
 
 
 def test_gap_blind_case_lines_are_strict_and_read_back():

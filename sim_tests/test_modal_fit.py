@@ -158,6 +158,8 @@ def test_covariance_carried_to_another_normalisation_equals_the_one_computed_the
     change of variables (T C Tᵀ): it equals σ² (JᵀJ)⁻¹ with J taken in that normalisation, each
     mode's reference moved (1aY to 1X, 1X to 1Y) or kept, to 1e-10 of the largest variance: the
     map is exact, so the two differ by rounding only (about 1e-14 here)."""
+    # an internal kernel checked against its definition: no public fit can change the normalisation
+    # without refitting, which moves the minimum far more than the 1e-10 checked here
     from rmbench.modal._uncertainty import covariance, renormalisation
 
     rng = np.random.default_rng(5)

@@ -323,32 +323,32 @@ def test_a_moving_cut_stays_on_its_smooth_stretch_and_holds_where_the_stretch_is
     verdict is about steady cutting, so a 15 mm cut near a right-angle corner is shifted along its
     pass rather than carried round it, and a cut on the stepover, shorter than itself, holds its
     posture. A rounded corner (10° per move) is steady cutting and does not end a stretch."""
-    from rmbench.path.milling import _stretch, _window
+    from rmbench.path.milling import cut_window, smooth_stretch
 
     x = np.arange(0.0, 0.3001, 0.005)
     xy = np.vstack([np.column_stack([x, np.zeros_like(x)]), [[0.3, 0.005], [0.3, 0.01]],
                     np.column_stack([x[::-1][1:], np.full(len(x) - 1, 0.01)])])
     arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
     first_pass, stepover = (0, 60), (60, 62)
-    assert _stretch(xy, 30) == first_pass and _stretch(xy, 59) == first_pass
-    assert _stretch(xy, 61) == stepover
+    assert smooth_stretch(xy, 30) == first_pass and smooth_stretch(xy, 59) == first_pass
+    assert smooth_stretch(xy, 61) == stepover
     # centred on the location; the motion's locations span the cut, at most a spacing beyond it
-    start, a, b = _window(arc, 30, 0.015, first_pass)
+    start, a, b = cut_window(arc, 30, 0.015, first_pass)
     assert start == pytest.approx(arc[30] - 0.0075)
     assert arc[a] <= start < arc[a + 1] and arc[b - 1] < start + 0.015 <= arc[b]
     # near the corner: shifted back along the pass, ending at the corner
-    start, a, b = _window(arc, 59, 0.015, first_pass)
+    start, a, b = cut_window(arc, 59, 0.015, first_pass)
     assert start + 0.015 == pytest.approx(arc[60]) and b == 60
-    assert _window(arc, 61, 0.015, stepover) is None              # held
+    assert cut_window(arc, 61, 0.015, stepover) is None           # held
     # a rapid along the pass's line is no cut: the stretch ends before it
     cutting = np.ones(len(xy), bool)
     cutting[40] = False
-    assert _stretch(xy, 30, cutting=cutting) == (0, 39)
+    assert smooth_stretch(xy, 30, cutting=cutting) == (0, 39)
     # a straight run into a quarter circle of 9 moves: one stretch
     phi = np.radians(np.arange(0, 91, 10.0))
     bend = np.vstack([np.column_stack([np.arange(-0.05, 0.0, 0.01), np.zeros(5)]),
                       np.column_stack([0.05 * np.sin(phi), 0.05 * (1 - np.cos(phi))])])
-    assert _stretch(bend, 8) == (0, len(bend) - 1)
+    assert smooth_stretch(bend, 8) == (0, len(bend) - 1)
 
 
 @pytest.mark.parametrize("kw, message", [({"schedule": "best", "depth": 1e-3}, "unknown schedule"),

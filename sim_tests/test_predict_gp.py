@@ -49,6 +49,7 @@ def test_kronecker_likelihood_and_its_gradient_equal_the_dense_computation():
     differences (torch's gradcheck: float64, relative 1e-3 of a central difference)."""
     import torch
 
+    # an internal numerical kernel (torch autograd function) checked against its definition
     from rmbench.predict.gp import _kron_quad_logdet
 
     fn = _kron_quad_logdet(torch).apply
@@ -75,6 +76,7 @@ def test_mtgp_fit_follows_gpytorchs_exact_marginal_likelihood():
     """The closed-form Kronecker likelihood is gpytorch's model, not another one: from the same start
     L-BFGS takes the same steps on both (hyperparameters equal to 1e-7 after 5 and 30 iterations,
     where a different objective or gradient would part them at the first step)."""
+    # torch batching internals: the closed-form fitter checked step by step against gpytorch's
     from rmbench.predict.gp import _fit_batch, _fit_batch_kron, _torch
 
     torch, gpytorch = _torch()
@@ -99,6 +101,7 @@ def test_single_task_likelihood_and_its_closed_form_gradient():
     differences (float64)."""
     import torch
 
+    # an internal numerical kernel (torch autograd function) checked against its definition
     from rmbench.predict.gp import _single_gp
 
     fn = _single_gp(torch).apply
@@ -122,6 +125,7 @@ def test_single_task_fit_follows_gpytorchs_exact_marginal_likelihood():
     take gpytorch's L-BFGS steps (its Cholesky path for a covariance this small): hyperparameters
     equal to 1e-7 after 5 and 30 iterations, where another objective or gradient would part them at
     the first step."""
+    # torch batching internals: the closed-form fitter checked step by step against gpytorch's
     from rmbench.predict.gp import _fit_batch, _fit_batch_kron, _torch
 
     torch, gpytorch = _torch()

@@ -388,6 +388,8 @@ def test_the_no_cut_reference_is_the_motion_stepped_without_a_cut(irb):
     import mujoco
 
     from rmbench.robot.simulate import stable_step, stepping_model
+    # an internal kernel checked against its definition: mill() reads the reference only through
+    # the chatter metrics, which would hide a one-step misalignment
     from rmbench.stability.milling import Motion, _uncut
 
     a, b = (irb.at(Posture.from_mm_deg(x, 0, 0)) for x in (1600, 1610))

@@ -33,7 +33,7 @@ from rmbench.modal.plscf import plscf
 from rmbench.modal.quality import QualityCriteria, assess
 from rmbench.modal.stabilization import StabilityCriteria, stabilize
 
-__all__ = ["ModalFit", "ModalFitWarning", "NotFittedError", "PARAM_NAMES"]
+__all__ = ["ModalFit", "ModalFitWarning", "NotFittedError", "PARAM_NAMES", "fit_weights"]
 
 PARAM_NAMES = ("f_n", "zeta",
                "phiL_1X_re", "phiL_1X_im", "phiL_1aX_re", "phiL_1aX_im", "phiL_1Y_re", "phiL_1Y_im",
@@ -177,7 +177,7 @@ class ModalFit:
         self._check_settings()
         freq, H, coherence = _check_data(freq, H, coherence)
         crit = self.criteria if self.criteria is not None else StabilityCriteria()
-        W = _weights(H, coherence, self.weighting)
+        W = fit_weights(H, coherence, self.weighting)
         stab, problem, sel, ws, hs = self._select_poles(freq, H, W, crit)
         n_band = int(sel.in_band.sum())
         if self.n_modes is not None and n_band < self.n_modes:
@@ -424,8 +424,26 @@ def _check_data(freq, H, coherence):
     return freq, H, coherence
 
 
-def _weights(H, coherence, weighting):
-    """Real weights of each FRF line, shape (n_freq, 4, 4), relative to the scaled H."""
+def fit_weights(H, coherence=None, weighting: Literal["coherence", "magnitude", "uniform"] = "coherence"
+                ) -> np.ndarray:
+    """Weight of each FRF line in the nonlinear fit: :class:`ModalFit`'s ``weighting`` rule.
+
+    Parameters
+    ----------
+    H : ndarray, shape (n_freq, 4, 4), complex, m/N
+        Receptance of one band (any common scale: only ratios between FRFs matter).
+    coherence : ndarray, shape (n_freq, 4, 4), optional
+        Ordinary coherence of each FRF, in [0, 1]; only ``"coherence"`` reads it.
+    weighting : {"coherence", "magnitude", "uniform"}
+        ``"uniform"``: all ones. ``"magnitude"``: each FRF divided by its RMS magnitude over the
+        band, times the largest RMS (the strongest FRF weighs 1). ``"coherence"``: the same times
+        ``sqrt(γ²/(1 − γ²))``, ``γ²`` capped at 0.99; without coherence, ``"magnitude"``.
+
+    Returns
+    -------
+    ndarray, shape (n_freq, 4, 4), float
+        Real weights multiplying each line's complex error (dimensionless).
+    """
     if weighting == "uniform":
         return np.ones(H.shape)
     level = np.sqrt(np.mean(np.abs(H) ** 2, axis=0))

@@ -34,7 +34,7 @@ from rmbench.stability.cutting import Cutting
 from rmbench.stability.milling import Motion, mill
 from rmbench.stability.zoa import zoa_limit
 
-__all__ = ["PathMilling", "mill_schedule", "sample_locations"]
+__all__ = ["PathMilling", "mill_schedule", "sample_locations", "smooth_stretch", "cut_window"]
 
 
 @dataclass(frozen=True)
@@ -134,11 +134,29 @@ def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands) -> float:
     return min(per)
 
 
-def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(20.0), cutting=None) -> tuple[int, int]:
-    """First and last location of the smooth stretch of cutting path through location ``k`` (the
-    longer one where ``k`` is a corner): consecutive cutting moves turning by less than ``tol``
-    each (an arc of a few of the spacings' radius continues it; a raster's right-angle corner, a
-    rapid or a plunge ends it). ``cutting``: bool per location, whether the move to it cuts."""
+def smooth_stretch(xy: np.ndarray, k: int, tol: float = np.radians(20.0), cutting=None) -> tuple[int, int]:
+    """The smooth stretch of cutting path through a cutter location: where a moving cut may run.
+
+    Consecutive cutting moves turning by less than ``tol`` each form a stretch: an arc of a few
+    of the spacings' radius continues it; a raster's right-angle corner, a rapid or a plunge (a
+    move of no length in the plane) ends it. Where ``k`` is a corner, the longer of its two.
+
+    Parameters
+    ----------
+    xy : ndarray, shape (n, 2), m
+        Cutter locations in the workpiece plane (``ToolPath.xy``).
+    k : int
+        The location, 0 to n − 1.
+    tol : float
+        Largest turn between consecutive moves, rad.
+    cutting : ndarray of bool, shape (n,), optional
+        Whether the move to each location cuts (``ToolPath.cutting``; default: every move).
+
+    Returns
+    -------
+    (int, int)
+        The stretch's first and last location; ``(k, k)`` where no cutting move touches ``k``.
+    """
     d = np.diff(xy, axis=0)
     length = np.hypot(d[:, 0], d[:, 1])
     if cutting is not None:
@@ -162,12 +180,30 @@ def _stretch(xy: np.ndarray, k: int, tol: float = np.radians(20.0), cutting=None
     return best
 
 
-def _window(arc: np.ndarray, k: int, travel: float, stretch: tuple[int, int]) -> tuple[int, int] | None:
-    """The cut travelling ``travel`` (m) of path around location ``k``: centred on it, shifted
-    along its smooth ``stretch`` near the stretch's ends. Returns ``(start, a, b)``: the arc
-    length where the cut starts, m, and the first and last cutter location of the motion (the
-    locations at or beyond the cut's ends, so that the motion spans it); None where the stretch is
-    shorter than the cut."""
+def cut_window(arc: np.ndarray, k: int, travel: float, stretch: tuple[int, int]) -> tuple[float, int, int] | None:
+    """The stretch of path a moving cut around a cutter location covers.
+
+    Centred on location ``k``, shifted along its smooth ``stretch`` (:func:`smooth_stretch`) near
+    the stretch's ends, so that the cut never turns a corner.
+
+    Parameters
+    ----------
+    arc : ndarray, shape (n,), m
+        Arc length at each cutter location, increasing (``ToolPath.arc_length()``).
+    k : int
+        The location the cut is about.
+    travel : float
+        Path the cut covers, m (feed × the cut's duration).
+    stretch : (int, int)
+        First and last location of the smooth stretch through ``k``.
+
+    Returns
+    -------
+    (float, int, int) or None
+        ``(start, a, b)``: the arc length where the cut starts, m, and the first and last cutter
+        location of the motion (those at or beyond the cut's ends, so that the motion spans it);
+        None where the stretch is shorter than the cut (the cut then holds its posture).
+    """
     s0, s1 = stretch
     if arc[s1] - arc[s0] < travel:
         return None
@@ -235,7 +271,8 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         op = robot.at(q[k])
         exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
         motion, first = None, op
-        window = (_window(arc, int(idx[k]), speed[idx[k]] * duration, _stretch(tp.xy, int(idx[k]), cutting=tp.cutting))
+        window = (cut_window(arc, int(idx[k]), speed[idx[k]] * duration,
+                             smooth_stretch(tp.xy, int(idx[k]), cutting=tp.cutting))
                   if moving else None)
         if window is not None:
             start, a, b = window
