@@ -12,19 +12,23 @@ from rmbench.gap import diagnose
 from rmbench.robot import Robot
 from rmbench.robot.variant import make_variant
 
-from test_gap_diagnose import _campaign
+from test_gap_diagnose import CORNERS, _campaign
 
 
 @pytest.fixture(scope="module")
 def spread_and_contact(tmp_path_factory):
     """Data of an IRB6660 whose j2 and j5 gearboxes differ from the data sheet (ordinary spread)
     and whose tool sits 2.5 times stiffer in its holder (a structural effect the gearboxes cannot
-    stand in for: it moves the high band's tool modes)."""
+    stand in for: it moves the high band's tool modes), at the four corner postures: the gearboxes
+    move the arm's modes and the holder the tool's at every posture, so the verdicts, the effect
+    and its size are those of the eight postures (holder ×2.51 against ×2.49, j2 ×0.800 both; the
+    null recalibration's held-out χ² per residual 59 against 58 with the gearboxes alone, 0.01
+    against 0.02 with the tool group) at half the fits, screening and recalibrations."""
     tmp = tmp_path_factory.mktemp("gapcal")
     robot = Robot.load("irb6660", tool="dummy")
     (tmp / "real.xml").write_text(make_variant(robot, ["j2_flex.stiffness*=0.8", "j5_flex.stiffness*=1.25",
                                                        "tool_contact_*.stiffness*=2.5"]))
-    return _campaign(tmp, str(tmp / "real.xml"), "irb6660")
+    return _campaign(tmp, str(tmp / "real.xml"), "irb6660", postures=CORNERS)
 
 
 @pytest.fixture(scope="module")

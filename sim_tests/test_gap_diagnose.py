@@ -17,13 +17,19 @@ from rmbench.robot.variant import make_variant
 
 POSTURES = "[[1500, -300, -40], [1900, 300, 0], [1500, 300, 20], [1900, -300, 60], " \
            "[1700, -100, 0], [1700, 100, 40], [1300, -100, -20], [1900, 100, -60]]"
+# the first four: the corners of the x-y box, θ from -40° to 60°, two fitted on and two held out.
+# A planted gearbox or tool-holder error moves the same modes at every posture (the arm's for a
+# gearbox, the tool's for the holder), so four show it as eight do, at half the fits and screening
+# (j3 ×1.3: "explained", j3 first, ×1.3001 against ×1.3000, shrink 0.96 (0.94-0.97) against 0.91
+# (0.88-0.94); the nominal's own data keep all eight: a false gap may hide at any posture)
+CORNERS = "[[1500, -300, -40], [1900, 300, 0], [1500, 300, 20], [1900, -300, 60]]"
 
 
-def _campaign(tmp, robot_file: str, commands_from: str | None = None, name="c.nc"):
+def _campaign(tmp, robot_file: str, commands_from: str | None = None, name="c.nc", postures=POSTURES):
     toml = f'seed = 1\nmethod = "linear"\n[robot]\nname = "{robot_file}"\ntool = "dummy"\n'
     if commands_from:
         toml += f'commands_from = "{commands_from}"\n'
-    toml += f'[grid]\nkind = "list"\npostures = {POSTURES}\n'
+    toml += f'[grid]\nkind = "list"\npostures = {postures}\n'
     out = tmp / name
     run_campaign(parse_config(toml), out, toml=toml, workers=0, progress=False)
     return out
@@ -31,11 +37,12 @@ def _campaign(tmp, robot_file: str, commands_from: str | None = None, name="c.nc
 
 @pytest.fixture(scope="module")
 def stiffer_j3(tmp_path_factory):
-    """Data of the IRB6660 whose j3 gearbox is 30 % stiffer than the nominal model's."""
+    """Data of the IRB6660 whose j3 gearbox is 30 % stiffer than the nominal model's, at the four
+    corner postures (the gearbox moves the arm's modes at every posture)."""
     tmp = tmp_path_factory.mktemp("gap")
     robot = Robot.load("irb6660", tool="dummy")
     (tmp / "hidden.xml").write_text(make_variant(robot, ["j3_flex.stiffness*=1.3"]))
-    return _campaign(tmp, str(tmp / "hidden.xml"), "irb6660")
+    return _campaign(tmp, str(tmp / "hidden.xml"), "irb6660", postures=CORNERS)
 
 
 @pytest.fixture(scope="module")
