@@ -77,6 +77,23 @@ class ToolPath:
         steps = np.linalg.norm(np.diff(self.xy, axis=0), axis=1)
         return np.concatenate([[0.0], np.cumsum(steps)])
 
+    def heading(self) -> np.ndarray:
+        """Feed direction at each point, rad in (−π, π], shape (n,): the direction of travel of the
+        move *into* the point, from base X toward base Y (the move that cuts it, as
+        :attr:`cutting` counts moves). The first point takes the direction of the first move that
+        goes anywhere; a point reached by a move of no length keeps the direction of the move
+        before it. Rapid moves have a heading too (where they head), though nothing is cut there.
+        """
+        step = np.diff(self.xy, axis=0) + 0.0      # no −0.0: a move along −X heads +π, not −π
+        moved = np.any(step != 0, axis=1)
+        if not moved.any():
+            raise InputError("the tool path never moves: no feed direction")
+        into = np.arctan2(step[:, 1], step[:, 0])
+        # a zero-length move carries the last real direction; the first point the first real one
+        last = np.maximum.accumulate(np.where(moved, np.arange(len(step)), -1))
+        into = into[np.where(last >= 0, last, int(np.argmax(moved)))]
+        return np.concatenate([into[:1], into])
+
     def cut_length(self) -> float:
         """Length of the cutting moves, m."""
         steps = np.linalg.norm(np.diff(self.xy, axis=0), axis=1)

@@ -12,12 +12,13 @@ against the full discretisation at sampled poses.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
+from rmbench.stability.frame import to_cut_frame
 from rmbench.stability.zoa import zoa_limit, zoa_limits
 from rmbench.threads import run_concurrently
 
@@ -118,33 +119,50 @@ class TipModes:
     where: np.ndarray
     outside_hull: np.ndarray
 
-    def depths(self, cutting: Cutting, speed_rpm: float, *, n_freq: int = N_FREQ) -> DepthGrid:
-        """The critical depth of every pose at one spindle speed (rev/min)."""
-        n, m = self.shape
+    def depths(self, cutting: Cutting, speed_rpm: float, *, n_freq: int = N_FREQ, heading=None,
+               down=None) -> DepthGrid:
+        """The critical depth of every pose at one spindle speed (rev/min).
 
-        def band(b):
-            flat = np.full(n * m, np.nan)
-            if len(self.where):
-                p = self.poles[b]
-                flat[self.where] = zoa_limit(p, self.residues[b], cutting, speed_rpm, _freq(p, n_freq))
-            return flat.reshape(n, m)
+        Parameters
+        ----------
+        cutting : Cutting
+        speed_rpm : float
+        n_freq : int
+            Lines of the chatter-frequency grid.
+        heading : ndarray, shape (n,), rad, optional
+            Feed direction at each location in the base XY plane (:meth:`rmbench.io.ToolPath.heading`);
+            the tip's modes are turned into the cut's frame there
+            (:func:`rmbench.stability.frame.to_cut_frame`). None: the feed along base X everywhere,
+            the numbers as before headings.
+        down : ndarray of bool, shape (n,), optional
+            Climb (True) or conventional (False) milling at each location; None: ``cutting.down``.
+        """
+        # one speed is the several speeds' first: zoa_limit is zoa_limits' one column, number for number
+        return self.depths_at(cutting, [speed_rpm], n_freq=n_freq, heading=heading, down=down)[0]
 
-        # numpy's array loops release the GIL: the bands on threads share the cores
-        by_band = dict(zip(self.poles, run_concurrently([lambda b=b: band(b) for b in self.poles])))
-        a_lim = np.minimum.reduce(list(by_band.values()))
-        return DepthGrid(a_lim, by_band, self.outside_hull, float(speed_rpm))
-
-    def depths_at(self, cutting: Cutting, speeds_rpm, *, n_freq: int = N_FREQ) -> list:
-        """:meth:`depths` at each of several speeds, as a list of :class:`DepthGrid`: the
-        receptance and its eigenvalues are computed once (:func:`rmbench.stability.zoa.zoa_limits`)."""
+    def depths_at(self, cutting: Cutting, speeds_rpm, *, n_freq: int = N_FREQ, heading=None, down=None) -> list:
+        """:meth:`depths` at each of several speeds (rev/min), as a list of :class:`DepthGrid`: the
+        receptance and its eigenvalues are computed once (:func:`rmbench.stability.zoa.zoa_limits`).
+        ``heading`` (rad) and ``down``, shape (n,) each, as in :meth:`depths`."""
         speeds = np.atleast_1d(np.asarray(speeds_rpm, float))
         n, m = self.shape
+        loc = self.where // m if m else self.where
+        heading = None if heading is None else _per_location(heading, n, "heading", float)[loc]
+        down = np.full(len(loc), bool(cutting.down)) if down is None else _per_location(down, n, "down", bool)[loc]
 
         def band(b):
             flat = np.full((n * m, len(speeds)), np.nan)
             if len(self.where):
                 p = self.poles[b]
-                flat[self.where] = zoa_limits(p, self.residues[b], cutting, speeds, _freq(p, n_freq))
+                res = self.residues[b] if heading is None else to_cut_frame(self.residues[b], heading)
+                freq = _freq(p, n_freq)
+                for d in (True, False):      # climb and conventional: two directional matrices
+                    sel = down == d
+                    cut = cutting if d == cutting.down else replace(cutting, down=d)
+                    if sel.all():
+                        flat[self.where] = zoa_limits(p, res, cut, speeds, freq)
+                    elif sel.any():
+                        flat[self.where[sel]] = zoa_limits(p[sel], res[sel], cut, speeds, freq)
             return flat
 
         per = dict(zip(self.poles, run_concurrently([lambda b=b: band(b) for b in self.poles])))
@@ -153,6 +171,17 @@ class TipModes:
             by_band = {b: v[:, k].reshape(n, m) for b, v in per.items()}
             out.append(DepthGrid(np.minimum.reduce(list(by_band.values())), by_band, self.outside_hull, float(sp)))
         return out
+
+
+def _per_location(values, n: int, name: str, kind) -> np.ndarray:
+    """One value per location, shape (n,), as ``kind``; a one-line error otherwise."""
+    a = np.asarray(values)
+    if a.shape != (n,):
+        raise InputError(f"{name} needs one value per location ({n}), got shape {a.shape}")
+    a = a.astype(kind)
+    if kind is float and not np.all(np.isfinite(a)):
+        raise InputError(f"{name} must be finite at every location (rad)")
+    return a
 
 
 def predicted_modes(predictor, xy, theta, *, bands=("low", "high"), chunk: int = 4096) -> TipModes:
@@ -220,16 +249,19 @@ def exact_modes(robot, xy, theta, *, reach=None, bands=("low", "high"), progress
 
 
 def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, bands=("low", "high"),
-                     n_freq: int = N_FREQ) -> DepthGrid:
-    """Critical depth at every (location, θ) from a posture predictor (:func:`predicted_modes`)."""
-    return predicted_modes(predictor, xy, theta, bands=bands).depths(cutting, speed_rpm, n_freq=n_freq)
+                     n_freq: int = N_FREQ, heading=None, down=None) -> DepthGrid:
+    """Critical depth at every (location, θ) from a posture predictor (:func:`predicted_modes`);
+    ``heading`` (rad) and ``down`` per location, shape (n,), as :meth:`TipModes.depths` takes them."""
+    return predicted_modes(predictor, xy, theta, bands=bands).depths(cutting, speed_rpm, n_freq=n_freq,
+                                                                     heading=heading, down=down)
 
 
 def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=None, bands=("low", "high"),
-                 n_freq: int = N_FREQ, progress=None) -> DepthGrid:
-    """Critical depth at every (location, θ) from the robot's exact modes (:func:`exact_modes`)."""
+                 n_freq: int = N_FREQ, progress=None, heading=None, down=None) -> DepthGrid:
+    """Critical depth at every (location, θ) from the robot's exact modes (:func:`exact_modes`);
+    ``heading`` (rad) and ``down`` per location, shape (n,), as :meth:`TipModes.depths` takes them."""
     return exact_modes(robot, xy, theta, reach=reach, bands=bands, progress=progress).depths(
-        cutting, speed_rpm, n_freq=n_freq)
+        cutting, speed_rpm, n_freq=n_freq, heading=heading, down=down)
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["Cutting", "BENCHMARK", "ALUMINIUM_6061"]
+__all__ = ["Cutting", "BENCHMARK", "ALUMINIUM_6061", "STEEL_C45", "TI6AL4V"]
 
 
 @dataclass(frozen=True)
@@ -101,3 +101,15 @@ class Cutting:
 BENCHMARK = Cutting(k_t=6e8, k_n=2e8, teeth=2, immersion=0.05, down=True)
 #: Seed 000's robot milling case: aluminium 6061, K_t 880 N/mm², K_r 52 N/mm², slot (2 teeth).
 ALUMINIUM_6061 = Cutting(k_t=880e6, k_n=52e6, teeth=2, immersion=1.0, down=True)
+#: Low-speed robotic milling of steel, 300-3,000 rev/min: K_t 2,000 N/mm², K_n 700 N/mm², 6 teeth at
+#: half immersion (shoulder milling), climb. The values are issue 82's "steel-like cut" (its quick
+#: check of the posture's effect); tangential coefficients near 2 kN/mm² with a radial one about a
+#: third of it are the order mechanistic models give for medium-carbon steels such as C45, the
+#: seed 001 part's steel (no seed states its cutting coefficients).
+STEEL_C45 = Cutting(k_t=2000e6, k_n=700e6, teeth=6, immersion=0.5, down=True)
+#: Low-speed robotic milling of titanium Ti-6Al-4V: K_t 1,700 N/mm², K_n 600 N/mm², 4 teeth at half
+#: immersion, climb. No seed gives titanium; the values are of the order of the mechanistic
+#: coefficients for carbide end mills in Ti-6Al-4V predicted from orthogonal cutting data by Budak,
+#: Altintas & Armarego (1996, J. Manuf. Sci. Eng. 118: 216-224), rounded, not a table entry checked
+#: here: a stand-in for the process, to be replaced by a measured value where there is one.
+TI6AL4V = Cutting(k_t=1700e6, k_n=600e6, teeth=4, immersion=0.5, down=True)

@@ -11,8 +11,10 @@ from rmbench.stability.structure import Structure
 
 __all__ = ["SPEED_RANGES", "DEPTH_MAX", "speed_grid", "depth_grid", "benchmark_structure"]
 
-#: rev/min: the benchmark's range (Insperger & Stépán, 5-25 krpm) and a milling robot's spindle
-SPEED_RANGES = {"benchmark": (5000.0, 25000.0), "robot": (5000.0, 20000.0)}
+#: rev/min: the benchmark's range (Insperger & Stépán, 5-25 krpm), a milling robot's spindle, and
+#: low-speed milling of steel and titanium, where the robot's own modes set the limit (Cordes, Hintze
+#: & Altintas 2019; issue 82)
+SPEED_RANGES = {"benchmark": (5000.0, 25000.0), "robot": (5000.0, 20000.0), "low": (300.0, 3000.0)}
 #: m: the deepest axial depth a lobes scan reaches by default
 DEPTH_MAX = 10e-3
 
