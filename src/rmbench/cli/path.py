@@ -21,7 +21,17 @@ def register(sub) -> None:
     speed.add_argument("--speed-range", metavar="A,B",
                        help="plan at every --speed-step from A to B rev/min and keep the speed whose plan keeps the "
                             "largest smallest critical depth")
+    speed.add_argument("--speeds", metavar="LIST|RANGE",
+                       help="plan at each of these spindle speeds and keep the best, as --speed-range: rev/min "
+                            "comma-separated (300,600,1200), or a named range spread over 10 speeds (low: 300-3,000 "
+                            "rev/min for steel and titanium; robot: 5,000-20,000)")
     p.add_argument("--speed-step", type=float, default=500.0, metavar="RPM", help="step of --speed-range (default 500)")
+    p.add_argument("--cutting", default="aluminium", metavar="NAME",
+                   help="the cut: aluminium (6061 slot, 2 teeth; the default), steel (C45, 6 teeth at half "
+                        "immersion) or titanium (Ti-6Al-4V, 4 teeth at half immersion)")
+    p.add_argument("--feed", default="x", metavar="x|path",
+                   help="where the feed runs in the cut: x along base X everywhere (the default), path along "
+                        "the path's own direction at each location")
     p.add_argument("--depth", type=float, default=None, metavar="MM", help="axial depth of cut, mm (marks the locations at risk)")
     p.add_argument("--robot", default="irb6660", help="the robot that mills: bundled name or MJCF path (default irb6660)")
     p.add_argument("--tool", default=None, help="its tool (default: the robot's own; the predictor's tool is the one that mills)")
@@ -78,8 +88,18 @@ def _theta(args):
 def _speeds(args):
     import numpy as np
 
+    from rmbench.stability import SPEED_RANGES
+
     if args.speed is not None:
         return args.speed
+    if args.speeds is not None:
+        if args.speeds in SPEED_RANGES:
+            return args.speeds          # the planner spreads a named range
+        try:
+            return [float(v) for v in args.speeds.split(",")]
+        except ValueError:
+            raise InputError(f"--speeds must be rev/min comma-separated or one of {', '.join(SPEED_RANGES)}, "
+                             f"got {args.speeds!r}") from None
     try:
         a, b = (float(v) for v in args.speed_range.split(","))
     except ValueError:
@@ -96,11 +116,23 @@ def _settings(args):
     """The planner's settings from the options (mm and degrees to m and rad; it checks them)."""
     import numpy as np
 
-    from rmbench.path import PlanSettings
+    from rmbench.path import FEEDS, PlanSettings
 
+    if args.feed not in FEEDS:
+        raise InputError(f"--feed must be {' or '.join(FEEDS)}, got {args.feed!r}")
     return PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
                         spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)),
-                        ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)))
+                        ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)),
+                        feed=args.feed)
+
+
+def _cutting(args):
+    """The named cut of ``--cutting``."""
+    from rmbench.path import CUTTINGS
+
+    if args.cutting not in CUTTINGS:
+        raise InputError(f"--cutting must be one of {', '.join(CUTTINGS)}, got {args.cutting!r}")
+    return CUTTINGS[args.cutting]
 
 
 def cmd_plan(args) -> int:
@@ -114,7 +146,9 @@ def cmd_plan(args) -> int:
         raise InputError(f"--band-draws must be 0 (no band) or at least 2, got {args.band_draws}")
     if args.mill < 0 or (args.mill and args.depth is None):
         raise InputError("--mill N needs N >= 0 and a --depth to cut")
-    settings = _settings(args)
+    settings, cutting, speeds = _settings(args), _cutting(args), _speeds(args)
+    if args.mill and settings.feed != "x":
+        raise InputError("--mill mills with the feed along base X: it cannot check a plan made with --feed path yet")
     tp = example(args.toolpath) if args.toolpath in EXAMPLES else read_toolpath(args.toolpath)
     predictor = PosturePredictor.load(args.predictor)
     robot = Robot.load(args.robot, tool=args.tool)
@@ -122,7 +156,7 @@ def cmd_plan(args) -> int:
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
     say = (lambda msg: None) if args.json else (lambda msg: print(f"  {msg}", file=sys.stderr))
-    plan = plan_path(robot, predictor, tp, speed_rpm=_speeds(args),
+    plan = plan_path(robot, predictor, tp, speed_rpm=speeds, cutting=cutting,
                      depth=None if args.depth is None else 1e-3 * args.depth, settings=settings, progress=say)
     if args.band_draws:
         say(f"the critical depth's 95 % band along the plan from {args.band_draws} draws")
@@ -144,7 +178,8 @@ def cmd_plan(args) -> int:
         from rmbench.report.path import path_sections
 
         page = Page(f"Tool path plan of {args.toolpath}", {"predictor": args.predictor, "robot": args.robot,
-                                                          "speed (rev/min)": plan.speed_rpm})
+                                                          "speed (rev/min)": plan.speed_rpm, "cutting": args.cutting,
+                                                          "feed along": args.feed})
         path_sections(page, plan, milled)
         page.write(report)
         summary["report"] = str(report)
@@ -184,6 +219,12 @@ def _print_plan(plan, summary: dict, args) -> None:
           f"planned {1e3 * plan.planned.min_margin:.3f} mm, fixed θ = {args.fixed_theta:g}° "
           f"{1e3 * plan.fixed.min_margin:.3f} mm (gain {plan.gain:.2f}x), pointwise best "
           f"{1e3 * plan.pointwise.min_margin:.3f} mm")
+    best = summary["best_fixed"]
+    gain = summary["min_alim_gain_best_fixed"]
+    print(f"best fixed θ = {best['theta_deg']:g}° {plan.best_fixed.min_margin * 1e3:.3f} mm"
+          f"{'' if best['feasible'] else ' (NOT feasible)'}"
+          f"{'' if gain is None else f' (gain {gain:.2f}x)'}; {args.cutting} cut, feed along "
+          f"{'base X' if args.feed == 'x' else 'the path'}")
     lo, hi = summary["theta_range_deg"]
     print(f"planned θ between {lo:g}° and {hi:g}°; {'feasible' if summary['feasible']['planned'] else 'NOT feasible'} "
           f"within {args.max_joint_rate:g} deg/s per joint")

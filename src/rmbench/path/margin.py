@@ -290,9 +290,10 @@ class DepthBand:
 
 
 def _sampled(pred, cutting: Cutting, speed_rpm: float, draws: int, sd_scale: float, bands, n_freq: int,
-             rng) -> tuple[np.ndarray, np.ndarray]:
+             rng, heading=None) -> tuple[np.ndarray, np.ndarray]:
     """The critical depth of a prediction's means, shape (n,), and of ``draws`` draws from its
-    standard deviations, shape (draws, n).
+    standard deviations, shape (draws, n); the residues turned to the feed ``heading`` (rad, shape
+    (n,)) where given, as :meth:`TipModes.depths` turns them.
 
     Each draw perturbs every predicted parameter a tool tip's modes are built from (natural
     frequency, damping, the tip components of both eigenvectors) by an independent normal of the
@@ -325,6 +326,7 @@ def _sampled(pred, cutting: Cutting, speed_rpm: float, draws: int, sd_scale: flo
         for b in bands:
             p = centre[b][0] + (moved[b][0] - alone[b][0])
             r = np.where(clustered[b], centre[b][1], moved[b][1])
+            r = r if heading is None else to_cut_frame(r, heading)
             per.append(zoa_limit(p, r, cutting, speed_rpm, _freq(p, n_freq)))
         return np.minimum.reduce(per)
 
@@ -388,7 +390,7 @@ def _conformal_scale(predictor, cutting: Cutting, speed_rpm: float, *, draws: in
 
 def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draws: int = 64, level: float = 0.95,
                sd_scale: float = 1.0, calibrated: bool = True, conformal: bool = False, bands=("low", "high"),
-               n_freq: int = N_FREQ, seed: int = 0) -> DepthBand:
+               n_freq: int = N_FREQ, seed: int = 0, heading=None) -> DepthBand:
     """The critical depth along a schedule with its band, from draws of the predictor's parameters.
 
     Each draw perturbs every predicted parameter a tool tip's modes are built from (natural
@@ -414,16 +416,22 @@ def depth_band(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, draw
     conformal : bool
         Scale the band by the training postures' leave-one-out depths (a Gaussian-process
         predictor).
+    heading : ndarray, shape (n,), rad, optional
+        Feed direction at each location (:meth:`rmbench.io.ToolPath.heading`): the modes of the
+        means and of every draw are turned into the cut's frame there, as :meth:`TipModes.depths`
+        turns them. None: the feed along base X. The conformal factor is calibrated at the training
+        postures, which lie on no path, with the feed along base X.
     """
     from rmbench.predict import ExtrapolationWarning
 
     xy, theta = np.asarray(xy, float), np.asarray(theta, float)
     X = np.column_stack([xy, theta])
+    heading = None if heading is None else _per_location(heading, len(xy), "heading", float)
     rng = np.random.default_rng(seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ExtrapolationWarning)
         pred = predictor.predict(X, calibrated=calibrated)
-    a0, samples = _sampled(pred, cutting, speed_rpm, draws, sd_scale, bands, n_freq, rng)
+    a0, samples = _sampled(pred, cutting, speed_rpm, draws, sd_scale, bands, n_freq, rng, heading)
     if not conformal:
         tail = 100 * (1 - level) / 2
         return DepthBand(a0, np.percentile(samples, tail, axis=0), np.percentile(samples, 100 - tail, axis=0),

@@ -229,7 +229,7 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     schedule : str
         ``planned``, ``fixed`` or ``pointwise``.
     cutting : Cutting, optional
-        Default: aluminium 6061 slot, as the planner's.
+        Default: the plan's (``plan.cutting``; aluminium 6061 slot where it has none).
     locations : array_like of int, optional
         Cutter locations to mill (default: ``n`` evenly spaced, :func:`sample_locations`).
     periods : int
@@ -252,7 +252,10 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         raise InputError(f"the feed must be > 0 m/s, got {feed!r}")
     if not depth > 0:
         raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
-    cutting = ALUMINIUM_6061 if cutting is None else cutting
+    if getattr(plan, "feed", "x") != "x":
+        # the simulator's cut feeds along base X (stability.milling): it would not be the planned cut
+        raise InputError("virtual milling feeds along base X: a plan whose feed runs along the path is not milled yet")
+    cutting = getattr(plan, "cutting", ALUMINIUM_6061) if cutting is None else cutting
     s = getattr(plan, schedule)
     idx = (sample_locations(len(s.index), n) if locations is None
            else np.asarray(locations, int))

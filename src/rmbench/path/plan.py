@@ -21,19 +21,21 @@ Among the schedules that respect the limits, the plan
    pass with every pose below the bottleneck masked), so that the schedule is not needlessly
    restless where the bottleneck lies elsewhere.
 
-The fixed-θ schedule (one θ throughout) and the pointwise best (each location's best θ, moves
+The fixed-θ schedule (one θ throughout), the best fixed angle (the grid angle whose smallest
+margin along the path is the largest) and the pointwise best (each location's best θ, moves
 unchecked) are the comparisons.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from rmbench.errors import InputError
 
-__all__ = ["Schedule", "plan_schedule", "fixed_schedule", "pointwise_schedule", "ramp_profile"]
+__all__ = ["Schedule", "plan_schedule", "fixed_schedule", "best_fixed_schedule", "pointwise_schedule",
+           "ramp_profile"]
 
 
 @dataclass(frozen=True)
@@ -50,7 +52,7 @@ class Schedule:
     feasible : bool
         Every pose usable and every move within the limits.
     kind : str
-        ``"planned"``, ``"fixed"`` or ``"pointwise"``.
+        ``"planned"``, ``"fixed"``, ``"best fixed"`` or ``"pointwise"``.
     to : ndarray of int, shape (n,), optional
         Along a ramp, the grid index it runs to (elsewhere ``index``); None: no ramps.
     frac : ndarray, shape (n,), optional
@@ -352,6 +354,30 @@ def fixed_schedule(margin, theta, value: float, *, q=None, max_dq=None) -> Sched
     if feasible and q is not None and max_dq is not None and n > 1:
         feasible = bool(np.all(np.max(np.abs(np.diff(np.asarray(q, float)[:, j], axis=0)), axis=1) <= max_dq))
     return Schedule(idx, theta[idx], margin[:, j], feasible, "fixed")
+
+
+def best_fixed_schedule(margin, theta, *, q=None, max_dq=None) -> Schedule:
+    """θ held at the best fixed angle: the grid angle whose smallest margin along the path is the
+    largest, among the angles that can be held (every pose usable and every joint move within
+    ``max_dq``, rad, as :func:`fixed_schedule` checks them; where none can, among all, flagged
+    infeasible). Ties go to the lowest angle.
+
+    A plan under the same joint limits may hold any of these angles, so it keeps at least this
+    margin: the gain over it is what changing θ along the path buys, where the gain over one
+    given angle also counts what choosing the angle once buys.
+
+    Parameters
+    ----------
+    margin : array_like, shape (n, m)
+    theta : array_like, shape (m,), rad
+    q : array_like, shape (n, m, n_joint), rad, optional
+    max_dq : float or array_like of shape (n - 1,), optional
+        Largest joint move between neighbouring locations, rad (needs ``q``).
+    """
+    margin, theta = _check(margin, theta, q)
+    every = [fixed_schedule(margin, theta, t, q=q, max_dq=max_dq) for t in theta]
+    pool = [s for s in every if s.feasible] or every
+    return replace(max(pool, key=lambda s: s.min_margin), kind="best fixed")
 
 
 def pointwise_schedule(margin, theta) -> Schedule:

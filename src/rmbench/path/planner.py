@@ -5,7 +5,13 @@
     from rmbench.path import example, plan_path
     plan = plan_path(robot, predictor, example("pocket"), speed_rpm=15000, depth=3e-3)
     plan.planned.min_margin, plan.fixed.min_margin, plan.gain   # critical depths, m; ratio
+    plan.gain_best_fixed                                         # over the best fixed angle
     plan.to_csv("plan.csv")
+
+At low speed, in steel, with the feed along the path's own direction (issue 82)::
+
+    plan = plan_path(robot, predictor, example("contour"), speed_rpm="low", cutting=CUTTINGS["steel"],
+                     settings=PlanSettings(feed="path"))
 
 The critical depth is evaluated every ``eval_spacing`` of arc length and interpolated linearly
 between (the predictor's length scales are hundreds of millimetres; the cutter locations a few
@@ -21,14 +27,24 @@ from pathlib import Path
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.io.npz_file import read_npz, write_npz
 from rmbench.io.toolpath import ToolPath
-from rmbench.path.margin import DepthBand, DepthGrid, depth_band, predicted_modes
-from rmbench.path.plan import Schedule, fixed_schedule, plan_schedule, pointwise_schedule
+from rmbench.path.margin import DepthBand, DepthGrid, depth_band, exact_modes, predicted_modes
+from rmbench.path.plan import Schedule, best_fixed_schedule, fixed_schedule, plan_schedule, pointwise_schedule
 from rmbench.path.reach import Reach, reach_grid
-from rmbench.stability.cutting import ALUMINIUM_6061, Cutting
+from rmbench.stability.cutting import ALUMINIUM_6061, STEEL_C45, TI6AL4V, Cutting
+from rmbench.stability.grids import SPEED_RANGES, speed_grid
 
-__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band", "save_plan", "load_plan"]
+__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band", "CUTTINGS", "FEEDS", "RANGE_SPEEDS"]
+
+#: the cuts a plan is named for (``rmbench path plan --cutting``): aluminium 6061 slot (the seed's,
+#: the default), steel C45 and titanium Ti-6Al-4V shoulder milling at low speed (issue 82)
+CUTTINGS = {"aluminium": ALUMINIUM_6061, "steel": STEEL_C45, "titanium": TI6AL4V}
+#: where the feed runs in the cut's model: ``"x"`` along base X everywhere (every plan before issue
+#: 82), ``"path"`` along the path's own direction at each location (:meth:`ToolPath.heading`)
+FEEDS = ("x", "path")
+#: spindle speeds a named range (:data:`rmbench.stability.SPEED_RANGES`) is planned at, evenly
+#: spread from its first to its last rev/min: 300, 600, ..., 3,000 for ``"low"``
+RANGE_SPEEDS = 10
 
 
 @dataclass(frozen=True)
@@ -58,6 +74,11 @@ class PlanSettings:
         Largest joint acceleration (rad/s²) and jerk (rad/s³) the θ ramps may add to the path's own
         motion: a θ grid step taken within one 5 mm move at 3000 mm/min starts the joints at
         40-50 °/s from rest and threw the tool 0.8-3.7 mm off its path on the moving robot.
+    feed : str
+        Where the feed runs in the critical depth's cut (:data:`FEEDS`): ``"x"`` along base X
+        everywhere (the default, every earlier plan's numbers), ``"path"`` along the path's own
+        direction at each location (the tool tip's modes turned into the cut's frame,
+        :func:`rmbench.stability.to_cut_frame`).
     """
 
     theta: tuple = tuple(np.radians(np.arange(-60.0, 61.0, 5.0)))
@@ -69,8 +90,11 @@ class PlanSettings:
     ramp_length: float = 50e-3
     max_joint_accel: float = 1.0
     max_joint_jerk: float = 10.0
+    feed: str = "x"
 
     def __post_init__(self):
+        if self.feed not in FEEDS:
+            raise InputError(f"the feed runs along {' or '.join(FEEDS)}, got {self.feed!r}")
         th = np.asarray(self.theta, float)
         if th.ndim != 1 or len(th) < 1 or not np.all(np.isfinite(th)) or np.any(np.diff(th) <= 0):
             raise InputError("the candidate angles must be finite and increasing")
@@ -114,6 +138,13 @@ class PathPlan:
     speed_scan : dict or None
         Where several speeds were planned: ``speeds_rpm`` and each one's planned smallest critical
         depth ``min_alim`` (m); ``speed_rpm`` is the best of them.
+    best_fixed : Schedule or None
+        θ held at the best fixed angle at the plan's speed (:func:`rmbench.path.plan.best_fixed_schedule`);
+        None in a plan saved before it was kept.
+    cutting : Cutting
+        The cut the critical depths are of.
+    feed : str
+        Where the feed runs in that cut (:data:`FEEDS`).
     """
 
     toolpath: ToolPath
@@ -129,11 +160,23 @@ class PathPlan:
     band: DepthBand | None = None
     band_level: float = 0.95
     speed_scan: dict | None = None
+    best_fixed: Schedule | None = None
+    cutting: Cutting = ALUMINIUM_6061
+    feed: str = "x"
 
     @property
     def gain(self) -> float:
         """The planned schedule's smallest critical depth over the fixed-θ schedule's."""
         f = self.fixed.min_margin
+        return float(self.planned.min_margin / f) if f > 0 else float("inf")
+
+    @property
+    def gain_best_fixed(self) -> float:
+        """The planned schedule's smallest critical depth over the best fixed angle's (at least 1
+        where the plan is feasible: it may hold that angle throughout); NaN where not kept."""
+        if self.best_fixed is None:
+            return float("nan")
+        f = self.best_fixed.min_margin
         return float(self.planned.min_margin / f) if f > 0 else float("inf")
 
     def at_risk(self, schedule: Schedule | None = None) -> np.ndarray:
@@ -190,6 +233,14 @@ class PathPlan:
                "feasible": {k: s.feasible for k, s in
                             (("planned", self.planned), ("fixed", self.fixed), ("pointwise", self.pointwise))},
                "min_alim_gain": self.gain,
+               "min_alim_gain_best_fixed": self.gain_best_fixed,
+               "best_fixed": None if self.best_fixed is None else {
+                   "theta_deg": float(np.degrees(self.best_fixed.theta[0])),
+                   "min_alim_mm": 1e3 * self.best_fixed.min_margin, "feasible": self.best_fixed.feasible},
+               "cutting": {"k_t_n_mm2": 1e-6 * self.cutting.k_t, "k_n_n_mm2": 1e-6 * self.cutting.k_n,
+                           "teeth": int(self.cutting.teeth), "immersion": float(self.cutting.immersion),
+                           "down": bool(self.cutting.down)},
+               "feed": self.feed,
                "joint_motion": {k: {f"{n}_deg_s{p}": float(np.degrees(v)) for (n, p), v in
                                     zip((("rate", ""), ("accel", "2"), ("jerk", "3")), self.joint_motion(s).values())}
                                 for k, s in (("planned", self.planned), ("fixed", self.fixed))},
@@ -229,6 +280,12 @@ class PathPlan:
                  f"pointwise best {mm(self.pointwise.min_margin)}",
                  f"planned θ between {np.degrees(self.planned.theta.min()):g}° and "
                  f"{np.degrees(self.planned.theta.max()):g}°"]
+        if self.best_fixed is not None:
+            g = self.gain_best_fixed
+            lines.insert(2, f"best fixed θ = {np.degrees(self.best_fixed.theta[0]):g}° "
+                            f"{mm(self.best_fixed.min_margin)}{'' if self.best_fixed.feasible else ' (NOT feasible)'}"
+                            f"{f' (gain {g:.2f}x)' if np.isfinite(g) else ''}; feed along "
+                            f"{'base X' if self.feed == 'x' else 'the path'}")
         if self.band is not None:
             lines.append(f"{100 * self.band_level:g} % band of the planned critical depth: smallest lower bound "
                          f"{mm(float(np.nanmin(self.band.lower)))}")
@@ -280,72 +337,6 @@ class PathPlan:
         return path
 
 
-_FORMAT = "rmbench path plan 1"
-
-
-def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None, predictor: str = "") -> Path:
-    """Write a plan to one ``.npz`` (arrays and JSON metadata, no pickle), atomically: what
-    :func:`load_plan` (and ``rmbench path mill``) reads back. ``robot``, ``tool`` and ``predictor``
-    name what it was planned with."""
-    tp, r, d = plan.toolpath, plan.reach, plan.depths
-    arrays = {"tp/xy": tp.xy, "tp/z": tp.z, "tp/feed": tp.feed, "tp/rpm": tp.rpm, "tp/cutting": tp.cutting,
-              "tp/line": tp.line, "reach/theta": r.theta, "reach/q": r.q, "reach/ok": r.ok,
-              "reach/limit_margin": r.limit_margin, "reach/sigma_min": r.sigma_min, "depths/a_lim": d.a_lim,
-              "depths/outside_hull": d.outside_hull}
-    arrays |= {f"depths/band/{b}": v for b, v in d.by_band.items()}
-    for k in ("planned", "fixed", "pointwise"):
-        sch = getattr(plan, k)
-        arrays |= {f"{k}/index": sch.index, f"{k}/theta": sch.theta, f"{k}/margin": sch.margin}
-        arrays |= {f"{k}/{f}": getattr(sch, f) for f in ("to", "frac", "q") if getattr(sch, f) is not None}
-    if plan.hull_distance is not None:
-        arrays["hull_distance"] = plan.hull_distance
-    if plan.band is not None:
-        arrays |= {"band/lower": plan.band.lower, "band/upper": plan.band.upper}
-    meta = {"format": _FORMAT, "robot": robot, "tool": tool, "predictor": predictor, "source": tp.source,
-            "speed_rpm": plan.speed_rpm, "depth": plan.depth, "seconds": plan.seconds,
-            "depths_speed_rpm": d.speed_rpm, "bands": list(d.by_band),
-            "feasible": {k: bool(getattr(plan, k).feasible) for k in ("planned", "fixed", "pointwise")},
-            "band": None if plan.band is None else {"scale": plan.band.scale, "n": plan.band.n_calibration,
-                                                    "level": plan.band_level},
-            "speed_scan": plan.speed_scan}
-    return write_npz(path, meta, arrays)
-
-
-def load_plan(path) -> tuple[PathPlan, dict]:
-    """A plan saved by :func:`save_plan`, and its metadata (``robot``, ``tool``, ``predictor``).
-
-    Raises
-    ------
-    InputError
-        The file is missing or not a saved plan.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"plan not found: {path}")
-    try:
-        meta, a = read_npz(path, _FORMAT)
-        tp = ToolPath(a["tp/xy"], a["tp/z"], a["tp/feed"], a["tp/rpm"], a["tp/cutting"].astype(bool),
-                      a["tp/line"].astype(int), str(meta.get("source", "")))
-        reach = Reach(a["reach/theta"], a["reach/q"], a["reach/ok"].astype(bool), a["reach/limit_margin"],
-                      a["reach/sigma_min"])
-        depths = DepthGrid(a["depths/a_lim"], {b: a[f"depths/band/{b}"] for b in meta["bands"]},
-                           a["depths/outside_hull"].astype(bool), float(meta["depths_speed_rpm"]))
-        sch = {k: Schedule(a[f"{k}/index"].astype(int), a[f"{k}/theta"], a[f"{k}/margin"], bool(meta["feasible"][k]), k,
-                           a[f"{k}/to"].astype(int) if f"{k}/to" in a else None, a.get(f"{k}/frac"), a.get(f"{k}/q"))
-               for k in ("planned", "fixed", "pointwise")}
-        band, level = None, 0.95
-        if meta.get("band"):
-            band = DepthBand(sch["planned"].margin, a["band/lower"], a["band/upper"], float(meta["band"]["scale"]),
-                             int(meta["band"]["n"]))
-            level = float(meta["band"]["level"])
-    except (ValueError, KeyError, TypeError):
-        raise InputError(f"{path} is not a saved path plan (write one with: rmbench path plan ... --out DIR)") from None
-    plan = PathPlan(tp, reach, depths, sch["planned"], sch["fixed"], sch["pointwise"], meta["depth"],
-                    float(meta["speed_rpm"]), meta["seconds"], a.get("hull_distance"), band, level,
-                    meta.get("speed_scan"))
-    return plan, meta
-
-
 def _check_reach(tp: ToolPath, reach: Reach) -> None:
     bad = reach.unreachable()
     if len(bad):
@@ -374,17 +365,22 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     ----------
     robot : rmbench.robot.Robot
         The robot that mills (its inverse kinematics and joint limits).
-    predictor : rmbench.predict.PosturePredictor
-        Trained on this robot with the tool that mills.
+    predictor : rmbench.predict.PosturePredictor or None
+        Trained on this robot with the tool that mills; None: the robot's exact modes
+        (:func:`rmbench.path.margin.exact_modes`, the reference plan; no hull distance).
     toolpath : ToolPath
-    speed_rpm : float or array_like
+    speed_rpm : float, array_like or str
         Spindle speed, rev/min; several: each is planned and the one whose planned schedule keeps
         the largest smallest critical depth is kept (``PathPlan.speed_scan`` holds them all; the
         tool tip's modes are predicted once, the receptance's eigenvalues computed once for all).
+        A name of :data:`rmbench.stability.SPEED_RANGES` (``"low"``: 300-3,000): :data:`RANGE_SPEEDS`
+        speeds evenly over it.
     depth : float, optional
         Axial depth to be cut, m (marks the locations at risk).
     cutting : Cutting
+        The cut (:data:`CUTTINGS` names a few); default the seed's aluminium slot.
     settings : PlanSettings
+        ``settings.feed`` says where the feed runs in the cut at each location.
 
     Raises
     ------
@@ -405,14 +401,16 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     t["reach"] = time.perf_counter()
     say(f"{len(tp)} cutter locations reached at {len(theta)} angles")
     at = _evaluated(tp, settings.eval_spacing)
-    grids = predicted_modes(predictor, tp.xy[at], theta).depths_at(cutting, speeds)
+    heading = None if settings.feed == "x" else tp.heading()[at]
+    grids = _tip_modes(robot, predictor, tp, reach, at).depths_at(cutting, speeds, heading=heading)
     arc = tp.arc_length()
 
     def spread(a):
         return np.column_stack([np.interp(arc, arc[at], a[:, j]) for j in range(a.shape[1])])
 
     t["depths"] = time.perf_counter()
-    say(f"critical depths predicted at {len(at)} locations x {len(theta)} angles"
+    say(f"critical depths {'predicted' if predictor is not None else 'exact'} at {len(at)} locations x "
+        f"{len(theta)} angles"
         + (f" x {len(speeds)} speeds" if len(speeds) > 1 else ""))
     feed = np.where(np.isfinite(tp.feed), tp.feed, settings.default_feed)
     # each move's time at its feed (a rapid's at the cutting feed: slower than it will be, so
@@ -423,17 +421,36 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     planned = _solve_ramps(robot, tp, reach, planned, max_dq)
     fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
     pointwise = pointwise_schedule(margin, theta)
+    best_fixed = best_fixed_schedule(margin, theta, q=reach.q, max_dq=max_dq)
     t["plan"] = time.perf_counter()
-    hull = predictor.hull_distance(np.column_stack([tp.xy, planned.theta]))
+    hull = None if predictor is None else predictor.hull_distance(np.column_stack([tp.xy, planned.theta]))
     speed_scan = ({"speeds_rpm": speeds.tolist(), "min_alim": [float(v) for v in scan]} if len(speeds) > 1
                   else None)
     return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(depths.speed_rpm), _stage_seconds(t),
-                    hull, speed_scan=speed_scan)
+                    hull, speed_scan=speed_scan, best_fixed=best_fixed, cutting=cutting, feed=settings.feed)
+
+
+def _tip_modes(robot, predictor, tp: ToolPath, reach: Reach, at: np.ndarray):
+    """The tool tip's modes at the evaluated locations ``at`` (indices into ``tp``) and every
+    angle: predicted, or the robot's exact ones at the reach's joint commands (None predictor)."""
+    theta = np.asarray(reach.theta, float)
+    if predictor is not None:
+        return predicted_modes(predictor, tp.xy[at], theta)
+    sub = Reach(reach.theta, reach.q[at], reach.ok[at], reach.limit_margin[at], reach.sigma_min[at])
+    return exact_modes(robot, tp.xy[at], theta, reach=sub)
 
 
 def _check_cut(speed_rpm, depth) -> np.ndarray:
-    """The spindle speeds to plan at, rev/min, shape (n_speed,), once they and the depth are checked."""
-    speeds = np.atleast_1d(np.asarray(speed_rpm, float))
+    """The spindle speeds to plan at, rev/min, shape (n_speed,), once they and the depth are checked
+    (a named range's :data:`RANGE_SPEEDS`)."""
+    if isinstance(speed_rpm, str):
+        if speed_rpm not in SPEED_RANGES:
+            raise InputError(f"no speed range {speed_rpm!r}; one of {', '.join(SPEED_RANGES)}, or speeds in rev/min")
+        speed_rpm = speed_grid(speed_rpm, RANGE_SPEEDS)
+    try:
+        speeds = np.atleast_1d(np.asarray(speed_rpm, float))
+    except (TypeError, ValueError):
+        raise InputError(f"spindle speeds must be numbers in rev/min, got {speed_rpm!r}") from None
     if speeds.ndim != 1 or not len(speeds) or not np.all(speeds > 0):
         raise InputError(f"spindle speeds must be > 0 rev/min, got {speed_rpm!r}")
     if depth is not None and not depth > 0:
@@ -521,18 +538,22 @@ def _solve_ramps(robot, tp: ToolPath, reach: Reach, schedule: Schedule, max_dq: 
     return dataclasses.replace(schedule, q=q, feasible=feasible)
 
 
-def with_band(plan: PathPlan, predictor, *, cutting: Cutting = ALUMINIUM_6061, eval_spacing: float = 20e-3,
+def with_band(plan: PathPlan, predictor, *, cutting: Cutting | None = None, eval_spacing: float = 20e-3,
               draws: int = 64, level: float = 0.95, seed: int = 0) -> PathPlan:
     """The plan with its critical depth's band along the planned schedule (:func:`depth_band`:
     draws of the predictor's leave-one-out-calibrated standard deviations), evaluated every
-    ``eval_spacing`` of arc length and interpolated between, as the depths are; its seconds under
-    ``plan.seconds["band"]``."""
+    ``eval_spacing`` (m) of arc length and interpolated between, as the depths are; its seconds under
+    ``plan.seconds["band"]``. The cut is ``plan.cutting`` unless ``cutting`` is given, the feed
+    along the path where ``plan.feed`` is ``"path"``."""
     import dataclasses
 
     t0 = time.perf_counter()
     tp, s = plan.toolpath, plan.planned
     at = _evaluated(tp, eval_spacing)
-    b = depth_band(predictor, tp.xy[at], s.theta[at], cutting, plan.speed_rpm, draws=draws, level=level, seed=seed)
+    cutting = plan.cutting if cutting is None else cutting
+    heading = None if plan.feed == "x" else tp.heading()[at]
+    b = depth_band(predictor, tp.xy[at], s.theta[at], cutting, plan.speed_rpm, draws=draws, level=level, seed=seed,
+                   heading=heading)
     arc = tp.arc_length()
     # the band's width relative to its depth, interpolated, about the plan's own depth at each
     # location: between evaluations the schedule's θ need not be its neighbours'
