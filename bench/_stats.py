@@ -50,14 +50,15 @@ def blind_cases(args, *extra: str) -> list[dict]:
 
 
 def ship_bench_modules() -> None:
-    """Send the bench's helper modules (``_stats``, ``_calibrate_truth``, ...: beside the scripts,
-    not installed) to a dask cluster with the cases' functions, by value, so that its workers need
-    only rmbench. The bench imports them at its top: an import inside a case's function would run
-    on the worker, where they are not."""
+    """Send the bench's helper modules (``_stats``, ``_profile``, ...: beside the scripts, not
+    installed) and the truth package (``truth``, ``truth.robot``, ...) to a dask cluster with the
+    cases' functions, by value, so that its workers need only rmbench. The bench imports them at
+    its top: an import inside a case's function would run on the worker, where they are not."""
     import cloudpickle
 
     for name, module in list(sys.modules.items()):
-        if name.startswith("_") and Path(getattr(module, "__file__", None) or "/").resolve().parent == HERE:
+        folder = Path(getattr(module, "__file__", None) or "/").resolve().parent
+        if name.startswith("_") and folder == HERE or name.split(".")[0] == "truth" and folder == HERE / "truth":
             cloudpickle.register_pickle_by_value(module)
 
 

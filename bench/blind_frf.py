@@ -58,7 +58,7 @@ from truth.visibility import visibility  # noqa: E402
 from rmbench.robot import Robot, seed_grid  # noqa: E402
 
 GROUPS = "joints,damping,servo,masses,com,base,tool"
-TRUTH_FILES = ("_truth_edits.py", "_stats.py", "calibrate.py", "truth/__init__.py", "truth/form.py",
+TRUTH_FILES = ("_stats.py", "calibrate.py", "truth/__init__.py", "truth/form.py", "truth/ordinary.py",
                "truth/robot.py", "truth/structural.py", "truth/visibility.py", "truth/score.py")
 
 

@@ -38,15 +38,14 @@ if str(HERE) not in sys.path:     # run as a script; imported, the importer put 
 import numpy as np  # noqa: E402
 
 from _stats import cases_to_lines, keyed_run, run_arguments  # noqa: E402
-from _tracker_truth import campaign  # noqa: E402
 from blind_frf import slot  # noqa: E402
 from truth.score import rated, summary  # noqa: E402
-from truth.tracker import Reader, draw_tracker_robot, visibility  # noqa: E402
+from truth.tracker import Reader, campaign, draw_tracker_robot, visibility  # noqa: E402
 
 from rmbench.errors import RmbenchError  # noqa: E402
 from rmbench.robot import Robot  # noqa: E402
 
-TRUTH_FILES = ("_tracker_truth.py", "_stats.py", "blind_frf.py", "truth/__init__.py", "truth/form.py",
+TRUTH_FILES = ("_stats.py", "blind_frf.py", "truth/__init__.py", "truth/form.py",
                "truth/tracker.py", "truth/score.py")
 ORDINARY = ("joint_offset", "link_geometry", "gravity_compliance", "link_mass")
 READING_S = 15.0        # s between readings

@@ -2,21 +2,21 @@
 them with a structural effect too, measured by a time-domain impact campaign, calibrated and
 diagnosed, and scored against their exact modes and what was hidden.
 
-Per robot (``bench/_calibrate_truth.py`` builds its MJCF by text edits, not by rmbench's parameter
-code; half stand on a foundation that tilts):
+Per robot (``bench/truth/robot.py``'s ``draw_truth`` builds its MJCF by text edits, not by rmbench's
+parameter code; half stand on a foundation that tilts):
 
 1. a 16-posture campaign (seed grid, drawn) in the time domain, commanded by the nominal robot's
    inverse kinematics, written to UFF58 and read back with the test design as the experimenter
    believes it (nominal robot named), so only FRFs, postures and the design survive;
-2. robots 2, 3, 6, 7, ... (half) also carry one structural effect (``draw_structural``): in the
-   library (a foundation sliding sideways, a tool holder 3-5 times off, a body 30-60 % heavier,
+2. robots 2, 3, 6, 7, ... (half) also carry one structural effect (``truth.structural``: plain MJCF
+   edits, a turned sensor applied to the measured signals, never the diagnosis's variant code): in
+   the library (a foundation sliding sideways, a tool holder 3-5 times off, a body 30-60 % heavier,
    a sensor turned 6-12°, the spindle spinning) on 2, 3, 10, 11, ..., out of it (a hose package on a
    spring, a tendon coupling two joints, a mass 0.25-0.4 m off a body's origin) on 6, 7, 14, 15, ...;
-   each enlarged until its measured campaign leaves a gap that neither the calibration nor the
-   recalibration with the FRFs takes up (``_visibility``, ``rmbench.gap.remaining_gap``: the two
-   noise tests before a calibrated diagnosis says "no significant gap"); an effect still hidden
-   at 4 times its size is rejected, counted, printed and redrawn: no data could tell it from the
-   ordinary spread;
+   whether it shows is decided without the method (``truth.visibility``: the exact FRFs with and
+   without it against the campaign's noise on an independent draw, as ``bench/blind_frf.py``
+   decides). Sizes are never enlarged and draws never redrawn (issue 79): an invisible draw is
+   counted and reported apart (``invisible``), kept in the file, not scored;
 3. ``gap diagnose --calibrate`` with every group (12 postures calibrated and searched, 4 held out);
    with ``--plain``, ``rmbench.calibrate.calibrate`` alone on the measured modes (no structural
    half; ``--groups``);
@@ -32,8 +32,8 @@ code; half stand on a foundation that tilts):
 
 A fresh seed is drawn per run unless ``--seed`` is given, and printed. Each robot's measured FRFs
 are kept in ``bench/.cache/`` (or ``--cache DIR``; keyed by seed, robot, method and a digest of
-the robot measured, its MJCF, placement errors and spindle speed: the campaign does not depend on the calibration's
-code, and a draw redrawn after a rejected one is a different robot), so a rerun on changed code measures nothing again; ``--only`` runs the
+the robot measured, its MJCF and spindle speed: the campaign does not depend on the calibration's
+code), so a rerun on changed code measures nothing again; ``--only`` runs the
 robots named. Cases go to a JSON-lines file keyed by seed, settings and a digest of the code it runs (its syntax tree without docstrings: a
 comment does not start a new run); a rerun with the same key resumes, another key starts a new
 file. A robot that cannot hold a posture is rejected: counted, printed and kept in the file, never
@@ -45,7 +45,11 @@ Last line: ``{"cases", "heldout_f_p95_before", "heldout_f_p95_after", "zeta_p95_
 "ident_within5", "coverage95", "gap_top1_after_calibration", "unexplained_ok",
 "spread_false_structural", "calibrate_s", "real_f_mean_before", "real_f_mean_after"}`` (the
 real-robot keys come from ``bench/calibrate_real.py`` when its result file exists; top 1 is strict:
-the verdict "explained" and the hidden effect ranked first).
+the verdict "explained" and the hidden effect ranked first). Its ``gap_rejected_draws`` are the
+invisible draws by effect (``kind@location``; until issue 81 the draws rejected as hidden after
+enlarging), ``gap_scaled`` is ``[0, effects drawn]`` (no effect is enlarged any more) and
+``invisible`` counts the invisible draws; the second line's ``rejected_as_misses`` counts them as
+misses of their class.
 
 usage: python bench/calibrate.py [--robots 40] [--seed S] [--workers 2] [--method time] [--plain]
                                  [--groups G] [--gap-groups G] [--time-default] [--only I,J,...]
@@ -62,6 +66,7 @@ import sys
 import tempfile
 import time
 import warnings
+import xml.etree.ElementTree as ET
 from collections import Counter
 from functools import partial
 from pathlib import Path
@@ -70,8 +75,10 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _calibrate_truth import IN_LIBRARY, draw_structural, draw_truth, inject_structural, scaled_structural  # noqa: E402
 from _stats import code_digest, fresh_seed, open_lines, resumed_cases, ship_bench_modules, wilson  # noqa: E402
+from truth.robot import draw_truth  # noqa: E402
+from truth.structural import apply_effect, draw_effect, turned_signals  # noqa: E402
+from truth.visibility import visibility  # noqa: E402
 
 from rmbench.calibrate import (CalibrationSettings, ModalModel, TestDesign, calibrate, error_summary,  # noqa: E402
                                load_modal_data)
@@ -92,12 +99,12 @@ def _digest() -> str:
 
     src = Path(rmbench.__file__).parent
     # the FRF diagnosis's modules and the selection engine it shares, not the tracker's, the
-    # cases' (but for the truth's edits) or the plots'
+    # cases' or the plots'; the truth it is scored on (bench/truth)
     gap = list(src.joinpath("gap", "frf").glob("*.py")) + list(src.joinpath("gap").glob("*.py"))
     gap = [p for p in gap if p.name != "plot.py"]
     files = (list(src.joinpath("calibrate").glob("*.py")) + gap
-             + [src / "robot" / "parameters.py", src / "gap" / "cases" / "truth.py", HERE / "_calibrate_truth.py",
-                HERE / "_truth_edits.py", Path(__file__)])
+             + [src / "robot" / "parameters.py", Path(__file__)]
+             + [HERE / "truth" / f"{m}.py" for m in ("ordinary", "robot", "structural", "visibility")])
     return code_digest(files)
 
 
@@ -151,16 +158,14 @@ def measure(truth_xml: str, postures, method: str, seed: int, workers: int, tmp:
         return load_modal_data(back, workers=workers)
 
 
-def measured(xml: str, postures, args, seed: int, i: int, *, placement=None, rpm: float = 0.0, scale: float = 1.0):
-    """The FRF dataset of robot ``i`` (its structural effect ``scale`` times its drawn size) read
-    back from UFF58, from the cache or measured (then cached: written whole, so an interrupted
-    run leaves no half file)."""
+def measured(xml: str, postures, args, seed: int, i: int, *, placement=None, rpm: float = 0.0):
+    """The FRF dataset of robot ``i`` read back from UFF58, from the cache or measured (then cached:
+    written whole, so an interrupted run leaves no half file)."""
     import xarray as xr
 
     import hashlib
 
-    size = "" if scale == 1.0 else f"_x{scale:.4f}"
-    size += "" if len(postures) == N_CAMPAIGN else f"_p{len(postures)}"
+    size = "" if len(postures) == N_CAMPAIGN else f"_p{len(postures)}"
     # the robot itself in the name: keyed by seed, robot and size alone, a draw made after a
     # rejected one read the rejected draw's campaign at the same size (seed 16587, robot 2: a tool
     # holder read a heavier forearm's, χ² 763.9 both)
@@ -285,91 +290,19 @@ def touched_by(hidden) -> set:
     return set()
 
 
-MAX_SCALE = 4.0
-"""The bench's visibility rule (the tracker bench's, issue 43): a drawn structural effect is
-enlarged until its measured campaign passes both noise tests of a calibrated diagnosis
-(:func:`_visibility`); an effect still hidden at this many times its drawn size is
-rejected, counted and redrawn: the ordinary parameters take its form up whole (a forearm 2.4 times
-its data sheet's mass, robot 18 of seed 89995 at 4 times its drawn +36 %, still leaves a
-noise-free χ² of 503 against the 2990 the test needs). 4, not the tracker bench's 8: each check
-is a time-domain campaign, a calibration and a recalibration with the FRFs, 4-10 minutes."""
-
-
-def _visibility(nominal, xml: str, postures, args, seed: int, i: int, placement, rpm: float, scale: float) -> dict:
-    """Whether the structural effect in ``xml`` (``scale`` times its drawn size) stands out from the
-    ordinary spread in the robot's own measured campaign (:func:`measured`, cached, the data the
-    diagnosis then reads): both noise tests a calibrated diagnosis applies before it says "no
-    significant gap" (:func:`rmbench.gap.remaining_gap`). The first calibration's χ² over every
-    posture, ``nc``, against ``target`` (χ²_{1−p/2}(n)) or its largest residual against the
-    Bonferroni bound ``peak_target``; then, where that passes, the null recalibration with the
-    FRFs, its held-out χ² ``null_chi2`` against ``held_target`` (or its largest held-out residual
-    against ``held_peak_target``).
-
-    Not the truth's noise-free FRFs, as before: the measured campaign's modal fits carry standard
-    errors well above the residual floors at the modes an effect adds (robot 15 of seed 50349, a
-    hose on the forearm: the null's held-out χ² 1,294 on 700 residuals noise-free, 175 measured),
-    and the first test alone passed three out-of-library draws of that seed whose measured
-    campaigns the null recalibration took to the noise."""
-    from scipy.stats import chi2 as chi2_dist
-    from scipy.stats import norm
-
-    from rmbench.gap import DiagnosisSettings, remaining_gap
-
-    ds = measured(xml, postures, args, seed, i, placement=placement, rpm=rpm, scale=scale)
-    settings = DiagnosisSettings(calibrate=parse_groups(args.gap_groups), heldout=0.25)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        rg = remaining_gap(nominal, ds, workers=args.workers, settings=settings)
-    p = settings.p_noise
-    n = rg.n_all
-    out = {"nc": rg.chi2_all, "n": n, "target": float(chi2_dist.isf(p / 2, n)), "peak": rg.peak_all,
-           "peak_target": float(norm.isf(p / (4 * n))), "first": rg.first_significant,
-           "visible": rg.significant, "seconds": rg.seconds}
-    if rg.null is not None:
-        m = int(rg.null["n_held"])
-        out.update(null_chi2=float(rg.null["chi2_held"]), n_held=m, held_target=float(chi2_dist.isf(p / 2, m)),
-                   null_peak=abs(float(rg.null["peak_held"])), held_peak_target=float(norm.isf(p / (4 * m))))
-    return out
-
-
-def _gap_ratio(vis: dict) -> tuple:
-    """The test a hidden effect failed and how far short it fell: ``(stage, target / value)``."""
-    if vis.get("null_chi2") is None:
-        return "first", vis["target"] / max(vis["nc"], 1e-9)
-    return "null", vis["held_target"] / max(vis["null_chi2"], 1e-9)
-
-
 def _structural(nominal, xml: str, postures, args, seed: int, i: int, rng, in_library: bool):
-    """The robot's structural effect, enlarged until visible (:func:`_visibility`): the drawn
-    effect, the one measured, its MJCF, placement errors and spindle speed, the visibility record
-    and the draws rejected as hidden at ``MAX_SCALE``."""
-    rejected = []
-    while True:
-        drawn = h = draw_structural(rng, in_library=in_library)
-        scale, last = 1.0, None
-        while True:
-            xml_h, placement, rpm = inject_structural(xml, h)
-            vis = _visibility(nominal, xml_h, postures, args, seed, i, placement, rpm, scale)
-            vis["scale"] = scale
-            null = ("" if vis.get("null_chi2") is None else
-                    f"; null recalibration held-out {vis['null_chi2']:.4g} (target {vis['held_target']:.4g})")
-            print(f"robot {i}: {h.name} x{scale:.2f}: nc {vis['nc']:.4g} (target {vis['target']:.4g}), peak "
-                  f"{vis['peak']:.3g} (target {vis['peak_target']:.3g}){null}: "
-                  f"{'visible' if vis['visible'] else 'hidden'}", flush=True)
-            if vis["visible"] or scale >= MAX_SCALE:
-                break
-            stage, ratio = _gap_ratio(vis)
-            step = max(1.25, 1.05 * np.sqrt(ratio))
-            if last is not None and last[0] == stage and ratio > last[1] / 1.1:
-                step = 2.0      # the calibration takes the growth up: double towards MAX_SCALE
-            last = (stage, ratio)
-            scale = float(min(step * scale, MAX_SCALE))
-            h = scaled_structural(drawn, scale)
-        if vis["visible"]:
-            return drawn, h, xml_h, placement, rpm, vis, rejected
-        rejected.append({"kind": drawn.kind, "location": drawn.location, "value": drawn.value,
-                         "nc_at_max_scale": vis["nc"], "target": vis["target"],
-                         "null_chi2_at_max_scale": vis.get("null_chi2"), "held_target": vis.get("held_target")})
+    """The robot's structural effect (``truth.structural``, drawn from ``rng``), the spread robot's
+    MJCF with it, and its visibility record (``truth.visibility``: decided without the method,
+    never enlarged)."""
+    effect = draw_effect(rng, in_library=in_library)
+    root = ET.fromstring(xml)
+    effect = apply_effect(root, effect, ET.fromstring(nominal.xml))
+    xml_with = ET.tostring(root, encoding="unicode")
+    vis = visibility(xml, xml_with, postures, seed * 1000 + i + 500, rpm_with=effect.rpm,
+                     signals=partial(turned_signals, effect=effect), workers=args.workers)
+    print(f"robot {i}: {effect.name}: χ² excess {vis['chi2_with'] - vis['chi2_null']:.4g} (threshold "
+          f"{vis['threshold']:.4g}): {'visible' if vis['visible'] else 'invisible'}", flush=True)
+    return effect, xml_with, vis
 
 
 def diagnosed(nominal, ds, groups: str, workers: int):
@@ -395,15 +328,17 @@ def run_gap_case(i: int, seed: int, args) -> dict:
     xml, truth = draw_truth(nominal.xml, rng, base=bool(i % 2))
     grid = seed_grid()
     postures = [grid[k] for k in sorted(rng.choice(len(grid), 16, replace=False))]
-    hidden, placement, rpm, vis, rejected = None, None, 0.0, None, []
+    effect, hidden, rpm, vis = None, None, 0.0, None
     if (i // 2) % 2 == 1:            # half the robots: 2, 3, 6, 7, ...; in and out of the library by turns
-        drawn, h, xml, placement, rpm, vis, rejected = _structural(nominal, xml, postures, args, seed, i, rng,
-                                                                   in_library=(i // 4) % 2 == 0)
-        hidden = {"kind": h.kind, "location": h.location, "value": h.value, "name": h.name,
-                  "in_library": h.kind in IN_LIBRARY, "drawn": drawn.value}
+        effect, xml, vis = _structural(nominal, xml, postures, args, seed, i, rng, in_library=(i // 4) % 2 == 0)
+        hidden, rpm = effect.to_dict(), effect.rpm
+        if not vis["visible"]:      # counted and reported apart, never enlarged or redrawn
+            return {"index": i, "seed": seed, "base": bool(i % 2), "hidden": hidden, "visibility": vis,
+                    "invisible": True}
     t0 = time.perf_counter()
-    ds = measured(xml, postures, args, seed, i, placement=placement, rpm=rpm,
-                  scale=1.0 if vis is None else vis["scale"])
+    ds = measured(xml, postures, args, seed, i, rpm=rpm)
+    if effect is not None:
+        ds = turned_signals(ds, effect)
     t1 = time.perf_counter()
     dg = diagnosed(nominal, ds, args.gap_groups, args.workers)
     t2 = time.perf_counter()
@@ -423,7 +358,7 @@ def run_gap_case(i: int, seed: int, args) -> dict:
     unseen = exact_errors(truth_robot, cal_robot, nominal, design, unseen_postures(rng, args.unseen))
     top = dg.effects[0] if dg.effects else None
     return {"index": i, "seed": seed, "base": bool(i % 2), "groups": list(parse_groups(args.gap_groups)),
-            "hidden": hidden, "visibility": vis, "rejected_draws": rejected, "verdict": dg.verdict,
+            "hidden": hidden, "visibility": vis, "verdict": dg.verdict,
             "top": None if top is None else {"name": top.name, "confidence": top.confidence,
                                              "shrink": top.shrink, "params": top.params,
                                              "chosen": top.chosen},
@@ -441,9 +376,10 @@ def run_gap_case(i: int, seed: int, args) -> dict:
                         "diagnose": round(t2 - t1, 1), "score": round(time.perf_counter() - t2, 1)}}
 
 
-def summarise_gap(cases) -> dict:
+def summarise_gap(cases, invisible=()) -> dict:
     """The gap half's scores: top 1 on in-library effects, no attribution on out-of-library ones
-    and on the spread alone, and the confidences' calibration."""
+    and on the spread alone, and the confidences' calibration; the ``invisible`` draws (their
+    lines) counted by effect."""
     inl = [c for c in cases if c["hidden"] and c["hidden"]["in_library"]]
     out = [c for c in cases if c["hidden"] and not c["hidden"]["in_library"]]
     spread = [c for c in cases if not c["hidden"]]
@@ -456,12 +392,10 @@ def summarise_gap(cases) -> dict:
     # an in-library effect the calibrated ordinary parameters reproduce to the held-out noise leaves
     # nothing to find in these data: counted in the strict figure, and reported apart
     seen = [c for c in inl if c["verdict"] != "no significant gap"]
-    vis = [c for c in cases if c["hidden"] and c.get("visibility")]
     return {"in_library": len(inl), "out_of_library": len(out), "spread_only": len(spread),
-            # effects enlarged to be visible, and draws rejected as hidden at MAX_SCALE (_structural)
-            "scaled": [sum(c["visibility"]["scale"] > 1.0 for c in vis), len(vis)],
-            "rejected_draws": dict(Counter(f"{r['kind']}@{r['location']}" for c in cases
-                                           for r in c.get("rejected_draws", []))),
+            # no effect is enlarged (issue 79): [0, effects drawn]; the invisible draws by effect
+            "scaled": [0, len(inl) + len(out) + len(invisible)],
+            "rejected_draws": dict(Counter(c["hidden"]["name"] for c in invisible)),
             "gap_top1_after_calibration": float(np.mean([top1(c) for c in inl])) if inl else None,
             "in_library_absorbed": len(inl) - len(seen),
             "gap_top1_where_a_gap_remains": float(np.mean([top1(c) for c in seen])) if seen else None,
@@ -475,15 +409,17 @@ def summarise_gap(cases) -> dict:
             "diagnose_s_median": float(np.median([c["seconds"]["diagnose"] for c in cases])) if cases else None}
 
 
-def with_rejected_as_misses(cases) -> dict:
-    """The gap half's rates with every draw rejected as hidden counted as a case of its class
-    and a miss (issue 78): the bench's own visibility rule chose its cases, so the draws it threw
-    away are outcomes too. Each rate as ``[k, n, rate, wilson_lo95, wilson_hi95]``."""
+def with_rejected_as_misses(cases, invisible=()) -> dict:
+    """The gap half's rates with every invisible draw (``invisible``: their lines) counted as a case
+    of its class and a miss (issue 78; until issue 81 the draws the bench rejected as hidden after
+    enlarging them): the draws no test could see are outcomes too. Each rate as ``[k, n, rate,
+    wilson_lo95, wilson_hi95]``; ``rejected_in_library``, ``rejected_out_of_library``: the
+    invisible draws of each class."""
     inl = [c for c in cases if c["hidden"] and c["hidden"]["in_library"]]
     out = [c for c in cases if c["hidden"] and not c["hidden"]["in_library"]]
     spread = [c for c in cases if not c["hidden"]]
-    rej_in = sum(len(c.get("rejected_draws", [])) for c in inl)
-    rej_out = sum(len(c.get("rejected_draws", [])) for c in out)
+    rej_in = sum(bool(c["hidden"]["in_library"]) for c in invisible)
+    rej_out = len(invisible) - rej_in
 
     def top1(c):
         return c["verdict"] == "explained" and c["top"] is not None and c["top"]["name"] == c["hidden"]["name"]
@@ -549,6 +485,25 @@ def time_default(workers: int) -> float:
     return seconds
 
 
+def _said(i: int, c: dict, plain: bool) -> str:
+    """Robot ``i``'s line as printed when it finishes: its scores, or why it is not scored."""
+    if "rejected" in c:
+        return f"robot {i}: rejected ({c['rejected']})"
+    if c.get("invisible"):
+        vis = c["visibility"]
+        return (f"robot {i}: {c['hidden']['name']} invisible (χ² excess {vis['chi2_with'] - vis['chi2_null']:.4g}, "
+                f"threshold {vis['threshold']:.4g}), not scored")
+    h = {k: error_summary(v) for k, v in c["heldout"].items()}
+    return (f"robot {i} ({'base' if c['base'] else 'rigid'}): held-out f p95 {100 * h['before']['f_err_p95']:.2f} % -> "
+            f"{100 * h['after']['f_err_p95']:.2f} %, zeta p95 {100 * h['after']['zeta_err_p95']:.1f} %, "
+            f"unseen f p95 {100 * c['unseen']['after']['f_p95']:.2f} %, "
+            f"{sum(p['identifiability'] == 'identifiable' for p in c['params'])} identifiable"
+            + ("" if plain else f"; hidden {c['hidden']['name'] if c['hidden'] else 'none'}: {c['verdict']}"
+               + (f", top {c['top']['name']} ({c['top']['confidence']:.2f}, shrink {c['top']['shrink']:.2f})"
+                  if c["top"] else ""))
+            + f"; {c['seconds']}")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robots", type=int, default=40)
@@ -582,12 +537,12 @@ def main(argv=None) -> None:
     print(f"seed {seed}; key {key}", flush=True)
     lines = Path(args.lines) if args.lines else RESULTS / f"calibrate_{key}.jsonl"
     lines.parent.mkdir(parents=True, exist_ok=True)
-    done, rejected = {}, {}
+    done, rejected, invisible = {}, {}, {}
     for c in resumed_cases(lines, seed):
-        (rejected if "rejected" in c else done)[c["index"]] = c
+        (rejected if "rejected" in c else invisible if c.get("invisible") else done)[c["index"]] = c
     only = None if args.only is None else {int(x) for x in args.only.split(",") if x.strip()}
     todo = [i for i in range(args.robots)
-            if not (i in done or i in rejected or (only is not None and i not in only))]
+            if not (i in done or i in rejected or i in invisible or (only is not None and i not in only))]
     if args.scheduler is not None:
         ship_bench_modules()
     # on a cluster a robot is one worker's: single-threaded inside, no worker processes of its own
@@ -596,25 +551,14 @@ def main(argv=None) -> None:
     for i, c in map_cases(one, todo, workers=1, scheduler=args.scheduler):
         with open_lines(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
-        if "rejected" in c:
-            rejected[i] = c
-            print(f"robot {i}: rejected ({c['rejected']})", flush=True)
-            continue
-        done[i] = c
-        h = {k: error_summary(v) for k, v in c["heldout"].items()}
-        print(f"robot {i} ({'base' if c['base'] else 'rigid'}): held-out f p95 {100 * h['before']['f_err_p95']:.2f} % -> "
-              f"{100 * h['after']['f_err_p95']:.2f} %, zeta p95 {100 * h['after']['zeta_err_p95']:.1f} %, "
-              f"unseen f p95 {100 * c['unseen']['after']['f_p95']:.2f} %, "
-              f"{sum(p['identifiability'] == 'identifiable' for p in c['params'])} identifiable"
-              + ("" if args.plain else f"; hidden {c['hidden']['name'] if c['hidden'] else 'none'}: {c['verdict']}"
-                 + (f", top {c['top']['name']} ({c['top']['confidence']:.2f}, shrink {c['top']['shrink']:.2f})"
-                    if c["top"] else ""))
-              + f"; {c['seconds']}", flush=True)
+        (rejected if "rejected" in c else invisible if c.get("invisible") else done)[i] = c
+        print(_said(i, c, args.plain), flush=True)
     cases = [done[i] for i in sorted(done)]
     s = summarise(cases)
     s["rejected"] = len(rejected)
+    s["invisible"] = len(invisible)
     if not args.plain:
-        s.update(summarise_gap(cases))
+        s.update(summarise_gap(cases, list(invisible.values())))
         s["spread_only"] = summarise([c for c in cases if not c["hidden"]])
     print(json.dumps(s, indent=1))
     cal_s = time_default(args.workers) if args.time_default else s["calibrate_s_median"]
@@ -628,12 +572,14 @@ def main(argv=None) -> None:
             "gap_top1_after_calibration": s.get("gap_top1_after_calibration"),
             "unexplained_ok": s.get("unexplained_ok"), "spread_false_structural": s.get("spread_false_structural"),
             "calibrate_s": cal_s, "gap_scaled": s.get("scaled"), "gap_rejected_draws": s.get("rejected_draws"),
+            "invisible": s["invisible"],
             "real_f_mean_before": real.get("f_mean_before"),
             "real_f_mean_after": real.get("f_mean_after")}
     print(json.dumps(line))
     if not args.plain:
-        # the second line: the draws the bench's visibility rule rejected, counted as misses
-        print(json.dumps({"cases": s["cases"], "seed": seed, "rejected_as_misses": with_rejected_as_misses(cases)}))
+        # the second line: the invisible draws counted as misses
+        print(json.dumps({"cases": s["cases"], "seed": seed,
+                          "rejected_as_misses": with_rejected_as_misses(cases, list(invisible.values()))}))
 
 if __name__ == "__main__":
     sys.exit(main())

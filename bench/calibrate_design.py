@@ -1,7 +1,7 @@
 """Which postures to test (issue 38, item 5): 8 D-optimal postures against 12 (and 8) grid postures
 and 8 random ones, by the held-out error of the calibration each gives.
 
-Per "real robot" (``bench/_calibrate_truth.py``, every ordinary parameter drawn, on a rigid
+Per "real robot" (``bench/truth/robot.py``: ``draw_truth``, every ordinary parameter drawn, on a rigid
 floor so that the groups calibrated cover what was drawn but the tool holder's ±25 %):
 
 1. four held-out postures drawn from the seed grid, and a first test of four grid postures;
@@ -38,8 +38,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
-from _calibrate_truth import draw_truth  # noqa: E402
 from calibrate import measure  # noqa: E402
+from truth.robot import draw_truth  # noqa: E402
 
 from rmbench.calibrate import CalibrationSettings, ModalData, calibrate  # noqa: E402
 from rmbench.calibrate.suggest import suggest_postures  # noqa: E402

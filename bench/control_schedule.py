@@ -1,7 +1,7 @@
 """Posture-scheduled proof-mass control designed from measurements, across the workspace (issue 41).
 
 For each of ``--robots`` "real" MH180s (every ordinary parameter drawn as the calibration bench
-draws them, a compliant foundation on every other one; ``_control_truth.py``, plain MJCF edits):
+draws them, a compliant foundation on every other one; ``truth/control.py``, plain MJCF edits):
 
 1. **Campaign**: simulated shaker tests (tangential and axial coils in turn, 64 s of band-limited
    random force each) at the 16 postures of a 4 × 4 grid over J2 −10…20° and J3 −10…30° (J5 keeps
@@ -52,8 +52,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 from scipy.stats import qmc  # noqa: E402
 
-from _control_truth import draw_mh180  # noqa: E402
 from _stats import keyed_run, open_lines  # noqa: E402
+from truth.control import draw_mh180  # noqa: E402
 from rmbench.control import design, is_stable, sensitivity  # noqa: E402
 from rmbench.control.moving import moving_test  # noqa: E402
 from rmbench.control.experiments import measured_matrix_plant  # noqa: E402
@@ -275,7 +275,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     warnings.filterwarnings("ignore", module="control")
     keyed_run(args, f"control_schedule_p{args.postures}", __file__,
-              modules=("rmbench.control", "rmbench.robot"), extra=("_control_truth.py", "_truth_edits.py"))
+              modules=("rmbench.control", "rmbench.robot"), extra=("truth/control.py", "truth/ordinary.py"))
     path = Path(args.lines)
     path.parent.mkdir(parents=True, exist_ok=True)
     done = set()

@@ -18,10 +18,16 @@ Last line: ``{"cases", "recall", "false_sources", "median_shrink", "unexplained_
 
 A fresh seed is drawn per run unless ``--seed`` is given, and printed; the cases go to
 ``bench/results/gap_tracker_s<seed>_<digest>.jsonl``, keyed by the seed and a digest of the code.
-The tracker generator rejects no draw: a faint one is scaled up until it is visible. The spread
-robots' structural sources (issue 43) are enlarged likewise until a test that knew their form would
-see them beyond the ordinary parameters' spread with probability 0.95 (``VISIBLE_POWER``); a source
-still hidden at 8 times its drawn size is rejected, counted, printed and redrawn.
+The tracker generator rejects no draw: a faint one is scaled up until it is visible (the library's
+blind cases, part 1). The spread robots (issue 43; ``bench/truth/tracker_spread.py``) carry their
+structural source at its drawn size: whether it shows is decided without the diagnosis
+(``truth.tracker.readings_visibility``: the noise-free readings with and without it against the
+readings' own noise on independent draws, as ``bench/blind_tracker.py`` decides). Sizes are never
+enlarged and draws never redrawn (issue 79): an invisible draw is counted and reported apart, kept
+in the file, not scored. The spread keys ``spread_rejected`` and the second line's
+``rejected_as_misses`` count the invisible draws (until issue 81 the draws rejected as hidden after
+enlarging); ``spread_scaled`` is 0 (no source is enlarged any more); ``spread_invisible`` counts
+them too.
 
 With ``--scheduler ADDRESS`` both kinds of case run on an existing dask cluster, one a
 single-threaded worker, and are written as they finish: the same lines as a run here, but for the
@@ -48,7 +54,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 from _stats import RMBENCH, blind_cases, keyed_run, rate, resumed_cases, ship_bench_modules, wilson  # noqa: E402
-from _tracker_truth import SpreadRobot, campaign, draw_structural, scaled, spread_xml  # noqa: E402
+from truth.tracker import campaign, readings_visibility, spread_xml  # noqa: E402
+from truth.tracker_spread import SpreadRobot, draw_structural  # noqa: E402
 
 from rmbench.gap.cases.tracker_blind import summarise_tracker  # noqa: E402
 from rmbench.parallel import map_cases  # noqa: E402
@@ -144,16 +151,6 @@ def report(cases) -> dict:
     return s
 
 
-VISIBLE_POWER = 0.95
-"""The bench's visibility rule: a drawn structural source is enlarged (:func:`_truth`) until a test
-that knew its form would see it beyond the ordinary parameters' spread, at the diagnosis's own
-significance level, with this probability: sources no data could reveal make no case."""
-MAX_SCALE = 8.0
-"""A source still hidden at this many times its drawn size is rejected (counted, then redrawn):
-its form is one the ordinary parameters take up whole (a directional stiffness on a joint whose
-gravity torque keeps one sign over the campaign is only a stiffer joint)."""
-
-
 def _campaign_data(nominal, q, order, t, y):
     from rmbench.gap.tracker.diagnosis import TrackerData, default_covariance
 
@@ -162,38 +159,22 @@ def _campaign_data(nominal, q, order, t, y):
                        covariance=cov)
 
 
-def _truth(i: int, seed: int, nominal, xml: str, source, q, order, previous, t, rng):
-    """The case's true robot with its structural source enlarged until visible (``VISIBLE_POWER``);
-    a source hidden at ``MAX_SCALE`` is rejected and another of its class drawn from ``rng``.
-    Returns the robot, its visibility record and the rejected draws."""
-    def build(src):     # the same tracker placement at every size
+def _truth(i: int, seed: int, nominal, xml: str, source, q, previous, t):
+    """The case's true robot and, where it carries a structural source, whether the source shows
+    in the readings (:func:`truth.tracker.readings_visibility`: decided without the diagnosis,
+    never enlarged). Returns the robot and its visibility record (None without a source)."""
+    def build(src):     # the same tracker placement with and without the source
         return SpreadRobot(xml, src, np.random.default_rng([seed, i, 43, 1]), tool=nominal.tool)
 
-    rejected = []
-    while True:
-        drawn, factor = source, 1.0
-        while True:
-            truth = build(source)
-            if source is None:
-                return truth, None, rejected
-            p_true = truth.positions(q, previous, t)
-            vis = _visibility(nominal, _campaign_data(nominal, q, order, t, p_true), order, source)
-            vis["scale"] = factor
-            if vis["visible"] or factor >= MAX_SCALE:
-                break
-            step = min(max(1.25, 1.05 * np.sqrt(vis["target"] / max(vis["nc"], 1e-9))), MAX_SCALE / factor)
-            factor = float(factor * step)
-            source = scaled(drawn, factor)
-        if vis["visible"]:
-            return truth, vis, rejected
-        rejected.append({"source": drawn, "nc_at_max_scale": vis["nc"], "target": vis["target"]})
-        source = draw_structural(rng, in_library=drawn["kind"] not in ("backlash", "directional_stiffness"),
-                                 n_joint=len(nominal.arm_joints))
+    truth = build(source)
+    if source is None:
+        return truth, None
+    return truth, readings_visibility(truth, build(None), q, previous, t, seed * 1000 + i + 500)
 
 
 def run_spread_case(i: int, *, seed: int, box: str = "calibration") -> dict:
-    """One spread robot (``bench/_tracker_truth.py``), read over the joint ranges ``box``, diagnosed
-    with and without ``--calibrate``."""
+    """One spread robot (``bench/truth/tracker_spread.py``), read over the joint ranges ``box``,
+    diagnosed with and without ``--calibrate``; an invisible source's record, not diagnosed."""
 
     from rmbench.gap.tracker.diagnosis import TrackerSettings, diagnose_tracker
     from rmbench.robot import Robot
@@ -206,15 +187,15 @@ def run_spread_case(i: int, *, seed: int, box: str = "calibration") -> dict:
         source = draw_structural(rng, in_library=(i // 2) % 4 != 3, n_joint=len(nominal.arm_joints))
     q, order, previous = campaign(rng, box=box)
     t = np.arange(len(q)) * 15.0
-    truth, vis, rejected = _truth(i, seed, nominal, xml, source, q, order, previous, t, rng)
-    source = truth.source
+    truth, vis = _truth(i, seed, nominal, xml, source, q, previous, t)
+    out = {"index": i, "seed": seed, "box": box, "drawn": drawn, "source": source,
+           "name": None if source is None else f"{source['kind']}@{source['location']}",
+           "in_library": source is None or source["kind"] not in ("backlash", "directional_stiffness")}
+    if vis is not None and not vis["visible"]:      # counted and reported apart, never enlarged
+        return {**out, "noise_free": vis, "invisible": True}
     y = truth.positions(q, previous, t, rng)
     data = _campaign_data(nominal, q, order, t, y)
     p_true = truth.positions(q, previous, t)
-    out = {"index": i, "seed": seed, "box": box, "drawn": drawn, "source": source,
-           "name": None if source is None else f"{source['kind']}@{source['location']}",
-           "in_library": source is None or source["kind"] not in ("backlash", "directional_stiffness"),
-           "rejected": rejected}
     for label, cal in (("calibrated", True), ("plain", False)):
         t0 = time.perf_counter()
         dg = diagnose_tracker(nominal, data, settings=TrackerSettings(calibrate=cal))
@@ -239,63 +220,18 @@ def run_spread_case(i: int, *, seed: int, box: str = "calibration") -> dict:
     return out
 
 
-def _visibility(nominal, data, order: np.ndarray, source: dict) -> dict:
-    """Whether the structural source stands out from the ordinary parameters' spread: the
-    campaign's noise-free readings (the same σ) calibrated with the ordinary parameters only.
-    Their held-out χ² ``nc`` is what is left of the source beyond what the calibration takes up,
-    the noncentrality of the test that knew the source's form. An in-library source is *visible*
-    where that test, the diagnosis's decisive-evidence one (a drop beyond what the best of the
-    ``m`` structural candidates would reach on noise: ``χ²_{1 − p/m}(k)``, ``k`` its parameters),
-    passes with probability ``VISIBLE_POWER``; an out-of-library one where the noise test that an
-    "unexplained" needs (held-out χ² beyond ``χ²_{1 − p/2}(n)``) passes with that probability on
-    what the diagnosis's structural sources leave of it too (``nc`` after them; a backlash that a
-    gear harmonic takes up is, to these readings, that harmonic).
-    ``target`` is the ``nc`` that needs; ``need`` the bare threshold's excess (power ½)."""
-    from scipy.optimize import brentq
-    from scipy.stats import chi2 as chi2_dist
-    from scipy.stats import ncx2
-
-    from rmbench.gap.tracker.diagnosis import ORDINARY, TrackerSettings, diagnose_tracker
-    from rmbench.gap.tracker.sources import source_library
-    from rmbench.tracker.chain import SerialChain
-    from rmbench.tracker.simulator import nominal_stiffness
-
-    settings = TrackerSettings(calibrate=True)
-    dg = diagnose_tracker(nominal, data, settings=settings)
-    n = 3 * int(np.isin(order, dg.held).sum())
-    nc = float(dg.calibration["heldout_after"]["chi2_per_n"]) * n
-    chain = SerialChain.from_kinematics(nominal.kinematics, nominal.arm_joints)
-    library = [x for x in source_library(chain, 1.0 / nominal_stiffness(nominal), harmonics=settings.harmonics,
-                                         drive=data.drive_kind, masses=True) if x.kind not in ORDINARY]
-    k = {"payload": 1, "frame_error": 3, "gear_periodic_error": 2, "thermal_drift": 1}.get(source["kind"])
-    nc_calibration = nc
-    if k is not None:
-        dof, threshold = k, float(chi2_dist.isf(settings.p_noise / len(library), k))
-        need = threshold
-    else:
-        # what an "unexplained" needs is left after the structural look-alikes too
-        nc = float(dg.heldout_after["chi2_per_n"]) * n
-        dof, threshold = n, float(chi2_dist.isf(settings.p_noise / 2, n))
-        need = threshold - n
-    target = float(brentq(lambda x: ncx2.sf(threshold, dof, x) - VISIBLE_POWER, 1e-6, 1e7))
-    return {"verdict": dg.verdict, "chosen": [x.name for x in dg.chosen], "nc": nc,
-            "nc_calibration": nc_calibration, "n": n, "need": need,
-            "target": target, "distinguishable": bool(nc >= need), "visible": bool(nc >= target)}
-
-
-def summarise_spread(cases) -> dict:
+def summarise_spread(cases, invisible=()) -> dict:
     """Issue 43's figures: recall of the structural source with --calibrate, spurious sources
-    where there are none, the held-out true error's shrink, out-of-library cases unexplained."""
+    where there are none, the held-out true error's shrink, out-of-library cases unexplained; the
+    ``invisible`` draws (their lines) counted by source."""
     inl = [c for c in cases if c["source"] is not None and c["in_library"]]
     none = [c for c in cases if c["source"] is None]
     out = [c for c in cases if not c["in_library"]]
     frac = (lambda xs: float(np.mean(xs)) if xs else None)
     res = {"spread_cases": len(cases),
-           # sources enlarged to be visible, and draws rejected as hidden at MAX_SCALE (_truth)
-           "scaled": [int(sum(float(c.get("noise_free", {}).get("scale", 1.0)) > 1.0 for c in cases)),
-                      int(sum(c["source"] is not None for c in cases))],
-           "rejected": dict(Counter(r["source"]["kind"] + "@" + r["source"]["location"]
-                               for c in cases for r in c.get("rejected", [])))}
+           # no source is enlarged (issue 79): [0, sources drawn]; the invisible draws by source
+           "scaled": [0, int(sum(c["source"] is not None for c in cases)) + len(invisible)],
+           "rejected": dict(Counter(c["name"] for c in invisible)), "invisible": len(invisible)}
     for label in ("calibrated", "plain"):
         res[label] = {
             "recall": frac([c["name"] in c[label]["chosen"] for c in inl]),
@@ -310,12 +246,13 @@ def summarise_spread(cases) -> dict:
             "recall_by_kind": {k: [sum(c["name"] in c[label]["chosen"] for c in inl if c["source"]["kind"] == k),
                                    sum(c["source"]["kind"] == k for c in inl)]
                                for k in sorted({c["source"]["kind"] for c in inl})}}
-        # where the source reaches the bare threshold (power ½) of the test that knew its form;
-        # every source is drawn to reach power VISIBLE_POWER (_truth), so this counts near-misses
-        seen = [c for c in inl if c.get("noise_free", {}).get("distinguishable")]
+        # where the source shows beyond the readings' noise (_truth); every scored one does since
+        # issue 81 (an invisible draw is not scored), older lines' records say whether it reached
+        # the bare threshold of the test that knew its form
+        seen = [c for c in inl if c.get("noise_free", {}).get("visible")]
         res[label]["distinguishable"] = [len(seen), len(inl)]
         res[label]["recall_distinguishable"] = frac([c["name"] in c[label]["chosen"] for c in seen])
-        seen_out = [c for c in out if c.get("noise_free", {}).get("distinguishable")]
+        seen_out = [c for c in out if c.get("noise_free", {}).get("visible")]
         res[label]["unexplained_ok_distinguishable"] = frac([c[label]["verdict"] == "unexplained" for c in seen_out])
         res[label]["out_distinguishable"] = [len(seen_out), len(out)]
         # each source named with confidence >= 0.8, and whether it is the hidden one
@@ -325,14 +262,16 @@ def summarise_spread(cases) -> dict:
     return res
 
 
-def spread_with_rejected_as_misses(cases) -> dict:
-    """The calibrated spread figures with every draw rejected as hidden counted as a case of its
-    class and a miss (issue 78): the bench's visibility rule chose its cases, so the draws it threw
-    away are outcomes too. Each rate as ``[k, n, rate, wilson_lo95, wilson_hi95]``."""
+def spread_with_rejected_as_misses(cases, invisible=()) -> dict:
+    """The calibrated spread figures with every invisible draw (``invisible``: their lines) counted
+    as a case of its class and a miss (issue 78; until issue 81 the draws rejected as hidden after
+    enlarging): the draws no test could see are outcomes too. Each rate as ``[k, n, rate,
+    wilson_lo95, wilson_hi95]``; ``rejected_in_library``, ``rejected_out_of_library``: the invisible
+    draws of each class."""
     inl = [c for c in cases if c["source"] is not None and c["in_library"]]
     out = [c for c in cases if not c["in_library"]]
-    rej_in = sum(len(c.get("rejected", [])) for c in inl)
-    rej_out = sum(len(c.get("rejected", [])) for c in out)
+    rej_in = sum(bool(c["in_library"]) for c in invisible)
+    rej_out = len(invisible) - rej_in
 
     def rated(k, n):
         lo, hi = wilson(k, n) if n else (None, None)
@@ -359,16 +298,19 @@ def run_spread(args) -> dict:
         with open(lines, "a") as fh:
             fh.write(json.dumps(c) + "\n")
         done[i] = c
+        if c.get("invisible"):
+            vis = c["noise_free"]
+            print(f"spread {i}: hidden {c['name']} invisible (χ² excess {vis['chi2_with'] - vis['chi2_null']:.4g}, "
+                  f"threshold {vis['threshold']:.4g}), not scored", flush=True)
+            continue
         cal, plain = c["calibrated"], c["plain"]
-        vis = c.get("noise_free")
-        size = "" if vis is None else f" (×{vis['scale']:.2f} to be visible)"
-        rej = "".join(f"; rejected {r['source']['kind']}@{r['source']['location']}" for r in c["rejected"])
-        print(f"spread {i}: hidden {c['name'] or 'none'}{size}{rej}; --calibrate {cal['verdict']}, chosen "
+        print(f"spread {i}: hidden {c['name'] or 'none'}; --calibrate {cal['verdict']}, chosen "
               f"{', '.join(cal['chosen']) or '-'}, true shrink {100 * cal['shrink_true']:.0f} %; without: "
               f"{plain['verdict']}, chosen {', '.join(plain['chosen']) or '-'}", flush=True)
-    cases = [done[i] for i in sorted(done) if i < args.spread]
-    s = summarise_spread(cases)
-    s["rejected_as_misses"] = spread_with_rejected_as_misses(cases)
+    cases = [done[i] for i in sorted(done) if i < args.spread and not done[i].get("invisible")]
+    invisible = [done[i] for i in sorted(done) if i < args.spread and done[i].get("invisible")]
+    s = summarise_spread(cases, invisible)
+    s["rejected_as_misses"] = spread_with_rejected_as_misses(cases, invisible)
     print(json.dumps(s, indent=1))
     return s
 
@@ -379,7 +321,8 @@ def _spread_line(spread: dict) -> dict:
     return {"spread_cases": spread["spread_cases"], "spread_recall": c["recall"],
             "spread_false_sources": c["false_sources"], "spread_median_shrink": c["median_shrink"],
             "spread_unexplained_ok": c["unexplained_ok"], "spread_confident_right": c["confident_right"],
-            "spread_scaled": spread["scaled"][0], "spread_rejected": sum(spread["rejected"].values())}
+            "spread_scaled": spread["scaled"][0], "spread_rejected": sum(spread["rejected"].values()),
+            "spread_invisible": spread["invisible"]}
 
 
 def main() -> int:
@@ -399,12 +342,12 @@ def main() -> int:
     ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
                     help="address of an existing dask scheduler: the cases run on its cluster, one a worker")
     args = ap.parse_args()
-    keyed_run(args, "gap_tracker", __file__, extra=("_tracker_truth.py", "_stats.py"),
+    keyed_run(args, "gap_tracker", __file__, extra=("truth/tracker.py", "truth/tracker_spread.py", "_stats.py"),
               modules=("rmbench.gap.tracker.diagnosis", "rmbench.gap.cases.tracker_blind", "rmbench.robot", "rmbench.tracker"))
     spread = run_spread(args) if args.spread else {}
     if args.spread_only:
         print(json.dumps({**_spread_line(spread), "seed": args.seed}))
-        # the second line: the draws the bench's visibility rule rejected, counted as misses
+        # the second line: the invisible draws counted as misses
         print(json.dumps({"spread_cases": spread["spread_cases"], "seed": args.seed,
                           "rejected_as_misses": spread["rejected_as_misses"]}))
         return 0

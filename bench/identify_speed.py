@@ -1,14 +1,16 @@
 """Identification speed (issue 78): the calibration and the calibrated diagnosis as a user runs
 them, each timed as a whole command (its own process, imports included) on 2 cores.
 
-1. A drawn "real robot" (the calibration bench's spread, ``bench/_calibrate_truth.py``: plain MJCF
-   edits) hammered at 12 postures of the seed grid (``rmbench campaign run``, time domain), its
+1. A drawn "real robot" (the calibration bench's spread, ``bench/truth/robot.py``'s ``draw_truth``:
+   plain MJCF edits) hammered at 12 postures of the seed grid (``rmbench campaign run``, time domain), its
    campaign fitted (``rmbench modal fit``), then ``rmbench model calibrate --data MODAL.nc``: the
    default groups, 24 parameters. The modal fit is the campaign's own step and is timed apart.
 2. ``rmbench gap diagnose --calibrate joints,damping,servo,masses,com,base,tool --heldout 0.25`` (the
    calibration bench's settings: 12 postures calibrated and searched, 4 held out) on 16-posture
    time-domain campaigns of three drawn robots: the spread alone, the spread with an effect of the
-   diagnosis's library, and the spread with one from outside it (the calibration bench's draws).
+   diagnosis's library, and the spread with one from outside it (the calibration bench's draws,
+   ``bench/truth/structural.py``: plain MJCF edits, a turned sensor applied to the measured
+   signals; not the library's case injection). A speed bench: no visibility check, every draw timed.
    The data go in as a real test's do: UFF58 files and the test design's TOML, nothing else.
 3. Where the time goes: the top lines of a profile (cProfile, time in each function itself) of the
    calibration and of the in-library diagnosis, run in this process on one worker.
@@ -34,14 +36,17 @@ import sys
 import tempfile
 import time
 import warnings
+import xml.etree.ElementTree as ET
+from functools import partial
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 
 import numpy as np  # noqa: E402
 
-from _calibrate_truth import draw_structural, draw_truth, inject_structural  # noqa: E402
 from _profile import profile_top  # noqa: E402
+from truth.robot import draw_truth  # noqa: E402
+from truth.structural import apply_effect, draw_effect, turned_signals  # noqa: E402
 
 RMBENCH = [str(Path(sys.executable).with_name("rmbench"))]
 GAP_GROUPS = "joints,damping,servo,masses,com,base,tool"
@@ -58,21 +63,28 @@ def run(args: list[str]) -> tuple[float, str]:
 
 
 def campaign(work: Path, name: str, xml: str, postures, method: str, seed: int, workers: int, *,
-             placement=None, rpm: float = 0.0) -> tuple[Path, Path, float]:
-    """The truth hammered as the calibration bench does (``calibrate._toml``), exported to UFF58,
+             rpm: float = 0.0, signals=None) -> tuple[Path, Path, float]:
+    """The truth hammered as the calibration bench does (``calibrate._toml``), exported to UFF58
+    (its signals through ``signals``, a map of the FRF dataset, where given: a turned sensor's),
     with the nominal test design's TOML beside it: ``(uff_dir, test_toml, campaign seconds)``."""
     from calibrate import _toml
 
     truth = work / f"{name}_truth.xml"
     truth.write_text(xml)
     toml = work / f"{name}_campaign.toml"
-    toml.write_text(_toml(str(truth), postures, method, seed, commands_from="irb6660", placement=placement,
-                          rpm=rpm))
+    toml.write_text(_toml(str(truth), postures, method, seed, commands_from="irb6660", rpm=rpm))
     test = work / f"{name}_test.toml"
     test.write_text(_toml("irb6660", postures, method, seed, None))
     nc = work / f"{name}.nc"
     seconds, _ = run(["campaign", "run", str(toml), "--out", str(nc), "--workers", str(workers), "--force"])
-    run(["campaign", "export", str(nc), "--uff", str(work / f"{name}_uff")])
+    if signals is None:
+        run(["campaign", "export", str(nc), "--uff", str(work / f"{name}_uff")])
+    else:       # what ``rmbench campaign export`` writes, of the signals as the turned sensor reads them
+        from rmbench.impact import open_campaign
+        from rmbench.io import write_uff58
+
+        ds = open_campaign(nc)
+        write_uff58(signals(ds)[["H"]].assign_attrs(ds.attrs), work / f"{name}_uff")
     return work / f"{name}_uff", test, seconds
 
 
@@ -145,12 +157,15 @@ def main(argv=None) -> None:
     for name, in_library in (("spread", None), ("inlib", True), ("outlib", False)):
         xml, _ = draw_truth(nominal.xml, rng, base=False)
         postures = [grid[k] for k in sorted(rng.choice(len(grid), 16, replace=False))]
-        placement, rpm, hidden = None, 0.0, None
+        rpm, hidden, signals = 0.0, None, None
         if in_library is not None:
-            hidden = draw_structural(rng, in_library=in_library)
-            xml, placement, rpm = inject_structural(xml, hidden)
+            root = ET.fromstring(xml)
+            hidden = apply_effect(root, draw_effect(rng, in_library=in_library), ET.fromstring(nominal.xml))
+            xml, rpm = ET.tostring(root, encoding="unicode"), hidden.rpm
+            if hidden.kind == "sensor_misalignment":
+                signals = partial(turned_signals, effect=hidden)
         uff, test, camp_s = campaign(work, name, xml, postures, args.method, args.seed, args.workers,
-                                     placement=placement, rpm=rpm)
+                                     rpm=rpm, signals=signals)
         seconds, out = run(diagnose_cmd(uff, test, args.workers))
         dg = json.loads(out)
         top = dg["effects"][0]["name"] if dg.get("effects") else None

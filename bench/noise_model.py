@@ -43,7 +43,7 @@ from rmbench.calibrate.residual import pair  # noqa: E402
 from rmbench.robot import Robot, seed_grid  # noqa: E402
 from rmbench.robot.parameters import ParameterSet  # noqa: E402
 
-TRUTH_FILES = ("_truth_edits.py", "_stats.py", "calibrate.py", "truth/__init__.py", "truth/robot.py")
+TRUTH_FILES = ("truth/ordinary.py", "_stats.py", "calibrate.py", "truth/__init__.py", "truth/robot.py")
 Z95 = 1.959964
 
 

@@ -11,9 +11,8 @@ import pytest
 from _bench_path import bench_on_path
 
 with bench_on_path():
-    from _tracker_truth import campaign
     from truth import apply_form, median_form
-    from truth.tracker import FORM_KINDS, Reader, TrackerRobot, _ar1, draw_tracker_robot, visibility
+    from truth.tracker import FORM_KINDS, Reader, TrackerRobot, _ar1, campaign, draw_tracker_robot, visibility
 
 from rmbench.gap.tracker.data import TrackerData, default_covariance  # noqa: E402
 from rmbench.gap.tracker.diagnosis import TrackerSettings, diagnose_tracker  # noqa: E402

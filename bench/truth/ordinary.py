@@ -1,6 +1,7 @@
-"""Plain MJCF edits (ElementTree) that draw a "real robot" from its nominal: the ordinary spread the
-calibration and control benches share. No rmbench parameter or variant code is used, so a bug shared
-by a method's model and the truth it is scored on cannot hide.
+"""The ordinary spread of a "real robot": plain MJCF edits (ElementTree) that draw it from its
+nominal, shared by the FRF, calibration and control benches' truth (:mod:`truth.robot`,
+:mod:`truth.control`, :mod:`truth.structural`). No rmbench parameter or variant code is used, so a
+bug shared by a method's model and the truth it is scored on cannot hide.
 
 Each function edits ``root`` (an ElementTree element of the whole MJCF) in place, draws from ``rng``
 in a fixed order and returns what it drew (SI).
@@ -11,6 +12,9 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 import numpy as np
+
+__all__ = ["LINKS", "LATERAL", "logu", "draw_flex_joints", "draw_servos", "draw_links", "mount_on_foundation",
+           "mount_under", "subtree_mass", "draw_ordinary"]
 
 LINKS = ("carousel", "lower_arm", "upper_arm", "forearm", "wrist", "flange")
 LATERAL = ("lower_arm", "upper_arm", "forearm", "flange")

@@ -1,11 +1,16 @@
-"""One "real robot": the nominal MJCF with every ordinary parameter drawn and model-form errors
-added, by plain ElementTree edits.
+"""One "real robot" for the FRF benches: the nominal MJCF with every ordinary parameter drawn and
+model-form errors added, by plain ElementTree edits.
 
-The ordinary spread is the calibration's parameters, drawn as :mod:`_truth_edits` draws them
+The ordinary spread is the calibration's parameters, drawn as :mod:`truth.ordinary` draws them
 (gearbox stiffness and damping, servo gains, link masses and centres of mass, the tool holder's
 contact). The foundation of half the robots tilts like the model's, but is a slab of its own
 mass (500-3000 kg where the model's plate is 1000 kg) and damping (2-8 % where the model's is 5 %).
 Form errors (:mod:`truth.form`) are drawn kind by kind, each with probability ``p_form``.
+
+:func:`draw_truth` is the in-model benches' robot (``bench/calibrate.py``, ``calibrate_design.py``,
+``identify_speed.py``): the ordinary spread alone, and on half of them the model's own tilting
+foundation (a 1000 kg plate, 5 % damping, compliance uniform 20-100 µrad/(kN·m)), so that every
+drawn value is one the calibration fits.
 """
 
 from __future__ import annotations
@@ -15,10 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from _truth_edits import draw_ordinary, logu, subtree_mass
 from truth.form import FORM_KINDS, FormError, apply_form, draw_form
+from truth.ordinary import draw_ordinary, logu, mount_on_foundation, subtree_mass
 
-__all__ = ["RealRobot", "draw_real_robot"]
+__all__ = ["RealRobot", "draw_real_robot", "draw_truth"]
 
 
 @dataclass(frozen=True)
@@ -79,6 +84,15 @@ def draw_real_robot(nominal_xml: str, rng: np.random.Generator, *, base: bool, p
         # the skewed foundation replaced the tilting one: no isotropic tilt compliance is true
         ordinary["base.tilt_compliance"], foundation = None, {}
     return RealRobot(ET.tostring(root, encoding="unicode"), ordinary, form, foundation)
+
+
+def draw_truth(nominal_xml: str, rng: np.random.Generator, *, base: bool) -> tuple[str, dict]:
+    """The MJCF of one in-model "real robot" (the ordinary spread, the model's tilting foundation
+    where ``base``) and its true parameter values (SI, calibration names)."""
+    root = ET.fromstring(nominal_xml)
+    truth = draw_ordinary(root, rng)
+    truth["base.tilt_compliance"] = mount_on_foundation(root, rng) if base else 0.0
+    return ET.tostring(root, encoding="unicode"), truth
 
 
 def _tilting_foundation(root: ET.Element, rng) -> dict:

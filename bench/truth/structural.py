@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from _truth_edits import logu, mount_under
+from truth.ordinary import logu, mount_under
 
 __all__ = ["IN_LIBRARY", "OUT_OF_LIBRARY", "Effect", "apply_effect", "draw_effect", "turned_signals"]
 

@@ -1,7 +1,7 @@
 """Real MH180s read by a laser tracker, built apart from the diagnosis that reads them (issue 79).
 
 The positions are the real robot's own physics: its MJCF (the ordinary spread of
-``_tracker_truth.spread_xml``, model-form errors, a payload) settled under gravity by MuJoCo at
+:func:`spread_xml`, model-form errors, a payload) settled under gravity by MuJoCo at
 each commanded configuration, the TCP read where it comes to rest, then moved into the tracker's
 frame. Nothing here goes through the diagnosis's pose model, its sources or its noise model.
 
@@ -24,21 +24,31 @@ Noise the diagnosis is not told (:func:`draw_noise`): the joints' scatter (25 µ
 the rated level) and the tracker's (its data sheet's 5 µm/m and 12.5 µm as 2σ bounds), both
 scaled by a factor log-uniform 0.5-2, and in half the robots correlated from one reading to the
 next (AR(1), ρ 0.3-0.8).
+
+The ordinary spread (:func:`spread_xml`): the nominal MJCF edited as text, every flexible joint's
+stiffness × U(0.7, 1.3), every body placement ± 0.5 mm along it, every link mass ± 10 %. The
+campaigns (:func:`campaign`): quasi-random configurations of the joint ranges :data:`BOXES`, each
+read twice in random order. Both are shared with the spread robots of ``bench/gap_tracker.py``
+(:mod:`truth.tracker_spread`).
+
+:func:`visibility` (and :func:`readings_visibility`, for any pair of readers) decides whether a
+source shows in the readings beyond their noise, without the diagnosis; sizes are never enlarged.
 """
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
-from _tracker_truth import spread_xml
+from rmbench.tracker import MH180_CALIBRATION_BOX, MH180_JOINT_BOX, sobol_points
 from truth.form import apply_form, draw_form
 
-__all__ = ["FORM_KINDS", "IN_LIBRARY", "OUT_OF_LIBRARY", "TrackerRobot", "draw_tracker_robot", "draw_noise",
-           "Reader", "visibility"]
+__all__ = ["FORM_KINDS", "IN_LIBRARY", "OUT_OF_LIBRARY", "BOXES", "TrackerRobot", "spread_xml", "campaign",
+           "draw_tracker_robot", "draw_noise", "Reader", "visibility", "readings_visibility"]
 
 FORM_KINDS = ("bending_link", "bearing_tilt", "reflector_sag", "thermal_gradient")
 IN_LIBRARY = ("payload", "gear_periodic_error", "frame_error", "thermal_drift")
@@ -57,7 +67,7 @@ class TrackerRobot:
     xml : str
         Its MJCF: the spread, the MJCF form errors and a payload.
     ordinary : dict
-        The spread's true factors and placements (``_tracker_truth.spread_xml``).
+        The spread's true factors and placements (:func:`spread_xml`).
     form : tuple of dict
         ``{"kind", "location", "size"}`` of each form error.
     source : dict or None
@@ -78,6 +88,52 @@ class TrackerRobot:
     def to_dict(self) -> dict:
         return {"ordinary": self.ordinary, "form": list(self.form), "source": self.source, "noise": self.noise,
                 "frame": self.frame}
+
+
+def spread_xml(xml: str, rng: np.random.Generator) -> tuple[str, dict]:
+    """The MJCF with every flexible joint's stiffness, body placement and link mass drawn."""
+    truth = {}
+
+    def stiffness(m):
+        f = float(rng.uniform(0.7, 1.3))
+        truth[f"{m.group(1)}.stiffness"] = f
+        return f'{m.group(0)[:m.start(3) - m.start(0)]}{float(m.group(3)) * f:.9g}"'
+
+    xml = re.sub(r'<joint name="(j\d_flex)"([^>]*?)stiffness="([0-9.eE+-]+)"', stiffness, xml)
+
+    def placement(m):
+        v = np.array([float(x) for x in m.group(2).split()])
+        n = np.linalg.norm(v)
+        if n < 1e-9:
+            return m.group(0)
+        d = float(rng.uniform(-0.5e-3, 0.5e-3))
+        truth[f"{m.group(1)}.length"] = d
+        v = v * (1 + d / n)
+        return f'<body name="{m.group(1)}" pos="{" ".join(f"{x:.9g}" for x in v)}"'
+
+    xml = re.sub(r'<body name="(motor\d)" pos="([^"]+)"', placement, xml)
+
+    def mass(m):
+        f = float(rng.uniform(0.9, 1.1))
+        return f'{m.group(1)}mass="{float(m.group(2)) * f:.9g}"'
+
+    xml = re.sub(r'(<inertial pos="[^"]*" )mass="([0-9.eE+-]+)"', lambda m: mass(m) if float(m.group(2)) > 5 else m.group(0), xml)
+    return xml, truth
+
+
+BOXES = {"calibration": MH180_CALIBRATION_BOX, "machining": MH180_JOINT_BOX}
+"""The campaigns' joint ranges: every joint swept as far as the cell allows (kinematic
+calibration's practice), or the machining region in front of the robot."""
+
+
+def campaign(rng: np.random.Generator, n_config: int = 250, repeats: int = 2, box: str = "calibration"):
+    """Commands, their order (configuration labels) and the configuration each reading came from,
+    ``n_config`` quasi-random configurations of the joint ranges ``BOXES[box]``."""
+    lo, hi = BOXES[box]
+    q_conf = sobol_points(n_config, lo, hi, rng)
+    order = np.concatenate([rng.permutation(n_config) for _ in range(repeats)])
+    q = q_conf[order]
+    return q, order, np.vstack([q[:1], q[:-1]])
 
 
 def _logu(rng, lo, hi) -> float:
@@ -255,12 +311,19 @@ def _without_payload(xml: str) -> str:
 
 def visibility(robot: TrackerRobot, q, previous, t, seed: int, *, p: float = 1e-3) -> dict:
     """Whether ``robot``'s structural source shows in its readings beyond their noise, decided
-    without the diagnosis: the noise-free readings with and without it, their difference judged
-    against the campaign's own noise on an independent draw, as :func:`truth.visibility.visibility`
-    judges an FRF's (χ²_with − χ²_null beyond z·√(2n), σ̂² per axis from a third draw)."""
+    without the diagnosis (:func:`readings_visibility` of its :class:`Reader` with and without it)."""
+    return readings_visibility(Reader(robot), Reader(robot, with_source=False), q, previous, t, seed,
+                               rho=robot.noise["rho"], p=p)
+
+
+def readings_visibility(with_, without, q, previous, t, seed: int, *, rho: float = 0.0, p: float = 1e-3) -> dict:
+    """Whether a change shows in the readings beyond their noise: the noise-free readings of
+    ``with_`` and ``without`` (readers: ``positions(q, previous, t, rng=None)``), their difference
+    judged against the campaign's own noise on an independent draw, as
+    :func:`truth.visibility.visibility` judges an FRF's (χ²_with − χ²_null beyond z·√(2n), σ̂² per
+    axis from a third draw); ``rho``: the readings' correlation from one to the next."""
     from scipy.stats import norm
 
-    with_, without = Reader(robot), Reader(robot, with_source=False)
     p1, p0 = with_.positions(q, previous, t), without.positions(q, previous, t)
     draws = [without.positions(q, previous, t, np.random.default_rng([seed, k])) - p0 for k in (1, 2, 3)]
     var = np.mean(draws[0] ** 2, axis=0)[None, :]       # per axis
@@ -269,7 +332,6 @@ def visibility(robot: TrackerRobot, q, previous, t, seed: int, *, p: float = 1e-
     n = p1.size
     # readings correlated ρ from one to the next: a sum of their squares scatters
     # √((1 + ρ²)/(1 − ρ²)) times as much as of independent ones
-    rho = robot.noise["rho"]
     threshold = float(norm.ppf(1 - p) * np.sqrt(2 * n * (1 + rho * rho) / (1 - rho * rho)))
     return {"chi2_with": chi2_with, "chi2_null": chi2_null, "n": n, "threshold": threshold,
             "visible": bool(chi2_with - chi2_null > threshold),

@@ -3,8 +3,8 @@ ordinary parameter drawn as the calibration bench draws them (joint stiffness ×
 damping × 0.5-2, servo gains × 0.8-1.25, link masses ± 10 % with their inertia, centres of mass
 ± 2 cm and up to 0.15 m sideways on two links, a compliant foundation on half of them).
 
-Built by plain XML edits, not by any rmbench parameter code, so the controller's design chain
-cannot share a mistake with the truth it is scored on.
+Built by plain XML edits (:mod:`truth.ordinary`), not by any rmbench parameter code, so the
+controller's design chain cannot share a mistake with the truth it is scored on.
 """
 
 from __future__ import annotations
@@ -13,7 +13,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from _truth_edits import draw_flex_joints, draw_links, draw_servos, mount_on_foundation
+from truth.ordinary import draw_flex_joints, draw_links, draw_servos, mount_on_foundation
+
+__all__ = ["ARM", "draw_mh180"]
 
 ARM = {f"j{i}" for i in range(1, 7)}
 

@@ -1,62 +1,34 @@
-"""Blind "real" MH180s for the tracker calibration bench (issue 43), built by code other than the
-diagnosis's pose model: the nominal MJCF edited as text (every flexible joint's stiffness × U(0.7,
-1.3), every body placement ± 0.5 mm along it, every link mass ± 10 %), then measured by the tracker
+"""The spread MH180s of ``bench/gap_tracker.py`` (issue 43): the ordinary spread of
+:func:`truth.tracker.spread_xml` (the nominal MJCF edited as text), measured by the tracker
 simulator (:class:`rmbench.tracker.simulator.TrackerSimulator`, its own chain and error draws) with
 its random error sources switched off. Half also carry one structural source, injected through
 the simulator's own error model: a payload at the TCP, a gear harmonic on one joint, a reflector
 (TCP) offset, or thermal drift (the arm expands about its base in proportion to the hours since
 the first reading); some carry one outside the diagnosis's library: backlash (the link lags the
 motor by a fixed angle against the direction the joint last moved in) or a link whose stiffness
-depends on the direction it is loaded in. :func:`scaled` enlarges a source that the readings
-cannot tell from the spread (the bench's visibility rule, ``bench/gap_tracker.py``).
+depends on the direction it is loaded in.
+
+Unlike :mod:`truth.tracker`'s real robots (their own MuJoCo physics), these read through the
+simulator's serial chain, the pose model the tracker diagnosis also builds on: an in-model bench.
+Whether a source shows is decided by :func:`truth.tracker.readings_visibility`; sizes are never
+enlarged.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import re
 
 import numpy as np
 
 from rmbench.robot import Robot
-from rmbench.tracker import MH180_CALIBRATION_BOX, MH180_JOINT_BOX, sobol_points
 from rmbench.tracker.simulator import ErrorDistribution, TrackerSimulator
+
+__all__ = ["STRUCTURAL", "OUT_OF_LIBRARY", "draw_structural", "SpreadRobot"]
 
 STRUCTURAL = ("payload", "gear_periodic_error", "frame_error", "thermal_drift")
 OUT_OF_LIBRARY = ("backlash", "directional_stiffness")
 _ZERO = ErrorDistribution(offset_sd=0.0, length_sd=0.0, twist_sd=0.0, tool_sd=0.0, stiffness_sd=0.0,
                           mass_sd=0.0, payload=(0.0, 0.0), gear_amplitude=(0.0, 0.0))
-
-
-def spread_xml(xml: str, rng: np.random.Generator) -> tuple[str, dict]:
-    """The MJCF with every flexible joint's stiffness, body placement and link mass drawn."""
-    truth = {}
-
-    def stiffness(m):
-        f = float(rng.uniform(0.7, 1.3))
-        truth[f"{m.group(1)}.stiffness"] = f
-        return f'{m.group(0)[:m.start(3) - m.start(0)]}{float(m.group(3)) * f:.9g}"'
-
-    xml = re.sub(r'<joint name="(j\d_flex)"([^>]*?)stiffness="([0-9.eE+-]+)"', stiffness, xml)
-
-    def placement(m):
-        v = np.array([float(x) for x in m.group(2).split()])
-        n = np.linalg.norm(v)
-        if n < 1e-9:
-            return m.group(0)
-        d = float(rng.uniform(-0.5e-3, 0.5e-3))
-        truth[f"{m.group(1)}.length"] = d
-        v = v * (1 + d / n)
-        return f'<body name="{m.group(1)}" pos="{" ".join(f"{x:.9g}" for x in v)}"'
-
-    xml = re.sub(r'<body name="(motor\d)" pos="([^"]+)"', placement, xml)
-
-    def mass(m):
-        f = float(rng.uniform(0.9, 1.1))
-        return f'{m.group(1)}mass="{float(m.group(2)) * f:.9g}"'
-
-    xml = re.sub(r'(<inertial pos="[^"]*" )mass="([0-9.eE+-]+)"', lambda m: mass(m) if float(m.group(2)) > 5 else m.group(0), xml)
-    return xml, truth
 
 
 def draw_structural(rng: np.random.Generator, in_library: bool, n_joint: int) -> dict:
@@ -80,19 +52,6 @@ def draw_structural(rng: np.random.Generator, in_library: bool, n_joint: int) ->
     # the joint is stiffer (×1.6-2.2) when the gravity torque on it is positive than when negative;
     # seen only where that torque changes sign over the campaign (the wrist, mostly)
     return {"kind": kind, "location": f"j{j + 1}", "joint": j, "ratio": float(rng.uniform(1.6, 2.2))}
-
-
-def scaled(source: dict, factor: float) -> dict:
-    """``source`` with its size times ``factor``: the mass, amplitude, offset, expansion rate or
-    backlash angle; a directional stiffness's excess ratio ``ratio - 1``."""
-    out = dict(source)
-    if source["kind"] == "directional_stiffness":
-        out["ratio"] = 1.0 + (source["ratio"] - 1.0) * factor
-        return out
-    key = {"payload": "mass", "gear_periodic_error": "amplitude", "frame_error": "offset",
-           "thermal_drift": "per_hour", "backlash": "angle"}[source["kind"]]
-    out[key] = (np.asarray(source[key]) * factor).tolist() if key == "offset" else source[key] * factor
-    return out
 
 
 class SpreadRobot:
@@ -147,18 +106,3 @@ class SpreadRobot:
         if rng is not None:
             p = p + rng.normal(size=p.shape) * sim.tracker.sigma(np.linalg.norm(p, axis=-1))[..., None]
         return p
-
-
-BOXES = {"calibration": MH180_CALIBRATION_BOX, "machining": MH180_JOINT_BOX}
-"""The campaigns' joint ranges: every joint swept as far as the cell allows (kinematic
-calibration's practice), or the machining region in front of the robot."""
-
-
-def campaign(rng: np.random.Generator, n_config: int = 250, repeats: int = 2, box: str = "calibration"):
-    """Commands, their order (configuration labels) and the configuration each reading came from,
-    ``n_config`` quasi-random configurations of the joint ranges ``BOXES[box]``."""
-    lo, hi = BOXES[box]
-    q_conf = sobol_points(n_config, lo, hi, rng)
-    order = np.concatenate([rng.permutation(n_config) for _ in range(repeats)])
-    q = q_conf[order]
-    return q, order, np.vstack([q[:1], q[:-1]])
