@@ -7,6 +7,11 @@ judged against). Per band, the zero-order method gives the critical depth at the
 vectorised over the poses (:func:`rmbench.stability.zoa_limit`); the pose's limit is the lowest
 band's. The zero-order method is the one fast enough for thousands of poses; the bench checks it
 against the full discretisation at sampled poses.
+
+The exact reference sees, by default, the two measured bands' modes as their mode tables list them;
+``exact_modes(..., bands="all")`` takes every mode of the linear model below a frequency instead,
+coupled in one receptance (above about 800 rev/min at low speed the tool's modes near 2.7 kHz and
+the band modes' sum between the bands set the limit there, which no band alone sees).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from rmbench.stability.zoa import zoa_limit, zoa_limits
 from rmbench.threads import run_concurrently
 
 __all__ = ["DepthBand", "DepthGrid", "TipModes", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths",
-           "tip_modes", "depth_band"]
+           "tip_modes", "depth_band", "ALL_MODES"]
 
 _PARAMS = ("f_n", "zeta", "phiR_1X_re", "phiR_1X_im", "phiR_1Y_re", "phiR_1Y_im",
            "phiL_1X_re", "phiL_1X_im", "phiL_1Y_re", "phiL_1Y_im")
@@ -217,35 +222,78 @@ def predicted_modes(predictor, xy, theta, *, bands=("low", "high"), chunk: int =
                     np.concatenate(outside).reshape(n, m))
 
 
-def exact_modes(robot, xy, theta, *, reach=None, bands=("low", "high"), progress=None) -> TipModes:
-    """The robot's exact tool-tip modes at every (location, θ) as a band sees them (the
-    reference); ``reach``'s joint commands where given (poses it marks unusable are left out),
-    else the robot's inverse kinematics."""
+#: ``bands`` value of :func:`exact_modes` that takes every mode of the linearised robot below ``f_max``
+ALL_MODES = "all"
+
+
+def exact_modes(robot, xy, theta, *, reach=None, bands=("low", "high"), f_max: float = 8000.0,
+                progress=None) -> TipModes:
+    """The robot's exact tool-tip modes at every (location, θ) (the reference); ``reach``'s joint
+    commands where given (poses it marks unusable are left out), else the robot's inverse kinematics.
+
+    Parameters
+    ----------
+    bands : sequence of str or ``"all"``
+        The measured bands' modes as each band sees them (its mode table: in the band and visible in
+        its receptance), one :class:`TipModes` band each; or :data:`ALL_MODES`: every mode of the
+        linear model below ``f_max`` as one band ``"all"`` (:func:`_all_tip_modes`): the modes
+        between the bands and the tool's above them take part, and every mode adds to one
+        receptance (a band's limit sees its own modes alone). On the IRB6660 with the end mill
+        this lowers the limit where chatter comes at the tool's modes near 2.7 kHz or between the
+        bands (40-600 Hz), above about 800 rev/min at low speed; the modes near 116-139 and 298 Hz
+        barely reach the tip (residues under 1/300 of the tool modes') and change no depth.
+    f_max : float
+        Hz (inf: every mode); only with ``bands="all"``.
+    """
     from rmbench.robot.posture import Posture
 
+    every = isinstance(bands, str) and bands == ALL_MODES
+    if every and not f_max > 0:
+        raise InputError(f"f_max must be a frequency > 0 Hz, got {f_max!r}")
+    keys = (ALL_MODES,) if every else tuple(bands)
     xy, theta = np.asarray(xy, float), np.asarray(theta, float)
     n, m = len(xy), len(theta)
-    tables = {b: [] for b in bands}
+    tables = {b: [] for b in keys}
     where = []
     for i in range(n):
         for j in range(m):
             if reach is not None and not reach.ok[i, j]:
                 continue
             op = robot.at(reach.q[i, j] if reach is not None else Posture(*xy[i], theta[j]))
-            for b in bands:
-                tables[b].append(op.modes(b))
+            if every:
+                tables[ALL_MODES].append(_all_tip_modes(op, f_max))
+            else:
+                for b in keys:
+                    t = op.modes(b)
+                    tables[b].append((t.poles, t.phi_r[:, :2, None] * t.phi_l[:, None, :2]))
             where.append(i * m + j)
         if progress is not None:
             progress(i)
     poles, res = {}, {}
-    for b in bands:
-        k = max((len(t.poles) for t in tables[b]), default=0)
+    for b in keys:
+        k = max((len(p) for p, _ in tables[b]), default=0)
         poles[b] = np.full((len(where), k), np.nan, complex)
         res[b] = np.full((len(where), k, 2, 2), np.nan, complex)
-        for row, t in enumerate(tables[b]):
-            poles[b][row, :len(t.poles)] = t.poles
-            res[b][row, :len(t.poles)] = t.phi_r[:, :2, None] * t.phi_l[:, None, :2]
+        for row, (p, r) in enumerate(tables[b]):
+            poles[b][row, :len(p)] = p
+            res[b][row, :len(p)] = r
     return TipModes((n, m), poles, res, np.array(where, int), np.zeros((n, m), bool))
+
+
+def _all_tip_modes(op, f_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every complex mode of an operating point's linear model below ``f_max`` (Hz): poles (k,),
+    rad/s, and residues at the tool tip in base X, Y (k, 2, 2), m/(N·s), the modes' own
+    (:class:`rmbench.robot.linear.ComplexModes`: H = Σ R/(iω − λ) + conj).
+
+    No band's visibility test (a mode table's receptance over 2,000 lines, most of a pose's time)
+    and no scaling: the same modes as :meth:`rmbench.stability.Structure.from_operating_point`.
+    Overdamped (real) poles are left out, as there; the IRB6660 has none.
+    """
+    cm = op.linear.modes()
+    rows = op.coordinate_map(("1X", "1Y"))
+    sel = (cm.f_n < f_max) & ~cm.real_pole
+    r, lt = rows @ cm.phi_r[:, sel], rows @ cm.phi_l[:, sel]      # (2, k) each
+    return cm.poles[sel], r.T[:, :, None] * lt.T[:, None, :]
 
 
 def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *, bands=("low", "high"),
@@ -257,10 +305,11 @@ def predicted_depths(predictor, xy, theta, cutting: Cutting, speed_rpm: float, *
 
 
 def exact_depths(robot, xy, theta, cutting: Cutting, speed_rpm: float, *, reach=None, bands=("low", "high"),
-                 n_freq: int = N_FREQ, progress=None, heading=None, down=None) -> DepthGrid:
-    """Critical depth at every (location, θ) from the robot's exact modes (:func:`exact_modes`);
-    ``heading`` (rad) and ``down`` per location, shape (n,), as :meth:`TipModes.depths` takes them."""
-    return exact_modes(robot, xy, theta, reach=reach, bands=bands, progress=progress).depths(
+                 f_max: float = 8000.0, n_freq: int = N_FREQ, progress=None, heading=None, down=None) -> DepthGrid:
+    """Critical depth at every (location, θ) from the robot's exact modes (:func:`exact_modes`:
+    ``bands="all"`` takes every mode below ``f_max``, Hz); ``heading`` (rad) and ``down`` per
+    location, shape (n,), as :meth:`TipModes.depths` takes them."""
+    return exact_modes(robot, xy, theta, reach=reach, bands=bands, f_max=f_max, progress=progress).depths(
         cutting, speed_rpm, n_freq=n_freq, heading=heading, down=down)
 
 
