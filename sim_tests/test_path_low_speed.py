@@ -17,7 +17,7 @@ import pytest
 from rmbench.errors import InputError
 from rmbench.io.toolpath import ToolPath, write_cl_csv
 from rmbench.path import (CUTTINGS, PlanSettings, best_fixed_schedule, depth_band, exact_modes, load_plan,
-                          mill_schedule, plan_path, predicted_modes, save_plan)
+                          plan_path, predicted_modes, save_plan)
 from rmbench.stability import ALUMINIUM_6061, STEEL_C45
 
 THETA = tuple(np.radians([-40.0, 0.0, 40.0]))
@@ -113,11 +113,6 @@ def test_the_depth_band_turns_the_modes_by_the_heading(predictor):
     turned = depth_band(predictor, xy, theta, STEEL_C45, 400.0, heading=np.radians([90.0, -90.0]), **kw)
     assert np.array_equal(zero.a_lim, plain.a_lim) and np.array_equal(zero.lower, plain.lower)
     assert np.all(turned.a_lim != plain.a_lim)
-
-
-def test_a_plan_fed_along_the_path_is_not_milled_along_base_x(irb, exact_path_plan):
-    with pytest.raises(InputError, match="feeds along base X"):
-        mill_schedule(irb, exact_path_plan, depth=1e-4, n=1)
 
 
 # -- the best fixed angle ------------------------------------------------------------------------

@@ -20,6 +20,12 @@ critical depth there: the plan then says "stable" or "chatter", and the cut agre
 locations inside the band are counted, not scored. The exact model's critical depth at each pose
 (zero-order method, the impact bands' modes) comes alongside, to tell a prediction's error from
 the zero-order method's.
+
+A plan whose feed runs along the path (``PlanSettings.feed == "path"``) is milled so: each cut
+feeds along the path's own direction (:meth:`rmbench.io.ToolPath.heading`), the moving cut's heading
+following the locations it runs through (:class:`rmbench.stability.milling.Motion`'s ``heading``),
+as the plan's critical depths turned the modes to it. A plan fed along base X is milled along base
+X, as every plan before headings.
 """
 
 from __future__ import annotations
@@ -66,6 +72,9 @@ class PathMilling:
         The cuts were asked to move along the path (else each held its sampled posture).
     moved : ndarray of bool, shape (k,), or None
         Which cuts moved (a cut on a smooth stretch shorter than itself holds its posture).
+    heading : ndarray, shape (k,), rad, or None
+        The feed direction at each milled location in the base XY plane (a plan fed along the
+        path); None: every cut fed along base X.
     """
 
     schedule: str
@@ -81,6 +90,7 @@ class PathMilling:
     amplitude: np.ndarray | None = None
     moving: bool = False
     moved: np.ndarray | None = None
+    heading: np.ndarray | None = None
 
     @property
     def decided(self) -> np.ndarray:
@@ -243,6 +253,9 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         Feed, m/s, where the path programs none (the planner's default).
     progress : callable, optional
         Called with each finished cut's position (0-based).
+
+    A plan fed along the path (``plan.feed == "path"``) is milled with each cut's feed along the
+    path's direction there (module notes); ``PathMilling.heading`` records it.
     """
     from rmbench.stability.cutting import ALUMINIUM_6061
 
@@ -252,9 +265,6 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         raise InputError(f"the feed must be > 0 m/s, got {feed!r}")
     if not depth > 0:
         raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
-    if getattr(plan, "feed", "x") != "x":
-        # the simulator's cut feeds along base X (stability.milling): it would not be the planned cut
-        raise InputError("virtual milling feeds along base X: a plan whose feed runs along the path is not milled yet")
     cutting = getattr(plan, "cutting", ALUMINIUM_6061) if cutting is None else cutting
     s = getattr(plan, schedule)
     idx = (sample_locations(len(s.index), n) if locations is None
@@ -270,24 +280,46 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     arc = tp.arc_length()
     speed = np.where(np.isfinite(tp.feed), tp.feed, feed)
     duration = periods * 60.0 / (cutting.teeth * plan.speed_rpm)
+    # the cut's feed direction at every location: the path's own where the plan fed along it
+    heading = tp.heading() if getattr(plan, "feed", "x") == "path" else None
+    fed = None if heading is None else np.empty(len(idx))
     for k in range(len(idx)):
         op = robot.at(q[k])
         exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
-        motion, first = None, op
-        window = (cut_window(arc, int(idx[k]), speed[idx[k]] * duration,
-                             smooth_stretch(tp.xy, int(idx[k]), cutting=tp.cutting))
-                  if moving else None)
-        if window is not None:
-            start, a, b = window
-            ops = [op if j == idx[k] else robot.at(joints[j]) for j in range(a, b + 1)]
-            # the clock starts with the cut, between locations a and a + 1
-            motion = Motion.through(ops, (arc[a:b + 1] - start) / speed[idx[k]])
-            first = ops[int(np.argmin(np.abs(arc[a:b + 1] - start)))]
+        loc = int(idx[k])
+        motion, first = (_moving_cut(robot, op, loc, joints, tp, arc, speed[loc], duration, heading) if moving
+                         else (None, op))
         moved[k] = motion is not None
-        run = mill(first, cutting, plan.speed_rpm, depth, periods=periods, motion=motion)
+        if fed is not None:     # a held cut feeds along its location's heading, a moving one along the motion's
+            fed[k] = heading[loc] if motion is None else np.angle(np.exp(1j * motion.headings([duration / 2])[0]))
+        run = mill(first, cutting, plan.speed_rpm, depth, periods=periods, motion=motion,
+                   heading=0.0 if fed is None or motion is not None else float(fed[k]))
         chatter[k], amplitude[k] = run.chatter, run.amplitude
         kind.append(run.kind)
         if progress is not None:
             progress(k)
     return PathMilling(schedule, idx, s.theta[idx], float(depth), plan.speed_rpm, predicted, exact, chatter,
-                       tuple(kind), float(band), amplitude, bool(moving), moved)
+                       tuple(kind), float(band), amplitude, bool(moving), moved, fed)
+
+
+def _moving_cut(robot, op, loc: int, joints: np.ndarray, tp, arc: np.ndarray, speed: float, duration: float,
+                heading) -> tuple:
+    """The motion of a cut about cutter location ``loc`` along its smooth stretch and the operating
+    point nearest its start: ``(Motion, op)``, or ``(None, op)`` where the stretch is shorter than
+    the cut (it then holds ``op``, the location's own). ``speed`` is the feed there, m/s,
+    ``duration`` the cut's, s; ``heading`` (rad, shape (n,): ``ToolPath.heading``, or None for a
+    feed along base X) gives the motion's feed direction at each of its locations."""
+    window = cut_window(arc, loc, speed * duration, smooth_stretch(tp.xy, loc, cutting=tp.cutting))
+    if window is None:
+        return None, op
+    start, a, b = window
+    ops = [op if j == loc else robot.at(joints[j]) for j in range(a, b + 1)]
+    knots = None
+    if heading is not None:
+        # a location's heading is that of the move into it: the motion leaves its first location
+        # along the move to the next, inside the stretch (the move into it may be the corner's other side)
+        knots = heading[a:b + 1].copy()
+        knots[0] = knots[1]
+    # the clock starts with the cut, between locations a and a + 1
+    motion = Motion.through(ops, (arc[a:b + 1] - start) / speed, knots)
+    return motion, ops[int(np.argmin(np.abs(arc[a:b + 1] - start)))]

@@ -7,11 +7,22 @@ every step each tooth in the cut removes the chip
     h_j = f_z sin φ_j + (x(t) − x(t − T)) sin φ_j + (y(t) − y(t − T)) cos φ_j   (≥ 0: a tooth
     whose chip vanishes leaves the cut)
 
-with x, y the tool tip's displacement in the feed and normal directions (base X and Y) and the
-delayed values interpolated from the run's own history; the forces F_t = K_t a_p h, F_n = K_n a_p h
-act at the tool tip (as generalised forces through the tip's Jacobian at the equilibrium). The run
+with x, y the tool tip's displacement in the feed and normal directions and the delayed values
+interpolated from the run's own history; the forces F_t = K_t a_p h, F_n = K_n a_p h act at the tool
+tip (as generalised forces through the tip's Jacobian at the equilibrium). The immersion, and with
+it which side of the feed the material lies on, is the cut's (:attr:`Cutting.angles
+<rmbench.stability.cutting.Cutting.angles>`: climb or conventional by ``Cutting.down``). The run
 starts from the static deflection under the mean cutting force with a small velocity kick, so that
 what follows is the regenerative dynamics rather than the robot's slow settling.
+
+The feed runs along a heading ψ in the base XY plane (rad, from base X toward base Y; 0, the
+default, along base X): the tip's base displacement since the previous tooth is turned into the
+cut's (feed, normal) frame by R(ψ) before the chip is taken, and the cutting force turned back by
+R(ψ)ᵀ (:func:`rmbench.stability.frame.feed_rotation`, the frame the stability model's
+:func:`~rmbench.stability.frame.to_cut_frame` uses). At ψ = 0 the rotation is the identity and the
+arithmetic exact: the run is bit for bit the one before headings. The starting kick is along the
+feed and the normal; the tip's history, and the chatter metrics read from it, stay in base X and Y.
+A moving cut's heading may follow the path (:class:`Motion`'s ``heading``, per knot).
 
 The robot may also move through the cut (:class:`Motion`): its servos then follow commands
 interpolated between the deflected equilibria of operating points along a path, with the velocity
@@ -105,12 +116,18 @@ class Motion:
     rows : ndarray, shape (m, 2, nv)
         The tool tip's X and Y per generalised coordinate there, m per unit
         (``OperatingPoint.coordinate_map``).
+    heading : ndarray, shape (m,), rad, optional
+        The feed direction at each knot in the base XY plane (``ToolPath.heading`` of the path's
+        locations), interpolated linearly in time (unwrapped, so that a heading near ±π does not
+        swing round the circle) and held after the last knot. None: the cut's one heading
+        (:func:`mill`'s ``heading``).
     """
 
     t: np.ndarray
     qpos: np.ndarray
     ctrl: np.ndarray
     rows: np.ndarray
+    heading: np.ndarray | None = None
 
     def __post_init__(self):
         if len(self.t) < 2 or self.t[0] > 0 or self.t[-1] <= 0 or np.any(np.diff(self.t) <= 0):
@@ -118,13 +135,24 @@ class Motion:
                              "or before 0 s and the last after it")
         if not (len(self.qpos) == len(self.ctrl) == len(self.rows) == len(self.t)):
             raise InputError("a motion needs one equilibrium, command and tip map per knot")
+        if self.heading is not None and (np.shape(self.heading) != np.shape(self.t)
+                                         or not np.all(np.isfinite(self.heading))):
+            raise InputError("a motion's feed headings need one finite value (rad) per knot")
 
     @classmethod
-    def through(cls, ops, times) -> Motion:
-        """The motion through operating points ``ops`` of one robot reached at ``times`` (s)."""
+    def through(cls, ops, times, heading=None) -> Motion:
+        """The motion through operating points ``ops`` of one robot reached at ``times`` (s), the
+        feed along ``heading`` (rad, one per operating point; None: the cut's one heading)."""
         return cls(np.asarray(times, float), np.array([op.data.qpos for op in ops]),
                    np.array([op.data.ctrl for op in ops]),
-                   np.array([op.coordinate_map(("1X", "1Y")) for op in ops]))
+                   np.array([op.coordinate_map(("1X", "1Y")) for op in ops]),
+                   None if heading is None else np.asarray(heading, float))
+
+    def headings(self, times: np.ndarray) -> np.ndarray | None:
+        """The feed heading at ``times`` (s), rad, shape (n,); None where the motion carries none."""
+        if self.heading is None:
+            return None
+        return np.interp(np.asarray(times, float), self.t, np.unwrap(self.heading))
 
     def sample(self, model: mujoco.MjModel, times: np.ndarray):
         """Equilibrium ``qpos`` and its velocity, servo commands and tip rows at ``times`` (s).
@@ -181,7 +209,7 @@ def chatter_metrics(q: np.ndarray, dt: float, period: float) -> dict:
 
 def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: float = 0.05e-3,
          periods: int = 90, dt: float | None = None, kick: float = 1e-3, runaway: float = 5e-3,
-         motion: Motion | None = None) -> MillingRun:
+         motion: Motion | None = None, heading: float = 0.0) -> MillingRun:
     """Mill at one speed and depth and judge chatter.
 
     Parameters
@@ -207,6 +235,10 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
     motion : Motion, optional
         The robot moving through the cut (from time 0), ``op`` the operating point nearest its
         start (whose model, stiffness and fastest mode set the run up). Default: held at ``op``.
+    heading : float
+        The feed direction in the base XY plane, rad, from base X toward base Y (module notes); 0,
+        the default, feeds along base X. A ``motion`` that carries headings feeds along those
+        instead (``heading`` must then stay 0).
     """
     from rmbench.robot.simulate import stable_step, stepping_model
 
@@ -221,14 +253,28 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
     n = int(np.ceil(periods * period / dt))
     # the state after each step is read against the equilibrium at that step's time
     sampled = None if motion is None else motion.sample(m, np.arange(n + 1) * dt)
-    held, q0 = _start(op, m, d, force, cutting.teeth, sampled, kick)
-    q, ran_away = _cut(m, d, force, held, sampled, q0, n, dt, rpm, period, runaway)
+    turn = _turns(heading, motion, n, dt)
+    held, q0 = _start(op, m, d, force, cutting.teeth, sampled, kick, turn[0])
+    q, ran_away = _cut(m, d, force, held, sampled, q0, n, dt, rpm, period, runaway, turn)
     if ran_away:
         return MillingRun(float(rpm), float(depth), True, "runaway", np.inf, np.inf, 1.0,
                           float(np.max(np.ptp(q, axis=0))))
     if motion is not None:
         q = _less_motion(q, m, op, sampled, dt)
     return _verdict(rpm, depth, q, dt, period)
+
+
+def _turns(heading: float, motion: Motion | None, n: int, dt: float) -> list:
+    """The feed heading's (cos ψ, sin ψ) at each of the ``n`` steps, a list of float pairs: the
+    motion's headings at the step times where it carries them, else ``heading`` (rad) throughout."""
+    if not np.isfinite(heading):
+        raise InputError(f"the feed heading must be finite (rad), got {heading}")
+    per_step = None if motion is None else motion.headings(np.arange(n) * dt)
+    if per_step is None:
+        return [(float(np.cos(heading)), float(np.sin(heading)))] * max(n, 1)
+    if heading != 0:
+        raise InputError("give the feed heading once: in the motion (per knot) or as the cut's heading")
+    return list(zip(np.cos(per_step).tolist(), np.sin(per_step).tolist()))
 
 
 def _tooth_forces(cutting: Cutting, depth: float, feed_per_tooth: float):
@@ -258,31 +304,34 @@ def _tooth_forces(cutting: Cutting, depth: float, feed_per_tooth: float):
     return force
 
 
-def _start(op, m: mujoco.MjModel, d: mujoco.MjData, force, teeth: int, sampled, kick: float):
+def _start(op, m: mujoco.MjModel, d: mujoco.MjData, force, teeth: int, sampled, kick: float, turn: tuple):
     """Set ``d`` at the static deflection under the mean cutting force (no regeneration yet), on
-    the equilibrium at the cut's start, with the tip kicked by ``kick`` m/s in X and Y.
+    the equilibrium at the cut's start, with the tip kicked by ``kick`` m/s along the feed and the
+    normal (the cut's frame, ``turn`` its heading's (cos ψ, sin ψ): base X and Y at ψ = 0).
 
     Returns the held equilibrium ``(qpos, rows)`` (``op``'s; the motion's first knot where
     ``sampled``) and the tip's static deflection, shape (2,), m: the surface the first tooth
     period's delayed position reads."""
     rows = op.coordinate_map(("1X", "1Y"))                 # (2, nv): tip X, Y per generalised coordinate
     ph = np.linspace(0, 2 * np.pi / teeth, 64, endpoint=False)
-    f_mean = np.mean([force(p, np.zeros(2)) for p in ph], axis=0)
-    dq_static = np.linalg.solve(op.linear.K, rows.T @ f_mean)
+    c, s = turn
+    fx, fy = np.mean([force(p, np.zeros(2)) for p in ph], axis=0)
+    dq_static = np.linalg.solve(op.linear.K, rows.T @ np.array([fx * c - fy * s, fx * s + fy * c]))
     if sampled is None:
         q_eq, v_eq, ctrl0 = op.data.qpos.copy(), np.zeros(m.nv), op.data.ctrl
     else:
         q_eq, v_eq, ctrl0, rows = (a[0] for a in sampled)
     d.qpos[:] = q_eq + dq_static
-    d.qvel[:] = v_eq + np.linalg.pinv(rows) @ np.array([kick, kick])
+    d.qvel[:] = v_eq + np.linalg.pinv(rows) @ np.array([kick * c - kick * s, kick * s + kick * c])
     d.ctrl[:] = ctrl0
     return (q_eq, rows), rows @ dq_static
 
 
 def _cut(m: mujoco.MjModel, d: mujoco.MjData, force, held, sampled, q0: np.ndarray, n: int, dt: float,
-         rpm: float, period: float, runaway: float) -> tuple[np.ndarray, bool]:
+         rpm: float, period: float, runaway: float, turn: list) -> tuple[np.ndarray, bool]:
     """Step the cut ``n`` times, the regenerative force applied at the tip through its rows
-    (``held``'s equilibrium and rows, or the motion's ``sampled`` ones at each step).
+    (``held``'s equilibrium and rows, or the motion's ``sampled`` ones at each step), the chip
+    taken in the cut's frame: ``turn[i]`` is the feed heading's (cos ψ, sin ψ) at step ``i``.
 
     Returns the tip's X, Y against the equilibrium before each step, shape (n, 2), m, and whether
     the vibration ran away (then the history up to the step where it did)."""
@@ -305,8 +354,11 @@ def _cut(m: mujoco.MjModel, d: mujoco.MjData, force, held, sampled, q0: np.ndarr
         x, y = qi.tolist()
         hist.append((x, y))
         px, py = _delayed(hist, i, lag, q0)
-        f = force(omega * i * dt, (x - px, y - py))
-        qfrc[:] = rows.T @ f
+        # base to cut frame, R(ψ) (x − px, y − py); the force back, R(ψ)ᵀ f: exact at ψ = 0
+        c, s = turn[i]
+        dx, dy = x - px, y - py
+        fx, fy = force(omega * i * dt, (c * dx + s * dy, c * dy - s * dx))
+        qfrc[:] = rows.T @ np.array([fx * c - fy * s, fx * s + fy * c])
         step(m, d)
         # a bad acceleration or a non-finite state: the vibration ran away (MuJoCo would reset the
         # state), chatter beyond the model's validity that only the tool leaving the cut limited
