@@ -32,6 +32,10 @@ def register(sub) -> None:
     p.add_argument("--feed", default="x", metavar="x|path",
                    help="where the feed runs in the cut: x along base X everywhere (the default), path along "
                         "the path's own direction at each location")
+    p.add_argument("--reorient", default="ramps", metavar="ramps|corners",
+                   help="how θ changes: ramps of one angle step while cutting (the default), or also any turn at a "
+                        "corner (the heading turning by more than 30°), the feed stopped and the tool standing while "
+                        "the joints move at their limits (the dwell is reported: a standing tool rubs)")
     p.add_argument("--depth", type=float, default=None, metavar="MM", help="axial depth of cut, mm (marks the locations at risk)")
     p.add_argument("--robot", default="irb6660", help="the robot that mills: bundled name or MJCF path (default irb6660)")
     p.add_argument("--tool", default=None, help="its tool (default: the robot's own; the predictor's tool is the one that mills)")
@@ -116,14 +120,16 @@ def _settings(args):
     """The planner's settings from the options (mm and degrees to m and rad; it checks them)."""
     import numpy as np
 
-    from rmbench.path import FEEDS, PlanSettings
+    from rmbench.path import FEEDS, REORIENTS, PlanSettings
 
     if args.feed not in FEEDS:
         raise InputError(f"--feed must be {' or '.join(FEEDS)}, got {args.feed!r}")
+    if args.reorient not in REORIENTS:
+        raise InputError(f"--reorient must be {' or '.join(REORIENTS)}, got {args.reorient!r}")
     return PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
                         spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)),
                         ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)),
-                        feed=args.feed)
+                        feed=args.feed, reorient=args.reorient)
 
 
 def _cutting(args):
@@ -147,8 +153,9 @@ def cmd_plan(args) -> int:
     if args.mill < 0 or (args.mill and args.depth is None):
         raise InputError("--mill N needs N >= 0 and a --depth to cut")
     settings, cutting, speeds = _settings(args), _cutting(args), _speeds(args)
-    if args.mill and settings.feed != "x":
-        raise InputError("--mill mills with the feed along base X: it cannot check a plan made with --feed path yet")
+    if args.mill and settings.reorient != "ramps":
+        raise InputError("--mill moves through the path without standing at corners: it cannot check a plan made "
+                         "with --reorient corners yet")
     tp = example(args.toolpath) if args.toolpath in EXAMPLES else read_toolpath(args.toolpath)
     predictor = PosturePredictor.load(args.predictor)
     robot = Robot.load(args.robot, tool=args.tool)
@@ -228,6 +235,8 @@ def _print_plan(plan, summary: dict, args) -> None:
     lo, hi = summary["theta_range_deg"]
     print(f"planned θ between {lo:g}° and {hi:g}°; {'feasible' if summary['feasible']['planned'] else 'NOT feasible'} "
           f"within {args.max_joint_rate:g} deg/s per joint")
+    if plan.reorientation is not None:
+        print(plan.reorientation.summary())
     if "band" in summary:
         print(f"95 % band of the planned critical depth: smallest lower bound {summary['band']['min_lower_mm']:.3f} mm")
     if "at_risk" in summary:

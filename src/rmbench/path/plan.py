@@ -12,6 +12,13 @@ times, a ramp whose redundancy motion exceeds the joint acceleration or jerk lim
 Along a ramp the margin counted is the smaller of its two angles' (the interpolated critical depth
 between them is never below it).
 
+At given *corner* locations ``c`` (``corners``; :mod:`rmbench.path.corners` finds them where the
+feed heading turns) θ may also turn by any number of grid steps while the tool stands: it arrives
+at ``c`` at angle ``j`` (its margin there counted, the cut into the corner), turns standing to any
+angle ``k`` joined to ``j`` by usable poses on one inverse-kinematics branch at ``c`` (neighbouring
+grid angles' joint commands within half a radian), and cuts the move out of the corner at ``k``
+(allowed there). The schedules without such turns remain allowed, so the bottleneck never falls.
+
 Among the schedules that respect the limits, the plan
 
 1. maximises the smallest margin along the path (a bottleneck path: dynamic programming with
@@ -59,6 +66,9 @@ class Schedule:
         How far along its ramp each location lies, 0-1 (the cycloidal profile; 0 off ramps).
     q : ndarray, shape (n, n_joint), rad, optional
         Joint commands where they are not the grid's (solved at the ramps' angles); None: the grid's.
+    corners : ndarray of int, shape (u,), optional
+        Locations at which θ turns while the tool stands: it arrives at ``index[c]`` and leaves at
+        ``index[c + 1]``; None: none (ramps only).
     """
 
     index: np.ndarray
@@ -69,6 +79,7 @@ class Schedule:
     to: np.ndarray | None = None
     frac: np.ndarray | None = None
     q: np.ndarray | None = None
+    corners: np.ndarray | None = None
 
     @property
     def min_margin(self) -> float:
@@ -98,6 +109,17 @@ class Schedule:
         """Joint commands along the schedule, rad, shape (n, n_joint): :attr:`q` where solved,
         else the grid's."""
         return np.asarray(self.q) if self.q is not None else np.asarray(q_grid)[np.arange(len(self.index)), self.index]
+
+    def departure(self, q_grid) -> np.ndarray:
+        """Joint commands at which each location is left, rad, shape (n, n_joint): :meth:`joints`,
+        except at the :attr:`corners`, left at the angle the standing turn ends at (the grid's)."""
+        q = self.joints(q_grid)
+        if self.corners is None or not len(self.corners):
+            return q
+        c = np.asarray(self.corners, int)
+        q = np.array(q, float)
+        q[c] = np.asarray(q_grid)[c, self.index[c + 1]]
+        return q
 
 
 def ramp_profile(moves: int) -> np.ndarray:
@@ -215,8 +237,36 @@ def _ramp_fits(q, d, r, f, max_dq, dt, max_ddq, max_dddq) -> np.ndarray:
     return ok
 
 
+def _corner_turns(margin, q, corners, hold) -> dict:
+    """The standing turns allowed at each corner location ``c``, keyed by the location after it:
+    ``{c + 1: ok}``, ``ok[j, k]`` (bool, shape (m, m)) where the tool, arrived at ``c`` at angle
+    ``j``, may turn to ``k != j`` and cut the move out at ``k`` (allowed there): every grid angle
+    from ``j`` to ``k`` usable at ``c`` and neighbouring ones' joint commands within
+    :data:`rmbench.path.corners.BRANCH_JUMP` (one continuous branch)."""
+    from rmbench.path.corners import BRANCH_JUMP
+
+    n, m = margin.shape
+    c = np.unique(np.asarray(corners, int).ravel())
+    if len(c) and (c[0] < 0 or c[-1] > n - 2):
+        raise InputError(f"corner locations must lie in 0 .. {n - 2}, got {c[0]} .. {c[-1]}")
+    out = {}
+    for s in c:
+        usable = np.isfinite(margin[s])
+        link = usable[:-1] & usable[1:]
+        if q is not None:
+            with np.errstate(invalid="ignore"):
+                step = np.max(np.abs(np.diff(q[s], axis=0)), axis=1)
+            link &= np.isfinite(step) & (step <= BRANCH_JUMP)
+        part = np.concatenate([[0], np.cumsum(~link)])        # which continuous stretch each angle is on
+        ok = (part[:, None] == part[None, :]) & usable[:, None] & usable[None, :] & hold[s + 1][None, :]
+        np.fill_diagonal(ok, False)
+        out[int(s) + 1] = ok
+    return out
+
+
 def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step_cost: float = 1e-3,
-                  ramp: int = 1, dt=None, max_ddq: float | None = None, max_dddq: float | None = None) -> Schedule:
+                  ramp: int = 1, dt=None, max_ddq: float | None = None, max_dddq: float | None = None,
+                  corners=None) -> Schedule:
     """The maximin schedule of the module docstring.
 
     Parameters
@@ -240,6 +290,9 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
     max_ddq, max_dddq : float, optional
         Largest joint acceleration (rad/s²) and jerk (rad/s³) of a ramp's redundancy motion (needs
         ``q``, ``max_dq`` and ``dt``).
+    corners : array_like of int, optional
+        Locations (0 .. n - 2) at which θ may also turn by any number of grid steps while the tool
+        stands (the module docstring); None: ramps only (and the schedule's ``corners`` None).
 
     Returns
     -------
@@ -255,21 +308,24 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
     max_dq = _per_move(max_dq, n)
     dt = None if dt is None else _per_move(dt, n)
     mv = _moves(margin, q, max(int(max_step), 0), max_dq, r, dt, max_ddq, max_dddq)
-    bottleneck = _bottleneck(margin, mv, r)
+    turns = None if corners is None else _corner_turns(margin, q, corners, mv.hold)
+    bottleneck = _bottleneck(margin, mv, r, turns)
     if not np.isfinite(bottleneck):
         return _fallback(margin, theta)
-    w, back = _best_sum(margin, mv, r, bottleneck, step_cost)
-    idx, to, frac = _trace_back(w, back, r)
+    w, back, src = _best_sum(margin, mv, r, bottleneck, step_cost, turns)
+    idx, to, frac, used = _trace_back(w, back, r, src)
     th = theta[idx] + frac * (theta[to] - theta[idx])
     rows = np.arange(n)
     got = np.where(frac > 0, margin[rows, idx] + frac * (margin[rows, to] - margin[rows, idx]), margin[rows, idx])
     ramps = bool(np.any(frac > 0))
-    return Schedule(idx, th, got, True, "planned", to if ramps else None, frac if ramps else None)
+    return Schedule(idx, th, got, True, "planned", to if ramps else None, frac if ramps else None,
+                    corners=None if corners is None else used)
 
 
-def _bottleneck(margin: np.ndarray, mv: _Moves, r: int) -> float:
-    """Pass 1: the largest smallest margin any schedule of allowed holds and ramps of ``r`` moves
-    keeps along the path (-inf: none keeps every pose usable)."""
+def _bottleneck(margin: np.ndarray, mv: _Moves, r: int, turns: dict | None = None) -> float:
+    """Pass 1: the largest smallest margin any schedule of allowed holds, ramps of ``r`` moves and
+    standing turns (``turns``, :func:`_corner_turns`) keeps along the path (-inf: none keeps every
+    pose usable)."""
     n, m = margin.shape
     v = np.full((n, m), -np.inf)
     v[0] = margin[0]
@@ -279,17 +335,21 @@ def _bottleneck(margin: np.ndarray, mv: _Moves, r: int) -> float:
             for d, ok in mv.ramp.items():
                 came = np.minimum(_shift(v[s - r], d, -np.inf), mv.low[d][s])
                 best = np.maximum(best, np.where(ok[s], came, -np.inf))
+        if turns and s in turns:
+            # arrived at the corner s - 1 at j (its margin there counted), turned standing to k
+            best = np.maximum(best, np.max(np.where(turns[s], v[s - 1][:, None], -np.inf), axis=0))
         v[s] = np.minimum(margin[s], best)
     return float(np.max(v[-1]))
 
 
-def _best_sum(margin: np.ndarray, mv: _Moves, r: int, bottleneck: float, step_cost: float):
+def _best_sum(margin: np.ndarray, mv: _Moves, r: int, bottleneck: float, step_cost: float,
+              turns: dict | None = None):
     """Pass 2: over the schedules that keep at least ``bottleneck``, the largest summed margin
-    (in units of its spread) less ``step_cost`` per θ step.
+    (in units of its spread) less ``step_cost`` per θ step (standing turns' too).
 
-    Returns the best value ending at each (location, angle), shape (n, m), and how each was
-    reached, int shape (n, m): 0 held from the location before, ``d`` a ramp of ``d`` steps that
-    ended there."""
+    Returns the best value ending at each (location, angle), shape (n, m), how each was reached,
+    int shape (n, m): 0 held from the location before (or turned standing), ``d`` a ramp of ``d``
+    steps that ended there, and the angle a standing turn came from, int shape (n, m) (-1: none)."""
     n, m = margin.shape
     finite = margin[np.isfinite(margin)]
     scale = float(np.ptp(finite)) or 1.0
@@ -298,6 +358,7 @@ def _best_sum(margin: np.ndarray, mv: _Moves, r: int, bottleneck: float, step_co
     w = np.full((n, m), -np.inf)
     w[0] = gain[0]
     back = np.zeros((n, m), int)
+    src = np.full((n, m), -1)
     for s in range(1, n):
         best = np.where(mv.hold[s], w[s - 1], -np.inf)
         came_by = np.zeros(m, int)
@@ -309,21 +370,36 @@ def _best_sum(margin: np.ndarray, mv: _Moves, r: int, bottleneck: float, step_co
                 better = cand > best
                 best = np.where(better, cand, best)
                 came_by = np.where(better, d, came_by)
+        if turns and s in turns:
+            k = np.arange(m)
+            cand = np.where(turns[s], w[s - 1][:, None] - step_cost * np.abs(k[None, :] - k[:, None]), -np.inf)
+            j = np.argmax(cand, axis=0)
+            better = cand[j, k] > best
+            best = np.where(better, cand[j, k], best)
+            came_by = np.where(better, 0, came_by)
+            src[s] = np.where(better, j, -1)
         back[s] = came_by
         w[s] = gain[s] + best
-    return w, back
+    return w, back, src
 
 
-def _trace_back(w: np.ndarray, back: np.ndarray, r: int):
+def _trace_back(w: np.ndarray, back: np.ndarray, r: int, src: np.ndarray):
     """The best schedule of :func:`_best_sum` from its last location back: per location the grid
     index it leaves, the one a ramp runs to (elsewhere the same) and how far along its ramp it
-    lies (the cycloidal profile; 0 off ramps), each shape (n,)."""
+    lies (the cycloidal profile; 0 off ramps), each shape (n,), and the locations it turns at
+    standing (``src``), int shape (u,), increasing."""
     n = len(w)
     idx, to, frac = np.empty(n, int), np.empty(n, int), np.zeros(n)
     s, k = n - 1, int(np.argmax(w[-1]))
     idx[s], to[s] = k, k
     f = ramp_profile(r)
+    used = []
     while s > 0:
+        if src[s, k] >= 0:
+            used.append(s - 1)
+            s, k = s - 1, int(src[s, k])
+            idx[s], to[s] = k, k
+            continue
         d = int(back[s, k])
         if d == 0:
             s -= 1
@@ -334,7 +410,7 @@ def _trace_back(w: np.ndarray, back: np.ndarray, r: int):
         s -= r
         k = j
         idx[s], to[s] = k, k
-    return idx, to, frac
+    return idx, to, frac, np.asarray(used[::-1], int)
 
 
 def _fallback(margin, theta) -> Schedule:

@@ -39,7 +39,7 @@ def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None,
     for k in kept:
         sch = getattr(plan, k)
         arrays |= {f"{k}/index": sch.index, f"{k}/theta": sch.theta, f"{k}/margin": sch.margin}
-        arrays |= {f"{k}/{f}": getattr(sch, f) for f in ("to", "frac", "q") if getattr(sch, f) is not None}
+        arrays |= {f"{k}/{f}": getattr(sch, f) for f in ("to", "frac", "q", "corners") if getattr(sch, f) is not None}
     if plan.hull_distance is not None:
         arrays["hull_distance"] = plan.hull_distance
     if plan.band is not None:
@@ -75,7 +75,8 @@ def load_plan(path) -> tuple[PathPlan, dict]:
                            a["depths/outside_hull"].astype(bool), float(meta["depths_speed_rpm"]))
         sch = {k: Schedule(a[f"{k}/index"].astype(int), a[f"{k}/theta"], a[f"{k}/margin"], bool(meta["feasible"][k]),
                            "best fixed" if k == "best_fixed" else k,
-                           a[f"{k}/to"].astype(int) if f"{k}/to" in a else None, a.get(f"{k}/frac"), a.get(f"{k}/q"))
+                           a[f"{k}/to"].astype(int) if f"{k}/to" in a else None, a.get(f"{k}/frac"), a.get(f"{k}/q"),
+                           a[f"{k}/corners"].astype(int) if f"{k}/corners" in a else None)
                for k in _SCHEDULES if k in meta["feasible"]}
         band, level = None, 0.95
         if meta.get("band"):

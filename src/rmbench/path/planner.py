@@ -13,6 +13,12 @@ At low speed, in steel, with the feed along the path's own direction (issue 82):
     plan = plan_path(robot, predictor, example("contour"), speed_rpm="low", cutting=CUTTINGS["steel"],
                      settings=PlanSettings(feed="path"))
 
+and θ turned while the tool stands at the corners (:mod:`rmbench.path.corners`; the dwell is the
+cost)::
+
+    plan = plan_path(..., settings=PlanSettings(feed="path", reorient="corners"))
+    plan.reorientation.used, plan.reorientation.dwell     # corner locations, s
+
 The critical depth is evaluated every ``eval_spacing`` of arc length and interpolated linearly
 between (the predictor's length scales are hundreds of millimetres; the cutter locations a few
 apart), so a 2,000-location pocket costs a few hundred predictions per angle.
@@ -28,13 +34,15 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.io.toolpath import ToolPath
+from rmbench.path.corners import REORIENTS, Reorientation, corner_dwell, find_corners
 from rmbench.path.margin import DepthBand, DepthGrid, depth_band, exact_modes, predicted_modes
 from rmbench.path.plan import Schedule, best_fixed_schedule, fixed_schedule, plan_schedule, pointwise_schedule
+from rmbench.path.ramps import ramp_moves, solve_ramps
 from rmbench.path.reach import Reach, reach_grid
 from rmbench.stability.cutting import ALUMINIUM_6061, STEEL_C45, TI6AL4V, Cutting
 from rmbench.stability.grids import SPEED_RANGES, speed_grid
 
-__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band", "CUTTINGS", "FEEDS", "RANGE_SPEEDS"]
+__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band", "CUTTINGS", "FEEDS", "RANGE_SPEEDS", "REORIENTS"]
 
 #: the cuts a plan is named for (``rmbench path plan --cutting``): aluminium 6061 slot (the seed's,
 #: the default), steel C45 and titanium Ti-6Al-4V shoulder milling at low speed (issue 82)
@@ -79,6 +87,16 @@ class PlanSettings:
         everywhere (the default, every earlier plan's numbers), ``"path"`` along the path's own
         direction at each location (the tool tip's modes turned into the cut's frame,
         :func:`rmbench.stability.to_cut_frame`).
+    reorient : str
+        How θ changes (:data:`REORIENTS`): ``"ramps"`` only by the ramps above (the default, every
+        earlier plan bit for bit); ``"corners"`` also by any number of grid steps at a corner,
+        the feed stopped and the tool standing while the joints move rest to rest at
+        ``max_joint_rate``, ``max_joint_accel`` and ``max_joint_jerk`` (:mod:`rmbench.path.corners`;
+        the cost is the dwell, a standing tool rubbing the wall, reported in
+        :attr:`PathPlan.reorientation`).
+    corner_angle : float
+        How far the feed heading must turn along a run of turning locations for a corner, rad
+        (default 30°; a raster's pass end is two 90° corners, a rounded 90° corner one).
     """
 
     theta: tuple = tuple(np.radians(np.arange(-60.0, 61.0, 5.0)))
@@ -91,10 +109,16 @@ class PlanSettings:
     max_joint_accel: float = 1.0
     max_joint_jerk: float = 10.0
     feed: str = "x"
+    reorient: str = "ramps"
+    corner_angle: float = np.radians(30.0)
 
     def __post_init__(self):
         if self.feed not in FEEDS:
             raise InputError(f"the feed runs along {' or '.join(FEEDS)}, got {self.feed!r}")
+        if self.reorient not in REORIENTS:
+            raise InputError(f"θ is re-oriented by {' or '.join(REORIENTS)}, got {self.reorient!r}")
+        if not 0 < self.corner_angle <= np.pi:
+            raise InputError(f"corner_angle must be in (0, π] rad, got {self.corner_angle!r}")
         th = np.asarray(self.theta, float)
         if th.ndim != 1 or len(th) < 1 or not np.all(np.isfinite(th)) or np.any(np.diff(th) <= 0):
             raise InputError("the candidate angles must be finite and increasing")
@@ -145,6 +169,9 @@ class PathPlan:
         The cut the critical depths are of.
     feed : str
         Where the feed runs in that cut (:data:`FEEDS`).
+    reorientation : Reorientation or None
+        With ``PlanSettings.reorient = "corners"``: the corners found, those the plan turned θ at
+        standing, and each one's dwell, s; None: ramps only.
     """
 
     toolpath: ToolPath
@@ -163,6 +190,7 @@ class PathPlan:
     best_fixed: Schedule | None = None
     cutting: Cutting = ALUMINIUM_6061
     feed: str = "x"
+    reorientation: Reorientation | None = None
 
     @property
     def gain(self) -> float:
@@ -196,18 +224,23 @@ class PathPlan:
         (``feed`` m/s where it programs none), and the largest acceleration (rad/s²) and jerk
         (rad/s³) on its smooth stretches (neighbouring moves turning by less than ``turn``: at a
         corner the path itself changes the joints' velocity at once, whatever θ does); finite
-        differences of :meth:`joint_trajectory`."""
+        differences of :meth:`joint_trajectory`, each move starting at the pose it leaves from (a
+        standing turn at a corner, :attr:`Schedule.corners`, is the dwell's, not a move's)."""
         s = self.planned if schedule is None else schedule
         q = self.joint_trajectory(s)
+        qd = s.departure(self.reach.q)
         tp = self.toolpath
         f = np.where(np.isfinite(tp.feed), tp.feed, feed)
         step = np.diff(tp.xy, axis=0)
         dt = np.hypot(step[:, 0], step[:, 1]) / f[1:]
         cut = tp.cutting[1:] & (dt > 0)
         t = np.where(cut, dt, 1.0)
-        v = np.diff(q, axis=0) / t[:, None]
+        v = (q[1:] - qd[:-1]) / t[:, None]
         heading = np.arctan2(step[:, 1], step[:, 0])
         smooth = cut[1:] & cut[:-1] & (np.abs(np.angle(np.exp(1j * np.diff(heading)))) < turn)
+        if s.corners is not None and len(s.corners):
+            c = np.asarray(s.corners, int)
+            smooth[c[c >= 1] - 1] = False       # the feed stops there
         tm = 0.5 * (t[1:] + t[:-1])
         acc = np.diff(v, axis=0) / tm[:, None]
         jerk = np.diff(acc, axis=0) / t[1:-1, None]
@@ -244,12 +277,15 @@ class PathPlan:
                "joint_motion": {k: {f"{n}_deg_s{p}": float(np.degrees(v)) for (n, p), v in
                                     zip((("rate", ""), ("accel", "2"), ("jerk", "3")), self.joint_motion(s).values())}
                                 for k, s in (("planned", self.planned), ("fixed", self.fixed))},
-               "ramps": int(np.sum(np.diff(self.planned.index) != 0)) if len(self.planned.index) > 1 else 0,
+               "ramps": (int(np.sum(np.diff(self.planned.index) != 0)) if len(self.planned.index) > 1 else 0)
+               - (0 if self.planned.corners is None else len(self.planned.corners)),
                "theta_range_deg": [float(np.degrees(self.planned.theta.min())),
                                    float(np.degrees(self.planned.theta.max()))],
                "seconds": self.seconds}
         if self.depth is not None:
             out["at_risk"] = {"planned": len(self.at_risk()), "fixed": len(self.at_risk(self.fixed))}
+        if self.reorientation is not None:
+            out["reorient"] = self.reorientation.to_dict()
         if self.speed_scan is not None:
             out["speed_scan"] = {"speeds_rpm": self.speed_scan["speeds_rpm"],
                                  "min_alim_mm": [1e3 * v for v in self.speed_scan["min_alim"]]}
@@ -286,6 +322,8 @@ class PathPlan:
                             f"{mm(self.best_fixed.min_margin)}{'' if self.best_fixed.feasible else ' (NOT feasible)'}"
                             f"{f' (gain {g:.2f}x)' if np.isfinite(g) else ''}; feed along "
                             f"{'base X' if self.feed == 'x' else 'the path'}")
+        if self.reorientation is not None:
+            lines.append(self.reorientation.summary())
         if self.band is not None:
             lines.append(f"{100 * self.band_level:g} % band of the planned critical depth: smallest lower bound "
                          f"{mm(float(np.nanmin(self.band.lower)))}")
@@ -380,7 +418,8 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     cutting : Cutting
         The cut (:data:`CUTTINGS` names a few); default the seed's aluminium slot.
     settings : PlanSettings
-        ``settings.feed`` says where the feed runs in the cut at each location.
+        ``settings.feed`` says where the feed runs in the cut at each location, ``settings.reorient``
+        whether θ may also turn at corners, the tool standing.
 
     Raises
     ------
@@ -417,8 +456,11 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     # its joint moves are judged leniently; nothing is cut along it)
     dt = np.diff(arc) / feed[1:]
     max_dq = settings.max_joint_rate * dt
-    depths, planned, margin, scan = _best_speed(grids, spread, reach, settings, dt)
-    planned = _solve_ramps(robot, tp, reach, planned, max_dq)
+    corners = find_corners(tp, settings.corner_angle) if settings.reorient == "corners" else None
+    depths, planned, margin, scan = _best_speed(grids, spread, reach, settings, dt, corners)
+    planned = solve_ramps(robot, tp, reach, planned, max_dq)
+    turned = None if corners is None else corner_dwell(planned, reach.q, corners, settings.max_joint_rate,
+                                                        settings.max_joint_accel, settings.max_joint_jerk)
     fixed = fixed_schedule(margin, theta, settings.fixed_theta, q=reach.q, max_dq=max_dq)
     pointwise = pointwise_schedule(margin, theta)
     best_fixed = best_fixed_schedule(margin, theta, q=reach.q, max_dq=max_dq)
@@ -427,7 +469,8 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     speed_scan = ({"speeds_rpm": speeds.tolist(), "min_alim": [float(v) for v in scan]} if len(speeds) > 1
                   else None)
     return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(depths.speed_rpm), _stage_seconds(t),
-                    hull, speed_scan=speed_scan, best_fixed=best_fixed, cutting=cutting, feed=settings.feed)
+                    hull, speed_scan=speed_scan, best_fixed=best_fixed, cutting=cutting, feed=settings.feed,
+                    reorientation=turned)
 
 
 def _tip_modes(robot, predictor, tp: ToolPath, reach: Reach, at: np.ndarray):
@@ -458,22 +501,24 @@ def _check_cut(speed_rpm, depth) -> np.ndarray:
     return speeds
 
 
-def _best_speed(grids, spread, reach: Reach, settings: PlanSettings, dt: np.ndarray):
+def _best_speed(grids, spread, reach: Reach, settings: PlanSettings, dt: np.ndarray, corners=None):
     """Plan at each speed's critical depths (``grids``, spread from the evaluated locations to all
-    by ``spread``) and keep the speed whose planned schedule keeps the largest smallest depth.
+    by ``spread``) and keep the speed whose planned schedule keeps the largest smallest depth
+    (θ may also turn standing at ``corners``, location indices; None: ramps only).
 
     Returns its depths (DepthGrid), planned schedule, margin over (location, θ) (-inf where not
     reached) and every speed's planned smallest depth, m."""
     theta = np.asarray(settings.theta, float)
     max_dq = settings.max_joint_rate * dt
-    ramp = _ramp_moves(settings, reach, dt)
+    ramp = ramp_moves(settings, reach, dt)
     best, scan = None, []
     for coarse in grids:
         depths = DepthGrid(spread(coarse.a_lim), {b: spread(v) for b, v in coarse.by_band.items()},
                            spread(coarse.outside_hull.astype(float)) > 0, coarse.speed_rpm)
         margin = np.where(reach.ok, depths.a_lim, -np.inf)
         planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq, ramp=ramp,
-                                dt=dt, max_ddq=settings.max_joint_accel, max_dddq=settings.max_joint_jerk)
+                                dt=dt, max_ddq=settings.max_joint_accel, max_dddq=settings.max_joint_jerk,
+                                corners=corners)
         scan.append(planned.min_margin)
         if best is None or planned.min_margin > best[1].min_margin:
             best = (depths, planned, margin)
@@ -486,56 +531,6 @@ def _stage_seconds(t: dict) -> dict:
     keys = list(t)
     return {k: round(t[k] - t[keys[i - 1]], 3) for i, k in enumerate(keys) if i} | {
         "total": round(t[keys[-1]] - t[keys[0]], 3)}
-
-
-def _ramp_moves(settings: PlanSettings, reach: Reach, dt: np.ndarray) -> int:
-    """Moves per θ ramp: ``settings.ramp_length``, lengthened until the largest joint change between
-    neighbouring grid angles along the path fits the acceleration and jerk limits on a cycloid
-    (peak acceleration 2π Δq / T², jerk 4π² Δq / T³), so that a coarse angle grid is not locked
-    to one angle."""
-    r = settings.ramp_moves
-    if r == 1 and settings.ramp_length == 0 or len(reach.theta) < 2 or not len(dt):
-        return r
-    with np.errstate(invalid="ignore"):
-        d = np.max(np.abs(np.diff(reach.q, axis=1)), axis=2)
-    d = d[np.isfinite(d) & (d < 0.5)]          # beyond half a radian: another branch, never ramped to
-    if not len(d) or d.max() == 0:
-        return r
-    dq = float(d.max())
-    t = max(np.sqrt(2 * np.pi * dq / settings.max_joint_accel), np.cbrt(4 * np.pi ** 2 * dq / settings.max_joint_jerk))
-    step = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 0.0
-    return max(r, int(np.ceil(t / step))) if step > 0 else r
-
-
-def _solve_ramps(robot, tp: ToolPath, reach: Reach, schedule: Schedule, max_dq: np.ndarray) -> Schedule:
-    """The schedule with its joint commands solved at the ramps' angles (each warm-started from
-    the grid's commands interpolated in θ, which stay on the grid's branch); unchanged without
-    ramps. A ramp pose that does not solve, or that leaves the joint limits, or a solved move
-    beyond the joint rate (``max_dq`` per move, rad; the plan checked the grid's interpolation)
-    makes it infeasible."""
-    import dataclasses
-
-    from rmbench.errors import UnreachablePosture
-    from rmbench.robot.posture import Posture
-
-    ramping = schedule.ramping
-    if not ramping.any():
-        return schedule
-    q = schedule.joints(reach.q).copy()
-    seed = schedule.on(reach.q)
-    feasible = schedule.feasible
-    for i in np.flatnonzero(ramping):
-        posture = Posture(float(tp.xy[i, 0]), float(tp.xy[i, 1]), float(schedule.theta[i]))
-        try:
-            sol = robot.kinematics.solve(robot.target(posture), [seed[i]])
-        except UnreachablePosture:
-            feasible, q[i] = False, seed[i]
-            continue
-        q[i] = sol.q
-        feasible &= bool(sol.limit_margin >= 0)
-    moves = np.max(np.abs(np.diff(q, axis=0)), axis=1)
-    feasible &= bool(np.all(moves <= max_dq + 1e-9))
-    return dataclasses.replace(schedule, q=q, feasible=feasible)
 
 
 def with_band(plan: PathPlan, predictor, *, cutting: Cutting | None = None, eval_spacing: float = 20e-3,
