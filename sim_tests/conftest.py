@@ -18,18 +18,19 @@ def pytest_configure(config):
         limit_threads(max(1, available_cores() // workers))
 
 
-# The test files that take longest, longest first (one core's seconds in a measured run, from 72 s
-# down to 3 s; 648 s in all). make test hands files to its two pytest-xdist workers in collection order
+# The test files that take longest, longest first (one core's seconds in measured runs, from about
+# 55 s down to 3 s). make test hands files to its two pytest-xdist workers in collection order
 # (--no-loadscope-reorder): heavy files first and the many light ones last, the workers finish
 # together; ordered by test count, as xdist does by default, one worker idled ~20 s at the end.
 HEAVIEST_FIRST = ("test_parallel.py", "test_report.py", "test_bench_truth.py", "test_any_robot.py", "test_path.py",
                   "test_predict_gp.py", "test_gap_calibrated.py", "test_gap_form.py", "test_truth_tracker.py",
                   "test_predict_cluster.py", "test_gap_diagnose.py", "test_rcsa_cli.py", "test_docs.py",
-                  "test_cli_json.py", "test_calibrate_form.py", "test_blind_tracker.py", "test_impact_campaign.py",
-                  "test_gap_tracker.py", "test_calibrate.py", "test_truth_vs_time.py", "test_stability.py",
-                  "test_predict_gauge.py", "test_threads.py", "test_modal_campaign.py", "test_modal_fit.py",
-                  "test_cli_campaign.py", "test_control_cli.py", "test_control_loop.py", "test_modal_robust.py",
-                  "test_predict_baselines.py", "test_control_design.py", "test_truth_structural.py")
+                  "test_milling_heading.py", "test_cli_json.py", "test_path_corners.py", "test_calibrate_form.py",
+                  "test_blind_tracker.py", "test_impact_campaign.py", "test_gap_tracker.py", "test_calibrate.py",
+                  "test_path_low_speed.py", "test_truth_vs_time.py", "test_stability.py", "test_predict_gauge.py",
+                  "test_threads.py", "test_modal_campaign.py", "test_modal_fit.py", "test_cli_campaign.py",
+                  "test_control_cli.py", "test_control_loop.py", "test_modal_robust.py", "test_predict_baselines.py",
+                  "test_control_design.py", "test_truth_structural.py")
 
 
 def pytest_collection_modifyitems(config, items):
