@@ -5,8 +5,10 @@ design) on the IRB6660 stand-in, with its exact ground truth beside it: mode tab
 plots of measured vs exact FRF matrices, and the MDOF modal fit of the measured FRFs scored
 against the exact modes; posture prediction (48 grid postures fitted and learnt by the seed's
 grouped multi-task GPs, a never-hammered posture predicted); the bundled contour's redundant angle
-planned from that predictor; then the MH180 stand-in's proof-mass suppressor: an H∞ controller
-designed on its linearisation and run closed loop in MuJoCo against a 20 N sine at its mode, and a
+planned from that predictor, and again at low speed in steel on the exact model (θ turned at
+the corners, the spindle speed chosen), both milled; then the MH180 stand-in's proof-mass
+suppressor: an H∞ controller designed on its linearisation and run closed loop in MuJoCo
+against a 20 N sine at its mode, and a
 posture schedule designed from a two-posture shaker campaign run on the moving arm; the
 RCSA tool change and supported plate; lobes; the gap diagnoses, on tracker readings also of a
 robot off its data sheet in every joint, calibrated first. It ends by writing one HTML report
@@ -18,6 +20,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+
+from rmbench.cli.demo_machining import demo_lobes, demo_low_speed, demo_path
 
 __all__ = ["register"]
 
@@ -44,9 +48,10 @@ def cmd_demo(args) -> int:
     campaign_sections(page, ds, fit=fit)
     modal_sections(page, fit, ds)
     _demo_predict(out, args.workers, page)
-    _demo_path(out, page)
+    demo_path(out, page)
+    demo_low_speed(out, page)
     _demo_rcsa(out, ds, page)
-    _demo_lobes(out, fit, page)
+    demo_lobes(out, fit, page)
     _demo_control(out, page)
     _demo_gap(out, args.workers, page)
     _demo_calibrate(out, args.workers, page)
@@ -211,71 +216,6 @@ def _demo_rcsa(out: Path, ds, page) -> None:
           + " (simulated/RCSA)")
     print(f"  wrote {plot_support(st, out / 'rcsa_supported_plate.png')}")
     support_sections(page, st)
-
-
-def _demo_lobes(out: Path, fit, page) -> None:
-    """Stability lobes at (1800, 200, 0) from the campaign's fitted modes against the exact modes."""
-    from rmbench.robot import Posture, Robot
-    from rmbench.stability import (ALUMINIUM_6061, Structure, compare_lobes, depth_grid, lobes, lowest_envelope,
-                                   speed_grid)
-    from rmbench.stability.plot import plot_lobes
-
-    print("\nstability lobes at (1800, 200, 0), aluminium 6061 slot, 2 teeth (FDM, both bands, lowest "
-          "envelope): from the campaign's fitted modes and from the exact modes")
-    op = Robot.load("irb6660", tool="dummy").at(Posture.from_mm_deg(1800, 200, 0))
-    speeds, depths = speed_grid("robot", 40), depth_grid()
-    env = {}
-    for name, make in (("fitted", lambda b: Structure.from_modal(fit, 1, band=b)),
-                       ("exact", lambda b: Structure.from_mode_table(op.modes(b)))):
-        env[name] = lowest_envelope(*(lobes(make(b), ALUMINIUM_6061, speeds, depths, every=5)
-                                      for b in ("low", "high")))
-    c = compare_lobes(env["fitted"], env["exact"])
-    print(f"  lowest critical depth {1e3 * c['a_lim_min_reference']:.3f} mm (exact), "
-          f"{1e3 * c['a_lim_min']:.3f} mm (fitted); fitted vs exact over {c['n_speeds']} speeds: "
-          f"median {100 * c['rel_err_median']:.2f} %, max {100 * c['rel_err_max']:.2f} %")
-    print(f"  wrote {plot_lobes(env, out / 'lobes.png', title='IRB6660 stand-in, dummy tool, (1800, 200, 0)')}")
-    from rmbench.report.machining import lobes_sections
-
-    page.part("Milling stability")
-    lobes_sections(page, env, title="Lobes at (1800, 200, 0): fitted against exact modes",
-                   note="Aluminium 6061 slot, 2 teeth, FDM over both bands, lowest envelope; from the "
-                        "campaign's fitted modes and from the simulator's exact modes.")
-
-
-def _demo_path(out: Path, page) -> None:
-    """Tool path: the bundled contour planned from the demo's predictor (the dummy tool's dynamics),
-    its depth's band, and virtual milling of both schedules at a depth between their limits."""
-    from rmbench.path import PlanSettings, example, mill_schedule, plan_path, with_band
-    from rmbench.predict import PosturePredictor
-    from rmbench.report.path import path_sections
-    from rmbench.robot import Robot
-
-    print("\ntool path: the bundled 400 x 400 mm contour, redundant angle chosen at each cutter location from -60 to 60 "
-          "degrees for the largest smallest critical depth at 9000 rev/min (aluminium 6061 slot), from the "
-          "predictor above")
-    robot = Robot.load("irb6660", tool="dummy")
-    predictor = PosturePredictor.load(out / "demo_predictor.npz")
-    plan = plan_path(robot, predictor, example("contour"), speed_rpm=9000.0,
-                     settings=PlanSettings(theta=tuple(np.radians(np.arange(-60.0, 61.0, 10.0))), spacing=10e-3))
-    plan = with_band(plan, predictor, draws=32)
-    s = plan.to_dict()
-    a = s["min_alim_mm"]
-    print(f"  {s['cl_points']} cutter locations x {len(plan.reach.theta)} angles in {s['seconds']['total']:.1f} s: "
-          f"smallest critical depth planned {a['planned']:.3f} mm (95 % band down to {s['band']['min_lower_mm']:.3f}), "
-          f"theta held at 0 {a['fixed']:.3f} mm (gain {s['min_alim_gain']:.2f}x), each location's best "
-          f"{a['pointwise']:.3f} mm")
-    print(f"wrote {plan.to_csv(out / 'demo_path_plan.csv')}")
-    # a depth between the two schedules' smallest limits: where they differ the plan should hold
-    depth = 0.5 * (plan.planned.min_margin + plan.fixed.min_margin)
-    milled = {}
-    for sched in ("planned", "fixed"):
-        milled[sched] = mill_schedule(robot, plan, depth=depth, schedule=sched, n=3)
-        m = milled[sched].summary()
-        agree = "" if m["agreement"] is None else f", {100 * m['agreement']:.0f} % of them as planned"
-        print(f"  milled 3 locations of the {sched} schedule at {1e3 * depth:.2f} mm: {m['chatter']} chatter "
-              f"({m['expected_chatter']} expected; {m['decided']} clear of the predicted depth's ±10 %{agree})")
-    page.part("Tool path: the contour planned and milled")
-    path_sections(page, plan, milled)
 
 
 def _demo_predict(out: Path, workers, page) -> None:

@@ -1,5 +1,6 @@
 """Report sections of a planned tool path: the path coloured by its critical depth, θ and the
-critical depth along it for the planned, fixed-θ and pointwise-best schedules."""
+critical depth along it for the planned, fixed-θ and pointwise-best schedules; per segment between
+the path's corners, the angle, the speed, the limit and its band, and the cuts made."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 
 from rmbench.report.page import Page
 
-__all__ = ["path_sections"]
+__all__ = ["path_sections", "segment_rows", "segments_section"]
 
 _COLORS = {"planned": "#1f77b4", "fixed": "#d62728", "pointwise": "#7f7f7f"}
 
@@ -118,3 +119,64 @@ def _milling_section(page: Page, plan, milling: dict) -> None:
                      "" if d["agreement"] is None else f"{100 * d['agreement']:.0f} %", d["inside_band"]])
     sec.table(["schedule", "cuts", "depth (mm)", "chatter", "expected", "clear of ±10 %", "as planned",
                "inside ±10 %"], rows)
+
+
+SEGMENT_COLUMNS = ["segment", "arc length (mm)", "θ (deg)", "speed (rev/min)", "smallest critical depth (mm)",
+                   "band's lower edge (mm)", "best fixed angle's smallest (mm)", "cuts: chatter / expected"]
+
+
+def _segments(plan) -> list:
+    """Location ranges ``(first, last)`` between the path's corners (a corner's location closes the
+    segment it is reached by: θ arrives there at the incoming segment's angle); one segment where
+    the plan found no corners."""
+    turn = plan.reorientation
+    cut = (turn.candidates if turn is not None else
+           plan.planned.corners if plan.planned.corners is not None else np.zeros(0, int))
+    ends = [int(c) for c in np.asarray(cut, int)] + [len(plan.toolpath) - 1]
+    out, first = [], 0
+    for last in ends:
+        if last >= first:
+            out.append((first, last))
+            first = last + 1
+    return out
+
+
+def segment_rows(plan, milling: dict | None = None) -> list:
+    """One row per segment of the plan (:data:`SEGMENT_COLUMNS`; mm, degrees, rev/min): its arc
+    length, the planned θ's range, the spindle speed, the planned schedule's smallest critical depth
+    and its band's lower edge ("" without a band), the best fixed angle's smallest there ("" where
+    not kept), and per milled schedule the cuts in it that chattered and that the plan expected to."""
+    arc = 1e3 * plan.toolpath.arc_length()
+    rows = []
+    for k, (a, b) in enumerate(_segments(plan)):
+        th = np.degrees(plan.planned.theta[a:b + 1])
+        lo, hi = float(th.min()), float(th.max())
+        cuts = []
+        for name, m in (milling or {}).items():
+            inside = (m.index >= a) & (m.index <= b)
+            if inside.any():
+                cuts.append(f"{name} {int(m.chatter[inside].sum())} / {int(m.expected[inside].sum())} "
+                            f"of {int(inside.sum())}")
+        rows.append([k + 1, f"{arc[a]:.0f}-{arc[b]:.0f}", f"{lo:.0f}" if lo == hi else f"{lo:.0f} to {hi:.0f}",
+                     f"{plan.speed_rpm:g}", 1e3 * float(plan.planned.margin[a:b + 1].min()),
+                     "" if plan.band is None else 1e3 * float(np.nanmin(plan.band.lower[a:b + 1])),
+                     "" if plan.best_fixed is None else 1e3 * float(plan.best_fixed.margin[a:b + 1].min()),
+                     "; ".join(cuts) or "none"])
+    return rows
+
+
+def segments_section(page: Page, plan, milling: dict | None = None) -> None:
+    """A table of the plan per segment between its corners (:func:`segment_rows`), with the speeds
+    it was chosen among, the corners θ turned at standing, and the dwell."""
+    intro = f"At {plan.speed_rpm:g} rev/min"
+    if plan.speed_scan is not None:
+        intro += (" (the best of " + ", ".join(f"{v:g}" for v in plan.speed_scan["speeds_rpm"])
+                  + " rev/min, whose planned smallest critical depths are "
+                  + ", ".join(f"{1e3 * v:.3f}" for v in plan.speed_scan["min_alim"]) + " mm)")
+    intro += f"; feed along {'base X' if plan.feed == 'x' else 'the path'}."
+    if plan.reorientation is not None:
+        intro += " " + plan.reorientation.summary() + "."
+    if plan.band is None:
+        intro += " No band: the critical depths are the exact model's."
+    sec = page.section("The plan per segment", intro)
+    sec.table(SEGMENT_COLUMNS, segment_rows(plan, milling))
