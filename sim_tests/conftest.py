@@ -27,7 +27,7 @@ HEAVIEST_FIRST = ("test_parallel.py", "test_report.py", "test_bench_truth.py", "
                   "test_predict_cluster.py", "test_gap_diagnose.py", "test_rcsa_cli.py", "test_docs.py",
                   "test_milling_heading.py", "test_cli_json.py", "test_path_corners.py", "test_calibrate_form.py",
                   "test_blind_tracker.py", "test_impact_campaign.py", "test_gap_tracker.py", "test_calibrate.py",
-                  "test_path_low_speed.py", "test_truth_vs_time.py", "test_stability.py", "test_predict_gauge.py",
+                  "test_path_low_speed.py", "test_demo_low_speed.py", "test_truth_vs_time.py", "test_path_exact_all.py", "test_stability.py", "test_predict_gauge.py",
                   "test_threads.py", "test_modal_campaign.py", "test_modal_fit.py", "test_cli_campaign.py",
                   "test_control_cli.py", "test_control_loop.py", "test_modal_robust.py", "test_predict_baselines.py",
                   "test_control_design.py", "test_truth_structural.py")

@@ -20,6 +20,7 @@ from rmbench.errors import InputError
 from rmbench.io.toolpath import ToolPath, write_cl_csv
 from rmbench.path import REORIENTS, PlanSettings, example, plan_path, plan_schedule
 from rmbench.path.corners import dwell_time, find_corners
+from rmbench.path.milling import cut_stretch, cut_window, mill_schedule, smooth_stretch
 from rmbench.path.ramps import ramp_moves
 from rmbench.stability import STEEL_C45
 
@@ -161,6 +162,92 @@ def test_the_corners_are_in_the_summary_and_the_strict_json(corners):
     assert "dwell" in corners.summary() and "rubs" in corners.summary()
 
 
+# -- the dwell charged: a standing turn only where the smallest depth needs it -----------------------
+TH3 = np.radians([-20.0, 0.0, 20.0])
+
+
+def _two_sides(before, after, first=None):
+    """12 locations, a corner at 5: ``before`` (3 margins) at 0-5, ``after`` at 6-11; location 0's
+    margins ``first`` where given."""
+    m = np.array([before] * 6 + [after] * 6, float)
+    if first is not None:
+        m[0] = first
+    return m
+
+
+def test_where_one_angle_is_best_everywhere_no_turn_is_taken():
+    s = plan_schedule(_two_sides([1.0, 3.0, 2.0], [1.0, 3.0, 2.0]), TH3, corners=[5])
+    assert len(s.corners) == 0 and np.all(s.index == 1)
+
+
+def test_a_turn_that_only_raises_the_summed_depth_is_not_taken():
+    """Location 0 sets the smallest margin (0.5) at every angle: turning at the corner would raise
+    the sum along 6-11 (2 rather than 1) but not the smallest margin, so the tool does not stand."""
+    s = plan_schedule(_two_sides([3.0, 1.0, 1.0], [1.0, 1.0, 2.0], first=[0.5, 0.5, 0.5]), TH3, max_step=0,
+                      corners=[5])
+    assert s.min_margin == 0.5 and len(s.corners) == 0 and np.all(s.index == 0)
+
+
+def test_the_turn_the_smallest_depth_needs_is_taken_and_the_shortest_of_them():
+    """Only a turn keeps 2.0 after the corner; to 0° (one step) and to 20° (two) both do, and the
+    shorter is taken although the longer would raise the summed margin."""
+    s = plan_schedule(_two_sides([2.0, 0.2, 0.2], [0.2, 2.5, 3.0]), TH3, max_step=0, corners=[5])
+    assert s.min_margin == 2.0 and s.corners.tolist() == [5]
+    assert s.index[5] == 0 and s.index[6] == 1
+
+
+def test_a_turn_that_raises_the_smallest_depth_by_less_than_min_turn_gain_is_not_taken():
+    """θ = -20° keeps 1.0 throughout; a turn to 0° at the corner would keep 1.02 (2 % more): below
+    the default 5 % the tool does not stand for it, at 1 % it does."""
+    m = _two_sides([1.02, 0.2, 0.2], [1.0, 1.02, 0.2])
+    kept = plan_schedule(m, TH3, max_step=0, corners=[5])
+    assert kept.min_margin == 1.0 and len(kept.corners) == 0 and np.all(kept.index == 0)
+    turned = plan_schedule(m, TH3, max_step=0, corners=[5], min_turn_gain=0.01)
+    assert turned.min_margin == 1.02 and turned.corners.tolist() == [5]
+
+
+def test_a_negative_min_turn_gain_is_one_line_input_error():
+    with pytest.raises(InputError, match="min_turn_gain"):
+        plan_schedule(_two_sides([1.0, 3.0, 2.0], [1.0, 3.0, 2.0]), TH3, corners=[5], min_turn_gain=-0.1)
+    with pytest.raises(InputError, match="min_turn_gain"):
+        PlanSettings(min_turn_gain=-0.1)
+
+
+def test_on_the_rectangle_the_turns_that_raise_the_smallest_depth_are_taken(ramps, corners):
+    assert len(corners.reorientation.used) >= 1
+    assert corners.planned.min_margin > 1.3 * ramps.planned.min_margin
+
+
+# -- milling a plan that stands at corners ---------------------------------------------------------
+def test_a_moving_cut_never_runs_through_a_corner_where_the_tool_stands():
+    """The contour's corners are rounded (50 mm radius): a smooth stretch runs through them, a cut
+    of 40 mm about a location near one would too; ended at the corners, none does."""
+    tp = example("contour").resampled(5e-3)
+    arc, c = tp.arc_length(), find_corners(tp, np.radians(30.0))
+    crossed = 0
+    for k in range(len(tp)):
+        for stretch, clipped in ((smooth_stretch(tp.xy, k, cutting=tp.cutting), False), (cut_stretch(tp, k, c), True)):
+            w = cut_window(arc, k, 40e-3, stretch)
+            if w is None:
+                continue
+            inside = np.any((arc[c] > w[0] + 1e-9) & (arc[c] < w[0] + 40e-3 - 1e-9))
+            assert not (clipped and inside), k
+            crossed += inside
+    assert crossed > 0
+    assert cut_stretch(tp, 10, None) == smooth_stretch(tp.xy, 10, cutting=tp.cutting)
+
+
+def test_a_plan_that_stands_at_corners_mills(irb, corners):
+    """Cuts of 17.5 mm (14 tooth periods, a little over the 12 a verdict takes) at a corner where θ
+    turns (ending there) and at the next location (starting at the corner, at the angle the turn
+    ends at)."""
+    c = int(corners.planned.corners[0])
+    locs = [c, c + 1]
+    milled = mill_schedule(irb, corners, depth=0.3e-3, locations=locs, periods=14)
+    assert milled.index.tolist() == locs and np.all(milled.moved)
+    assert np.allclose(milled.heading, corners.toolpath.heading()[locs], atol=1e-6)
+
+
 def test_a_bad_reorient_or_corner_angle_is_one_line_input_error():
     with pytest.raises(InputError, match="re-oriented by ramps or corners") as e:
         PlanSettings(reorient="always")
@@ -204,4 +291,14 @@ def test_path_plan_refuses_a_bad_reorient_in_one_line(tmp_path):
     code, out, err = _main(["path", "plan", "contour", "--predictor", str(tmp_path / "none.npz"), "--speed", "400",
                             "--reorient", "often"])
     assert code != 0 and out == "" and "--reorient must be ramps or corners" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("option, value, message", [("--min-turn-gain", "-5", "--min-turn-gain must be a percentage"),
+                                                    ("--exact-modes", "every", "--exact-modes must be bands or all")],
+                         ids=["min-turn-gain", "exact-modes"])
+def test_path_plan_refuses_a_bad_turn_gain_or_exact_modes_in_one_line(tmp_path, option, value, message):
+    code, out, err = _main(["path", "plan", "contour", "--predictor", str(tmp_path / "none.npz"), "--speed", "400",
+                            f"{option}={value}"])
+    assert code != 0 and out == "" and message in err
     assert len(err.strip().splitlines()) == 1

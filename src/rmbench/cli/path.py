@@ -36,6 +36,12 @@ def register(sub) -> None:
                    help="how θ changes: ramps of one angle step while cutting (the default), or also any turn at a "
                         "corner (the heading turning by more than 30°), the feed stopped and the tool standing while "
                         "the joints move at their limits (the dwell is reported: a standing tool rubs)")
+    p.add_argument("--min-turn-gain", type=float, default=5.0, metavar="PCT",
+                   help="with --reorient corners: the least rise of the smallest critical depth over ramps alone "
+                        "that standing turns must buy, else none is taken, %% (default 5)")
+    p.add_argument("--exact-modes", default="bands", metavar="bands|all",
+                   help="the exact model --mill compares with: the measured bands' modes (the default) or every "
+                        "mode of the linearised robot below 8 kHz, the tool's included (those the milling sees)")
     p.add_argument("--depth", type=float, default=None, metavar="MM", help="axial depth of cut, mm (marks the locations at risk)")
     p.add_argument("--robot", default="irb6660", help="the robot that mills: bundled name or MJCF path (default irb6660)")
     p.add_argument("--tool", default=None, help="its tool (default: the robot's own; the predictor's tool is the one that mills)")
@@ -120,16 +126,21 @@ def _settings(args):
     """The planner's settings from the options (mm and degrees to m and rad; it checks them)."""
     import numpy as np
 
-    from rmbench.path import FEEDS, REORIENTS, PlanSettings
+    from rmbench.path import EXACT_MODES, FEEDS, REORIENTS, PlanSettings
 
     if args.feed not in FEEDS:
         raise InputError(f"--feed must be {' or '.join(FEEDS)}, got {args.feed!r}")
     if args.reorient not in REORIENTS:
         raise InputError(f"--reorient must be {' or '.join(REORIENTS)}, got {args.reorient!r}")
+    if args.exact_modes not in EXACT_MODES:
+        raise InputError(f"--exact-modes must be {' or '.join(EXACT_MODES)}, got {args.exact_modes!r}")
+    if not args.min_turn_gain >= 0:
+        raise InputError(f"--min-turn-gain must be a percentage >= 0, got {args.min_turn_gain!r}")
     return PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
                         spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)),
                         ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)),
-                        feed=args.feed, reorient=args.reorient)
+                        feed=args.feed, reorient=args.reorient, min_turn_gain=1e-2 * args.min_turn_gain,
+                        exact_modes=args.exact_modes)
 
 
 def _cutting(args):
@@ -153,9 +164,6 @@ def cmd_plan(args) -> int:
     if args.mill < 0 or (args.mill and args.depth is None):
         raise InputError("--mill N needs N >= 0 and a --depth to cut")
     settings, cutting, speeds = _settings(args), _cutting(args), _speeds(args)
-    if args.mill and settings.reorient != "ramps":
-        raise InputError("--mill moves through the path without standing at corners: it cannot check a plan made "
-                         "with --reorient corners yet")
     tp = example(args.toolpath) if args.toolpath in EXAMPLES else read_toolpath(args.toolpath)
     predictor = PosturePredictor.load(args.predictor)
     robot = Robot.load(args.robot, tool=args.tool)

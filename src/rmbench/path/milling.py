@@ -26,6 +26,11 @@ feeds along the path's own direction (:meth:`rmbench.io.ToolPath.heading`), the 
 following the locations it runs through (:class:`rmbench.stability.milling.Motion`'s ``heading``),
 as the plan's critical depths turned the modes to it. A plan fed along base X is milled along base
 X, as every plan before headings.
+
+A schedule that turns θ standing at corners (``PlanSettings.reorient == "corners"``,
+:attr:`rmbench.path.plan.Schedule.corners`) is milled as the machine runs it: the feed stops at
+each such corner, so no moving cut runs through one (:func:`cut_stretch`): the cut before it ends
+there at the angle it arrives at, the one after starts there at the angle the turn ends at.
 """
 
 from __future__ import annotations
@@ -35,12 +40,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from rmbench.errors import InputError
-from rmbench.path.margin import N_FREQ, _freq
+from rmbench.path.margin import ALL_MODES, N_FREQ, _all_tip_modes, _freq
 from rmbench.stability.cutting import Cutting
+from rmbench.stability.frame import to_cut_frame
 from rmbench.stability.milling import Motion, mill
 from rmbench.stability.zoa import zoa_limit
 
-__all__ = ["PathMilling", "mill_schedule", "sample_locations", "smooth_stretch", "cut_window"]
+__all__ = ["PathMilling", "mill_schedule", "sample_locations", "smooth_stretch", "cut_window", "cut_stretch"]
 
 
 @dataclass(frozen=True)
@@ -60,7 +66,9 @@ class PathMilling:
     predicted : ndarray, shape (k,), m
         The plan's critical depth at each pose.
     exact : ndarray, shape (k,), m
-        The exact model's (zero-order method, the bands' modes).
+        The exact model's (zero-order method; the bands' modes, or every mode below the plan's
+        ``f_max`` where it saw them all, ``PathPlan.exact_modes``; in the cut's frame where the
+        feed runs along the path).
     chatter : ndarray of bool, shape (k,)
     kind : tuple of str
         The milling verdict per cut (``stable``, ``hopf``, ``flip``, ``runaway``).
@@ -133,13 +141,21 @@ def sample_locations(n_locations: int, n: int) -> np.ndarray:
     return np.unique(np.linspace(0, n_locations - 1, min(n, n_locations)).round().astype(int))
 
 
-def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands) -> float:
-    """The exact model's critical depth at a pose, the lowest of its bands', m."""
+def _exact_limit(op, cutting: Cutting, speed_rpm: float, bands, heading: float | None = None,
+                 f_max: float | None = None) -> float:
+    """The exact model's critical depth at a pose, m: the lowest of its bands', or with ``f_max``
+    (Hz) that of every mode below it in one receptance (:func:`rmbench.path.margin.exact_modes`'s
+    ``"all"``); the modes turned into the cut's frame where the feed runs along ``heading``
+    (rad; None: base X), as the plan's depths were."""
+    if f_max is not None:
+        tables = [_all_tip_modes(op, f_max)]
+    else:
+        tables = [(t.poles, t.phi_r[:, :2, None] * t.phi_l[:, None, :2]) for t in map(op.modes, bands)]
     per = []
-    for b in bands:
-        t = op.modes(b)
-        poles = np.asarray(t.poles)[None]
-        res = (t.phi_r[:, :2, None] * t.phi_l[:, None, :2])[None]
+    for p, r in tables:
+        poles, res = np.asarray(p)[None], np.asarray(r)[None]
+        if heading is not None:
+            res = to_cut_frame(res, np.array([heading]))
         per.append(float(zoa_limit(poles, res, cutting, speed_rpm, _freq(poles, N_FREQ))[0]))
     return min(per)
 
@@ -223,6 +239,20 @@ def cut_window(arc: np.ndarray, k: int, travel: float, stretch: tuple[int, int])
     return float(start), a, max(b, a + 1)
 
 
+def cut_stretch(tp, k: int, corners=None) -> tuple[int, int]:
+    """Where a moving cut about cutter location ``k`` of ``tp`` (a ToolPath) may run: its smooth
+    stretch (:func:`smooth_stretch`) ended at the corners where the tool stands (``corners``,
+    location indices; None or empty: unchanged). A corner's own location belongs to the cut into
+    it (the stretch through the location before); the cut out of it starts there."""
+    c = np.zeros(0, int) if corners is None else np.asarray(corners, int)
+    s0, s1 = smooth_stretch(tp.xy, k - 1 if k in c and k > 0 else k, cutting=tp.cutting)
+    if len(c[c < k]):
+        s0 = max(s0, int(c[c < k].max()))
+    if len(c[c >= k]):
+        s1 = min(s1, int(c[c >= k].min()))
+    return s0, s1
+
+
 def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutting: Cutting | None = None,
                   locations=None, n: int = 40, periods: int = 90, band: float = 0.1,
                   bands=("low", "high"), moving: bool = True, feed: float = 0.05,
@@ -255,16 +285,12 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         Called with each finished cut's position (0-based).
 
     A plan fed along the path (``plan.feed == "path"``) is milled with each cut's feed along the
-    path's direction there (module notes); ``PathMilling.heading`` records it.
+    path's direction there (module notes); ``PathMilling.heading`` records it. A schedule with
+    standing turns is cut between its corners, never through one (:func:`cut_stretch`).
     """
     from rmbench.stability.cutting import ALUMINIUM_6061
 
-    if schedule not in ("planned", "fixed", "pointwise"):
-        raise InputError(f"unknown schedule {schedule!r}; use planned, fixed or pointwise")
-    if not feed > 0:
-        raise InputError(f"the feed must be > 0 m/s, got {feed!r}")
-    if not depth > 0:
-        raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
+    _check_cut(schedule, feed, depth)
     cutting = getattr(plan, "cutting", ALUMINIUM_6061) if cutting is None else cutting
     s = getattr(plan, schedule)
     idx = (sample_locations(len(s.index), n) if locations is None
@@ -272,6 +298,7 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     if np.any((idx < 0) | (idx >= len(s.index))):
         raise InputError(f"cutter locations must lie in 0-{len(s.index) - 1}")
     joints = s.joints(plan.reach.q)
+    stand = (s.corners, s.departure(plan.reach.q)) if getattr(s, "corners", None) is not None else None
     q = joints[idx]
     predicted = s.on(plan.depths.a_lim)[idx]
     exact, chatter, kind, amplitude = np.empty(len(idx)), np.empty(len(idx), bool), [], np.empty(len(idx))
@@ -283,11 +310,13 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
     # the cut's feed direction at every location: the path's own where the plan fed along it
     heading = tp.heading() if getattr(plan, "feed", "x") == "path" else None
     fed = None if heading is None else np.empty(len(idx))
+    f_max = getattr(plan, "f_max", None) if getattr(plan, "exact_modes", "bands") == ALL_MODES else None
     for k in range(len(idx)):
         op = robot.at(q[k])
-        exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands)
         loc = int(idx[k])
-        motion, first = (_moving_cut(robot, op, loc, joints, tp, arc, speed[loc], duration, heading) if moving
+        exact[k] = _exact_limit(op, cutting, plan.speed_rpm, bands, None if heading is None else float(heading[loc]),
+                                f_max)
+        motion, first = (_moving_cut(robot, op, loc, joints, tp, arc, speed[loc], duration, heading, stand) if moving
                          else (None, op))
         moved[k] = motion is not None
         if fed is not None:     # a held cut feeds along its location's heading, a moving one along the motion's
@@ -302,18 +331,32 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
                        tuple(kind), float(band), amplitude, bool(moving), moved, fed)
 
 
+def _check_cut(schedule: str, feed: float, depth: float) -> None:
+    """:func:`mill_schedule`'s schedule name, feed (m/s) and depth (m), else one-line InputError."""
+    if schedule not in ("planned", "fixed", "pointwise"):
+        raise InputError(f"unknown schedule {schedule!r}; use planned, fixed or pointwise")
+    if not feed > 0:
+        raise InputError(f"the feed must be > 0 m/s, got {feed!r}")
+    if not depth > 0:
+        raise InputError(f"the depth of cut must be > 0 mm, got {1e3 * depth!r}")
+
+
 def _moving_cut(robot, op, loc: int, joints: np.ndarray, tp, arc: np.ndarray, speed: float, duration: float,
-                heading) -> tuple:
+                heading, stand=None) -> tuple:
     """The motion of a cut about cutter location ``loc`` along its smooth stretch and the operating
     point nearest its start: ``(Motion, op)``, or ``(None, op)`` where the stretch is shorter than
     the cut (it then holds ``op``, the location's own). ``speed`` is the feed there, m/s,
     ``duration`` the cut's, s; ``heading`` (rad, shape (n,): ``ToolPath.heading``, or None for a
-    feed along base X) gives the motion's feed direction at each of its locations."""
-    window = cut_window(arc, loc, speed * duration, smooth_stretch(tp.xy, loc, cutting=tp.cutting))
+    feed along base X) gives the motion's feed direction at each of its locations. ``stand``: the
+    schedule's standing corners and its joint commands on leaving each location
+    (:meth:`rmbench.path.plan.Schedule.departure`; None: no standing turns): the cut stays between
+    the corners, and one starting at a corner starts at the angle the turn there ends at."""
+    corners, depart = (None, joints) if stand is None else stand
+    window = cut_window(arc, loc, speed * duration, cut_stretch(tp, loc, corners))
     if window is None:
         return None, op
     start, a, b = window
-    ops = [op if j == loc else robot.at(joints[j]) for j in range(a, b + 1)]
+    ops = [op if j == loc else robot.at(depart[j] if j == a else joints[j]) for j in range(a, b + 1)]
     knots = None
     if heading is not None:
         # a location's heading is that of the move into it: the motion leaves its first location

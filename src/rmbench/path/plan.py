@@ -26,7 +26,14 @@ Among the schedules that respect the limits, the plan
    then
 2. among those that reach it, maximises the summed margin less a small cost per θ step (a second
    pass with every pose below the bottleneck masked), so that the schedule is not needlessly
-   restless where the bottleneck lies elsewhere.
+   restless where the bottleneck lies elsewhere. With corners the second pass is lexicographic:
+   among the schedules that keep the bottleneck, first the least total dwell (each standing
+   turn's rest-to-rest time, :func:`rmbench.path.corners.dwell_time`, from the grid's joint
+   commands at the corner; without joint commands or limits, the grid steps turned), then the
+   largest summed margin. A standing turn is thus taken only where the smallest margin needs
+   it, and then the shortest that does: a tool standing at a corner rubs the wall it has cut,
+   which no gain in the summed depth pays for. Nor is any turn taken unless the turns raise the
+   bottleneck by ``min_turn_gain`` (5 %) over the ramps-only schedule's.
 
 The fixed-θ schedule (one θ throughout), the best fixed angle (the grid angle whose smallest
 margin along the path is the largest) and the pointwise best (each location's best θ, moves
@@ -266,7 +273,7 @@ def _corner_turns(margin, q, corners, hold) -> dict:
 
 def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step_cost: float = 1e-3,
                   ramp: int = 1, dt=None, max_ddq: float | None = None, max_dddq: float | None = None,
-                  corners=None) -> Schedule:
+                  corners=None, max_rate: float | None = None, min_turn_gain: float = 0.05) -> Schedule:
     """The maximin schedule of the module docstring.
 
     Parameters
@@ -293,6 +300,13 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
     corners : array_like of int, optional
         Locations (0 .. n - 2) at which θ may also turn by any number of grid steps while the tool
         stands (the module docstring); None: ramps only (and the schedule's ``corners`` None).
+    max_rate : float, optional
+        Largest joint speed of a standing turn, rad/s: with ``q``, ``max_ddq`` and ``max_dddq`` it
+        times each turn's dwell, the second pass's first criterion (else the grid steps turned).
+    min_turn_gain : float
+        The least relative rise of the bottleneck over the ramps-only schedule's that standing
+        turns must buy, else none is taken (default 5 %): a standing tool rubs the wall it has
+        cut, and a rise smaller than the critical depth's own few-percent error buys nothing real.
 
     Returns
     -------
@@ -304,16 +318,23 @@ def plan_schedule(margin, theta, *, q=None, max_step: int = 1, max_dq=None, step
     n = margin.shape[0]
     if int(ramp) != ramp or ramp < 1:
         raise InputError(f"a ramp takes a whole number of moves >= 1, got {ramp!r}")
+    if not min_turn_gain >= 0:
+        raise InputError(f"min_turn_gain must be a fraction >= 0, got {min_turn_gain!r}")
     r = int(ramp)
     max_dq = _per_move(max_dq, n)
     dt = None if dt is None else _per_move(dt, n)
     mv = _moves(margin, q, max(int(max_step), 0), max_dq, r, dt, max_ddq, max_dddq)
     turns = None if corners is None else _corner_turns(margin, q, corners, mv.hold)
     bottleneck = _bottleneck(margin, mv, r, turns)
+    if turns:
+        plain = _bottleneck(margin, mv, r)
+        if np.isfinite(plain) and bottleneck < plain + min_turn_gain * abs(plain):
+            turns, bottleneck = {}, plain
     if not np.isfinite(bottleneck):
         return _fallback(margin, theta)
-    w, back, src = _best_sum(margin, mv, r, bottleneck, step_cost, turns)
-    idx, to, frac, used = _trace_back(w, back, r, src)
+    dwell = None if turns is None else _turn_dwell(q, turns, (max_rate, max_ddq, max_dddq))
+    w, back, src, p = _best_sum(margin, mv, r, bottleneck, step_cost, turns, dwell)
+    idx, to, frac, used = _trace_back(w, back, r, src, p)
     th = theta[idx] + frac * (theta[to] - theta[idx])
     rows = np.arange(n)
     got = np.where(frac > 0, margin[rows, idx] + frac * (margin[rows, to] - margin[rows, idx]), margin[rows, idx])
@@ -342,14 +363,49 @@ def _bottleneck(margin: np.ndarray, mv: _Moves, r: int, turns: dict | None = Non
     return float(np.max(v[-1]))
 
 
+def _turn_dwell(q, turns: dict, limits) -> dict:
+    """Each standing turn's cost in the second pass, keyed as ``turns``: ``cost[j, k]`` the dwell
+    of the turn from ``j`` to ``k`` at the corner, s (its largest joint move between the grid's
+    commands, rest to rest at ``limits`` = (rate rad/s, acceleration rad/s², jerk rad/s³)), or
+    the grid steps ``|k - j|`` where the joint commands or a limit are not given."""
+    from rmbench.path.corners import dwell_time
+
+    out = {}
+    for s, ok in turns.items():
+        m = ok.shape[0]
+        if q is None or any(v is None for v in limits):
+            out[s] = np.abs(np.arange(m)[None, :] - np.arange(m)[:, None]).astype(float)
+            continue
+        qc = q[s - 1]
+        with np.errstate(invalid="ignore"):
+            move = np.max(np.abs(qc[None, :, :] - qc[:, None, :]), axis=2)
+        out[s] = dwell_time(np.nan_to_num(move, nan=0.0), *limits)
+    return out
+
+
+#: dwell totals closer than this are equal in the second pass's first criterion, s
+_DWELL_TIE = 1e-9
+
+
+def _better(cw, cp, bw, bp) -> np.ndarray:
+    """Where candidate (summed value ``cw``, dwell ``cp``) beats the best so far (``bw``, ``bp``):
+    by the value alone without dwells (``bp`` None), else the least dwell first."""
+    if bp is None:
+        return cw > bw
+    cp = np.where(np.isfinite(cw), cp, np.inf)
+    return (cp < bp - _DWELL_TIE) | ((cp <= bp + _DWELL_TIE) & (cw > bw))
+
+
 def _best_sum(margin: np.ndarray, mv: _Moves, r: int, bottleneck: float, step_cost: float,
-              turns: dict | None = None):
+              turns: dict | None = None, dwell: dict | None = None):
     """Pass 2: over the schedules that keep at least ``bottleneck``, the largest summed margin
-    (in units of its spread) less ``step_cost`` per θ step (standing turns' too).
+    (in units of its spread) less ``step_cost`` per θ step (standing turns' too); with standing
+    ``turns`` first the least total ``dwell`` (:func:`_turn_dwell`), then that sum.
 
     Returns the best value ending at each (location, angle), shape (n, m), how each was reached,
     int shape (n, m): 0 held from the location before (or turned standing), ``d`` a ramp of ``d``
-    steps that ended there, and the angle a standing turn came from, int shape (n, m) (-1: none)."""
+    steps that ended there, the angle a standing turn came from, int shape (n, m) (-1: none), and
+    the dwell so far, shape (n, m), s (inf: unreachable; None without turns)."""
     n, m = margin.shape
     finite = margin[np.isfinite(margin)]
     scale = float(np.ptp(finite)) or 1.0
@@ -357,40 +413,53 @@ def _best_sum(margin: np.ndarray, mv: _Moves, r: int, bottleneck: float, step_co
     gain = np.where(margin >= floor, margin / scale, -np.inf)
     w = np.full((n, m), -np.inf)
     w[0] = gain[0]
+    p = None if not turns else np.full((n, m), np.inf)
+    if p is not None:
+        p[0] = np.where(np.isfinite(w[0]), 0.0, np.inf)
     back = np.zeros((n, m), int)
     src = np.full((n, m), -1)
     for s in range(1, n):
         best = np.where(mv.hold[s], w[s - 1], -np.inf)
+        bp = None if p is None else np.where(mv.hold[s], p[s - 1], np.inf)
         came_by = np.zeros(m, int)
         if s >= r:
             for d, ok in mv.ramp.items():
                 usable = ok[s] & (mv.low[d][s] >= floor)
                 cand = np.where(usable, _shift(w[s - r], d, -np.inf) + mv.inner[d][s] / scale - step_cost * abs(d),
                                 -np.inf)
-                better = cand > best
+                cp = None if p is None else _shift(p[s - r], d, np.inf)
+                better = _better(cand, cp, best, bp)
                 best = np.where(better, cand, best)
+                bp = None if p is None else np.where(better, cp, bp)
                 came_by = np.where(better, d, came_by)
         if turns and s in turns:
             k = np.arange(m)
             cand = np.where(turns[s], w[s - 1][:, None] - step_cost * np.abs(k[None, :] - k[:, None]), -np.inf)
-            j = np.argmax(cand, axis=0)
-            better = cand[j, k] > best
+            cp = np.where(np.isfinite(cand), p[s - 1][:, None] + dwell[s], np.inf)
+            # per angle turned to, the least dwell and, among those, the largest value
+            j = np.argmax(np.where(cp <= cp.min(axis=0) + _DWELL_TIE, cand, -np.inf), axis=0)
+            better = _better(cand[j, k], cp[j, k], best, bp)
             best = np.where(better, cand[j, k], best)
+            bp = np.where(better, cp[j, k], bp)
             came_by = np.where(better, 0, came_by)
             src[s] = np.where(better, j, -1)
         back[s] = came_by
         w[s] = gain[s] + best
-    return w, back, src
+        if p is not None:
+            p[s] = np.where(np.isfinite(w[s]), bp, np.inf)
+    return w, back, src, p
 
 
-def _trace_back(w: np.ndarray, back: np.ndarray, r: int, src: np.ndarray):
-    """The best schedule of :func:`_best_sum` from its last location back: per location the grid
-    index it leaves, the one a ramp runs to (elsewhere the same) and how far along its ramp it
-    lies (the cycloidal profile; 0 off ramps), each shape (n,), and the locations it turns at
-    standing (``src``), int shape (u,), increasing."""
+def _trace_back(w: np.ndarray, back: np.ndarray, r: int, src: np.ndarray, p: np.ndarray | None = None):
+    """The best schedule of :func:`_best_sum` from its last location back (ending where the dwell
+    ``p`` is least, then ``w`` largest): per location the grid index it leaves, the one a ramp
+    runs to (elsewhere the same) and how far along its ramp it lies (the cycloidal profile; 0 off
+    ramps), each shape (n,), and the locations it turns at standing (``src``), int shape (u,),
+    increasing."""
     n = len(w)
     idx, to, frac = np.empty(n, int), np.empty(n, int), np.zeros(n)
-    s, k = n - 1, int(np.argmax(w[-1]))
+    last = w[-1] if p is None else np.where(p[-1] <= np.min(p[-1]) + _DWELL_TIE, w[-1], -np.inf)
+    s, k = n - 1, int(np.argmax(last))
     idx[s], to[s] = k, k
     f = ramp_profile(r)
     used = []

@@ -50,7 +50,8 @@ def save_plan(plan: PathPlan, path, *, robot: str = "", tool: str | None = None,
             "feasible": {k: bool(getattr(plan, k).feasible) for k in kept},
             "band": None if plan.band is None else {"scale": plan.band.scale, "n": plan.band.n_calibration,
                                                     "level": plan.band_level},
-            "speed_scan": plan.speed_scan, "cutting": asdict(plan.cutting), "feed": plan.feed}
+            "speed_scan": plan.speed_scan, "cutting": asdict(plan.cutting), "feed": plan.feed,
+            "exact_modes": plan.exact_modes, "f_max": plan.f_max}
     return write_npz(path, meta, arrays)
 
 
@@ -86,7 +87,8 @@ def load_plan(path) -> tuple[PathPlan, dict]:
         cutting = Cutting(**meta["cutting"]) if meta.get("cutting") else ALUMINIUM_6061
         plan = PathPlan(tp, reach, depths, sch["planned"], sch["fixed"], sch["pointwise"], meta["depth"],
                         float(meta["speed_rpm"]), meta["seconds"], a.get("hull_distance"), band, level,
-                        meta.get("speed_scan"), sch.get("best_fixed"), cutting, str(meta.get("feed", "x")))
+                        meta.get("speed_scan"), sch.get("best_fixed"), cutting, str(meta.get("feed", "x")),
+                        exact_modes=str(meta.get("exact_modes", "bands")), f_max=float(meta.get("f_max", 8000.0)))
     except (ValueError, KeyError, TypeError):
         raise InputError(f"{path} is not a saved path plan (write one with: rmbench path plan ... --out DIR)") from None
     return plan, meta

@@ -35,14 +35,15 @@ import numpy as np
 from rmbench.errors import InputError
 from rmbench.io.toolpath import ToolPath
 from rmbench.path.corners import REORIENTS, Reorientation, corner_dwell, find_corners
-from rmbench.path.margin import DepthBand, DepthGrid, depth_band, exact_modes, predicted_modes
+from rmbench.path.margin import ALL_MODES, DepthBand, DepthGrid, depth_band, exact_modes, predicted_modes
 from rmbench.path.plan import Schedule, best_fixed_schedule, fixed_schedule, plan_schedule, pointwise_schedule
 from rmbench.path.ramps import ramp_moves, solve_ramps
 from rmbench.path.reach import Reach, reach_grid
 from rmbench.stability.cutting import ALUMINIUM_6061, STEEL_C45, TI6AL4V, Cutting
 from rmbench.stability.grids import SPEED_RANGES, speed_grid
 
-__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band", "CUTTINGS", "FEEDS", "RANGE_SPEEDS", "REORIENTS"]
+__all__ = ["PathPlan", "plan_path", "PlanSettings", "with_band", "CUTTINGS", "FEEDS", "RANGE_SPEEDS", "REORIENTS",
+           "EXACT_MODES"]
 
 #: the cuts a plan is named for (``rmbench path plan --cutting``): aluminium 6061 slot (the seed's,
 #: the default), steel C45 and titanium Ti-6Al-4V shoulder milling at low speed (issue 82)
@@ -53,6 +54,9 @@ FEEDS = ("x", "path")
 #: spindle speeds a named range (:data:`rmbench.stability.SPEED_RANGES`) is planned at, evenly
 #: spread from its first to its last rev/min: 300, 600, ..., 3,000 for ``"low"``
 RANGE_SPEEDS = 10
+#: the modes the exact model's plan sees (``PlanSettings.exact_modes``): the measured bands' (every
+#: plan before), or every mode of the linearised robot below ``PlanSettings.f_max``
+EXACT_MODES = ("bands", ALL_MODES)
 
 
 @dataclass(frozen=True)
@@ -97,6 +101,19 @@ class PlanSettings:
     corner_angle : float
         How far the feed heading must turn along a run of turning locations for a corner, rad
         (default 30°; a raster's pass end is two 90° corners, a rounded 90° corner one).
+    exact_modes : str
+        Which modes the exact model's plan (no predictor) sees (:data:`EXACT_MODES`): ``"bands"``
+        the measured bands' (the default, every earlier plan bit for bit), ``"all"`` every mode of
+        the linearised robot below ``f_max`` in one receptance
+        (:func:`rmbench.path.margin.exact_modes` with ``bands="all"``): the tool's modes near 2.7 kHz
+        and those between the bands take part, so the plan cannot pick a speed whose lobe the
+        full model lacks. A predicted plan sees what its predictor was trained on.
+    f_max : float
+        The highest mode frequency ``exact_modes="all"`` keeps, Hz (default 8 kHz).
+    min_turn_gain : float
+        With ``reorient="corners"``: the least relative rise of the smallest critical depth over
+        the ramps-only schedule's that standing turns must buy, else none is taken (default 0.05;
+        :func:`rmbench.path.plan_schedule`).
     """
 
     theta: tuple = tuple(np.radians(np.arange(-60.0, 61.0, 5.0)))
@@ -111,8 +128,17 @@ class PlanSettings:
     feed: str = "x"
     reorient: str = "ramps"
     corner_angle: float = np.radians(30.0)
+    exact_modes: str = "bands"
+    f_max: float = 8000.0
+    min_turn_gain: float = 0.05
 
     def __post_init__(self):
+        if not self.min_turn_gain >= 0:
+            raise InputError(f"min_turn_gain must be a fraction >= 0, got {self.min_turn_gain!r}")
+        if self.exact_modes not in EXACT_MODES:
+            raise InputError(f"the exact plan sees the modes of {' or '.join(EXACT_MODES)}, got {self.exact_modes!r}")
+        if not self.f_max > 0:
+            raise InputError(f"f_max must be a frequency > 0 Hz, got {self.f_max!r}")
         if self.feed not in FEEDS:
             raise InputError(f"the feed runs along {' or '.join(FEEDS)}, got {self.feed!r}")
         if self.reorient not in REORIENTS:
@@ -172,6 +198,11 @@ class PathPlan:
     reorientation : Reorientation or None
         With ``PlanSettings.reorient = "corners"``: the corners found, those the plan turned θ at
         standing, and each one's dwell, s; None: ramps only.
+    exact_modes : str
+        The modes the exact model sees (``PlanSettings.exact_modes``): in the depths of a plan
+        without predictor, and in the milling reference of any plan (:func:`rmbench.path.mill_schedule`).
+    f_max : float
+        The highest mode frequency ``exact_modes="all"`` keeps, Hz.
     """
 
     toolpath: ToolPath
@@ -191,6 +222,8 @@ class PathPlan:
     cutting: Cutting = ALUMINIUM_6061
     feed: str = "x"
     reorientation: Reorientation | None = None
+    exact_modes: str = "bands"
+    f_max: float = 8000.0
 
     @property
     def gain(self) -> float:
@@ -441,7 +474,7 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
     say(f"{len(tp)} cutter locations reached at {len(theta)} angles")
     at = _evaluated(tp, settings.eval_spacing)
     heading = None if settings.feed == "x" else tp.heading()[at]
-    grids = _tip_modes(robot, predictor, tp, reach, at).depths_at(cutting, speeds, heading=heading)
+    grids = _tip_modes(robot, predictor, tp, reach, at, settings).depths_at(cutting, speeds, heading=heading)
     arc = tp.arc_length()
 
     def spread(a):
@@ -470,16 +503,19 @@ def plan_path(robot, predictor, toolpath: ToolPath, *, speed_rpm, depth: float |
                   else None)
     return PathPlan(tp, reach, depths, planned, fixed, pointwise, depth, float(depths.speed_rpm), _stage_seconds(t),
                     hull, speed_scan=speed_scan, best_fixed=best_fixed, cutting=cutting, feed=settings.feed,
-                    reorientation=turned)
+                    reorientation=turned, exact_modes=settings.exact_modes, f_max=settings.f_max)
 
 
-def _tip_modes(robot, predictor, tp: ToolPath, reach: Reach, at: np.ndarray):
+def _tip_modes(robot, predictor, tp: ToolPath, reach: Reach, at: np.ndarray, settings: PlanSettings):
     """The tool tip's modes at the evaluated locations ``at`` (indices into ``tp``) and every
-    angle: predicted, or the robot's exact ones at the reach's joint commands (None predictor)."""
+    angle: predicted, or the robot's exact ones at the reach's joint commands (None predictor;
+    the bands' or every mode below ``settings.f_max``, ``settings.exact_modes``)."""
     theta = np.asarray(reach.theta, float)
     if predictor is not None:
         return predicted_modes(predictor, tp.xy[at], theta)
     sub = Reach(reach.theta, reach.q[at], reach.ok[at], reach.limit_margin[at], reach.sigma_min[at])
+    if settings.exact_modes == "all":
+        return exact_modes(robot, tp.xy[at], theta, reach=sub, bands=ALL_MODES, f_max=settings.f_max)
     return exact_modes(robot, tp.xy[at], theta, reach=sub)
 
 
@@ -518,7 +554,8 @@ def _best_speed(grids, spread, reach: Reach, settings: PlanSettings, dt: np.ndar
         margin = np.where(reach.ok, depths.a_lim, -np.inf)
         planned = plan_schedule(margin, theta, q=reach.q, max_step=1, max_dq=max_dq, ramp=ramp,
                                 dt=dt, max_ddq=settings.max_joint_accel, max_dddq=settings.max_joint_jerk,
-                                corners=corners)
+                                corners=corners, max_rate=settings.max_joint_rate,
+                                min_turn_gain=settings.min_turn_gain)
         scan.append(planned.min_margin)
         if best is None or planned.min_margin > best[1].min_margin:
             best = (depths, planned, margin)
