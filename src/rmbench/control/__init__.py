@@ -25,6 +25,7 @@ from rmbench.control.experiments import (eccentric_test, excitation_frequencies,
 from rmbench.control.identify import ModeFit, fit_mode, fit_modes, plant_from_frf
 from rmbench.control.plant import AXES, Plant, ReactionMass, reaction_mass, robot_plant, two_mass_plant
 from rmbench.control.postures import posture_for_mode_ratio
+from rmbench.control.sampled import SampledCertificate, certify_sampled, sampled_loop, sampled_radius, sampled_stable
 from rmbench.control.suppression import SuppressionTest, suppression_frequencies, suppression_test
 from rmbench.control.weights import Weights
 
@@ -36,4 +37,5 @@ __all__ = ["AXES", "Plant", "ReactionMass", "reaction_mass", "robot_plant", "two
            "eccentric_force_amplitude", "sine_sweep", "eccentric_test", "excitation_frequencies",
            "reduction_at", "settle_time", "posture_for_mode_ratio",
            "SuppressionTest", "suppression_test", "suppression_frequencies",
-           "AxesDesign", "design_axes", "plant_order", "controller_order"]
+           "AxesDesign", "design_axes", "plant_order", "controller_order",
+           "sampled_loop", "sampled_radius", "sampled_stable", "SampledCertificate", "certify_sampled"]

@@ -29,6 +29,7 @@ from rmbench.control.analysis import closed_loop_matrix
 from rmbench.control.controller import CONTROLLER_VERSION, Controller, write_npz
 from rmbench.control.design import controller_order, design
 from rmbench.control.plant import Plant, first_strong_mode
+from rmbench.control.sampled import sampled_radius
 from rmbench.control.weights import Weights
 from rmbench.errors import InputError
 from rmbench.plotting import axes_or_new
@@ -316,6 +317,12 @@ class Certificate:
     plants : str
         What the plants between the grid postures were: ``"model"`` (a plant at every point) or
         ``"interpolated"`` (:func:`blend_plants` of the grid plants).
+    loop : str
+        The loop whose stability is certified: ``"continuous"`` (plant and controller in continuous
+        feedback, ``max_real < 0``) or ``"sampled"`` (the hardware's sampled-data loop,
+        :mod:`rmbench.control.sampled`: ``spectral_radius < 1``; ``max_real`` kept for comparison).
+    spectral_radius : ndarray, shape (n,), or None
+        Of the sampled-data loop at each point (``loop == "sampled"`` only).
     """
 
     variables: np.ndarray
@@ -323,10 +330,19 @@ class Certificate:
     max_real: np.ndarray
     margin: np.ndarray
     plants: str
+    loop: str = "continuous"
+    spectral_radius: np.ndarray | None = None
+
+    @property
+    def unstable_points(self) -> np.ndarray:
+        """Whether each point's certified loop is unstable, shape (n,), bool."""
+        if self.loop == "sampled":
+            return self.spectral_radius >= 1.0
+        return self.max_real >= 0
 
     @property
     def stable(self) -> bool:
-        return bool(np.all(self.max_real < 0))
+        return not bool(np.any(self.unstable_points))
 
     @property
     def worst(self) -> int:
@@ -335,7 +351,10 @@ class Certificate:
 
     def headline(self) -> dict:
         """``{"stable", "min_margin", "points"}``: what a schedule file's ``meta`` keeps of it."""
-        return {"stable": self.stable, "min_margin": float(self.margin.min()), "points": len(self.margin)}
+        head = {"stable": self.stable, "min_margin": float(self.margin.min()), "points": len(self.margin)}
+        if self.loop == "sampled":  # a continuous certificate's headline stays as it was
+            head.update(loop="sampled", max_spectral_radius=float(self.spectral_radius.max()))
+        return head
 
     def to_dict(self) -> dict:
         """:meth:`headline`, the worst point and every point checked (scheduling variables in rad,
@@ -343,24 +362,34 @@ class Certificate:
         from rmbench.io.strict_json import jsonable
 
         w = self.worst
-        return jsonable({**self.headline(), "plants": self.plants,
-                         "worst": {"variables": self.variables[w], "on_grid": self.on_grid[w],
-                                   "max_real": self.max_real[w], "margin": self.margin[w]},
-                         "points_checked": [{"variables": v, "on_grid": g, "max_real": r, "margin": m}
-                                            for v, g, r, m in zip(self.variables, self.on_grid, self.max_real,
-                                                                  self.margin)]})
+        points = [{"variables": v, "on_grid": g, "max_real": r, "margin": m}
+                  for v, g, r, m in zip(self.variables, self.on_grid, self.max_real, self.margin)]
+        worst = {"variables": self.variables[w], "on_grid": self.on_grid[w], "max_real": self.max_real[w],
+                 "margin": self.margin[w]}
+        if self.loop == "sampled":
+            for pt, rho in zip(points, self.spectral_radius):
+                pt["spectral_radius"] = rho
+            worst["spectral_radius"] = self.spectral_radius[w]
+        return jsonable({**self.headline(), "plants": self.plants, "worst": worst, "points_checked": points})
 
     def summary(self) -> str:
         """Stable or not over how many points (on and between the grid postures), and where the
         loop margin is smallest (scheduling variables in degrees)."""
         w, n_grid = self.worst, int(self.on_grid.sum())
         where = ", ".join(f"{np.degrees(v):.1f}" for v in self.variables[w])
-        return "\n".join([
+        sampled = self.loop == "sampled"
+        lines = [
             f"certificate over {len(self.margin)} points ({n_grid} grid postures, {len(self.margin) - n_grid} "
-            f"between; plants {self.plants}): {'stable' if self.stable else 'UNSTABLE'}",
+            f"between; plants {self.plants}): {'stable' if self.stable else 'UNSTABLE'}"
+            + (" on the sampled-data loop" if sampled else ""),
             f"smallest loop margin {self.margin[w]:.3f} at ({where}) deg "
             f"({'a grid posture' if self.on_grid[w] else 'between grid postures'})",
-            f"largest closed-loop pole real part {self.max_real.max():.3g} 1/s"])
+            f"largest closed-loop pole real part {self.max_real.max():.3g} 1/s"
+            + (" (continuous loop)" if sampled else "")]
+        if sampled:
+            lines.append(f"sampled-data loop: largest spectral radius {self.spectral_radius.max():.6f}, "
+                         f"{int(self.unstable_points.sum())} point(s) unstable")
+        return "\n".join(lines)
 
     def plot(self, ax=None):
         """Loop margin at every point checked: over the scheduled joint's angle (deg) for a
@@ -372,7 +401,7 @@ class Certificate:
         """
         ax = axes_or_new(ax, (6, 4))
         deg = np.degrees(self.variables)
-        bad = self.max_real >= 0
+        bad = self.unstable_points
         if deg.shape[1] == 1:
             order = np.argsort(deg[:, 0])
             ax.plot(deg[order, 0], self.margin[order], "-", color="C0", label="loop margin")
@@ -391,7 +420,8 @@ class Certificate:
         return ax
 
 
-def certify(schedule: Schedule, grid_plants, *, dense: int = 3, plant_at=None, freq=None) -> Certificate:
+def certify(schedule: Schedule, grid_plants, *, dense: int = 3, plant_at=None, freq=None,
+            hardware=None) -> Certificate:
     """Check the scheduled loop's stability at the grid postures and densely between them.
 
     Parameters
@@ -408,6 +438,12 @@ def certify(schedule: Schedule, grid_plants, *, dense: int = 3, plant_at=None, f
         controllers (:func:`blend_plants`: their responses interpolated, realised in parallel).
     freq : array_like, optional
         Lines of the margin, Hz (default 0.5-200 Hz, 600 lines, log-spaced).
+    hardware : Hardware, optional
+        :class:`~rmbench.control.closed_loop.Hardware`: certify the sampled-data loop it runs
+        (:func:`~rmbench.control.sampled.sampled_radius`: sample rate, delay, hold, amplifier) at
+        every point, the continuous loop's poles kept beside it. Without it: the continuous loop.
+        The blended controller at a frozen posture is what the hardware runs there (its parts
+        stepped in Tustin form side by side, outputs weighted).
     """
     freq = np.geomspace(0.5, 200.0, 600) if freq is None else np.asarray(freq, float)
     grid_plants = list(grid_plants)
@@ -419,7 +455,7 @@ def certify(schedule: Schedule, grid_plants, *, dense: int = 3, plant_at=None, f
     points = np.stack([m.ravel() for m in mesh], axis=1)
     on_grid = np.array([all(np.any(np.isclose(v, g, rtol=0, atol=1e-12)) for v, g in zip(p, schedule.grid))
                         for p in points])
-    max_real, margin = [], []
+    max_real, margin, radius = [], [], []
     for p, grid_point in zip(points, on_grid):
         w = schedule.weights(p)
         if grid_point:
@@ -430,5 +466,8 @@ def certify(schedule: Schedule, grid_plants, *, dense: int = 3, plant_at=None, f
             pl = plant_at(p) if plant_at is not None else blend_plants(grid_plants, w)
         max_real.append(float(np.max(np.linalg.eigvals(closed_loop_matrix(pl, k)).real)))
         margin.append(loop_margin(pl, k, freq))
+        if hardware is not None:
+            radius.append(sampled_radius(pl, k, hardware))
     return Certificate(points, on_grid, np.array(max_real), np.array(margin),
-                       "model" if plant_at is not None else "interpolated")
+                       "model" if plant_at is not None else "interpolated",
+                       *(("sampled", np.array(radius)) if hardware is not None else ()))
