@@ -109,10 +109,18 @@ def _digest() -> str:
 
 
 def _toml(robot: str, postures, method: str, seed: int, commands_from: str | None, *, placement=None,
-          rpm: float = 0.0) -> str:
+          rpm: float = 0.0, bands: dict | None = None) -> str:
+    """The campaign's TOML: ``seed_full``'s bands, each updated by ``bands`` where given
+    (``{"high": {"f_max": 3500.0, "pulse_ms": 0.25}}``: band keys, and the hammer's ``pulse_ms``,
+    ``peak_n``)."""
     from rmbench.impact import load_config
 
     base = load_config("seed_full")
+    for band, edits in (bands or {}).items():
+        b = base.bands[band]
+        hammer = b.hammer.model_copy(update={k: v for k, v in edits.items() if k in ("pulse_ms", "peak_n")})
+        b = b.model_copy(update={k: v for k, v in edits.items() if k not in ("pulse_ms", "peak_n")} | {"hammer": hammer})
+        base.bands[band] = b
     rows = ", ".join(f"[{1e3 * p.x:.6g}, {1e3 * p.y:.6g}, {np.degrees(p.theta):.6g}]" for p in postures)
     lines = ['name = "calibration bench"', f"seed = {seed}", f'method = "{method}"', "[robot]",
              f'name = "{robot}"', 'tool = "dummy"' if commands_from is None else ""]
@@ -134,21 +142,22 @@ def _toml(robot: str, postures, method: str, seed: int, commands_from: str | Non
 
 
 def measure(truth_xml: str, postures, method: str, seed: int, workers: int, tmp: Path, *, placement=None,
-            rpm: float = 0.0, fit: bool = True):
+            rpm: float = 0.0, fit: bool = True, bands: dict | None = None):
     """Campaign on the truth, through UFF58, as the experimenter's data (ModalData, fitted; or
-    the FRF dataset read back, ``fit=False``)."""
+    the FRF dataset read back, ``fit=False``); ``bands`` edits the bands (:func:`_toml`)."""
     from rmbench.impact import open_campaign, parse_config, run_campaign
     from rmbench.io import read_uff58, write_uff58
 
     path = tmp / "real.xml"
     path.write_text(truth_xml)
-    true_toml = _toml(str(path), postures, method, seed, commands_from="irb6660", placement=placement, rpm=rpm)
+    true_toml = _toml(str(path), postures, method, seed, commands_from="irb6660", placement=placement, rpm=rpm,
+                      bands=bands)
     run_campaign(parse_config(true_toml), tmp / "measured.nc", toml=true_toml, workers=workers, progress=False)
     ds = open_campaign(tmp / "measured.nc")
     if "ok" in ds.coords and not ds.ok.values.all():
         raise RuntimeError("the real robot could not hold a posture")
     ds.attrs.clear()
-    ds.attrs["config"] = _toml("irb6660", postures, method, seed, None)
+    ds.attrs["config"] = _toml("irb6660", postures, method, seed, None, bands=bands)
     write_uff58(ds[["H"]], tmp / "uff")
     back = read_uff58(tmp / "uff")
     if not fit:

@@ -29,7 +29,7 @@ HEAVIEST_FIRST = ("test_parallel.py", "test_report.py", "test_bench_truth.py", "
                   "test_blind_tracker.py", "test_impact_campaign.py", "test_gap_tracker.py", "test_calibrate.py",
                   "test_path_low_speed.py", "test_demo_low_speed.py", "test_truth_vs_time.py", "test_path_exact_all.py", "test_stability.py", "test_predict_gauge.py",
                   "test_threads.py", "test_modal_campaign.py", "test_modal_fit.py", "test_cli_campaign.py",
-                  "test_control_cli.py", "test_control_loop.py", "test_modal_robust.py", "test_predict_baselines.py",
+                  "test_control_cli.py", "test_control_loop.py", "test_control_sampled.py", "test_modal_robust.py", "test_predict_baselines.py",
                   "test_control_design.py", "test_truth_structural.py")
 
 
