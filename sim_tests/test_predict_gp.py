@@ -237,12 +237,15 @@ def test_seed_groups_follow_the_seeds_rule():
 @pytest.mark.slow
 def test_cross_validation_scores_every_gp_learner_on_a_smooth_dependence():
     """Noise-free smooth functions on the seed's grid: CV R² above 0.999 for the STGPs, the grouped
-    and the Kronecker MTGP (the grid resolves them; GPs interpolate smooth functions almost exactly)."""
+    and the Kronecker MTGP (the grid resolves them; GPs interpolate smooth functions almost exactly).
+    Three folds: every posture is still predicted once held out, each model learning from two
+    thirds of the grid rather than four fifths, a harder test of the same interpolation (1 - R² is
+    1e-7 to 1e-6 with either) at 3/5 of the fits."""
     X = _grid()
     Y = np.column_stack([_smooth(X), 0.01 * _smooth(X) ** 2, np.cos(X[:, 0] + X[:, 2])])
     ts = TrainingSet(X, Y, ("mode0:f_n", "mode1:f_n", "mode0:zeta"), ("low", "low", "low"))
     for learner in ("stgp", "mtgp-grouped", "mtgp"):
-        cv = cross_validate(ts, learner)
+        cv = cross_validate(ts, learner, folds=3)
         assert np.all(cv.r2_mean > 0.999), learner
         assert np.all(np.isfinite(cv.predictions))
 

@@ -118,11 +118,12 @@ def _with_form(plain, kind):
     return replace(plain, xml=ET.tostring(root, encoding="unicode"), form=(error.to_dict(),))
 
 
-def _diagnosed(robot, rng=None):
-    """The calibrated diagnosis of ``robot``'s readings over the bench's campaign (noise-free, or
-    with the robot's noise drawn from ``rng``), and the readings ``(q, y, order, t)``."""
+def _diagnosed(robot, rng=None, n_config=250):
+    """The calibrated diagnosis of ``robot``'s readings over the bench's campaign of ``n_config``
+    configurations (noise-free, or with the robot's noise drawn from ``rng``), and the readings
+    ``(q, y, order, t)``."""
     nominal = Robot.load("mh180")
-    q, order, previous = campaign(np.random.default_rng(5))
+    q, order, previous = campaign(np.random.default_rng(5), n_config=n_config)
     t = np.arange(len(q)) * 15.0
     y = Reader(robot).positions(q, previous, t, rng)
     cov = default_covariance(nominal, q, y)
@@ -137,9 +138,12 @@ def test_a_form_error_beyond_the_trackers_noise_is_called_model_form(plain):
     # model far off at the held-out configurations; no source of the library explains it (the
     # payload and gear harmonics it takes leave the gap). At the median size the same sag stays
     # inside the tracker's noise model (25-40 µm at 3-5 m with the calibration's uncertainty
-    # carried): held-out χ² 45 on 750 residuals, and no test can call it
+    # carried): held-out χ² 45 on 750 residuals, and no test can call it. Half the bench's
+    # campaign (125 configurations read twice): the sag leaves χ² about 6 per held-out residual
+    # whatever their number (4500 on 750 with 250, 2200 on 372 here, against noise's n ± √(2n)),
+    # and the search takes the same payload and gear harmonics and leaves the gap (half the CPU)
     sag = {"kind": "reflector_sag", "location": "tool", "size": {"per_g": 500e-6}}
-    dg, _ = _diagnosed(replace(plain, form=(sag,)))
+    dg, _ = _diagnosed(replace(plain, form=(sag,)), n_config=125)
     assert dg.verdict == "model form" and dg.form["flagged"]
 
 
