@@ -259,6 +259,10 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
                   progress=None) -> PathMilling:
     """Mill at sampled locations of one of a plan's schedules.
 
+    A plan fed along the path (``plan.feed == "path"``) is milled with each cut's feed along the
+    path's direction there (module notes); ``PathMilling.heading`` records it. A schedule with
+    standing turns is cut between its corners, never through one (:func:`cut_stretch`).
+
     Parameters
     ----------
     robot : rmbench.robot.Robot
@@ -283,10 +287,6 @@ def mill_schedule(robot, plan, *, depth: float, schedule: str = "planned", cutti
         Feed, m/s, where the path programs none (the planner's default).
     progress : callable, optional
         Called with each finished cut's position (0-based).
-
-    A plan fed along the path (``plan.feed == "path"``) is milled with each cut's feed along the
-    path's direction there (module notes); ``PathMilling.heading`` records it. A schedule with
-    standing turns is cut between its corners, never through one (:func:`cut_stretch`).
     """
     from rmbench.stability.cutting import ALUMINIUM_6061
 
