@@ -1,6 +1,6 @@
-"""Low-speed tool-path planning on drawn robots (issue 82): the redundant angle where the robot's own
-modes set the chatter limit, planned from a lab's campaign of the robot that mills, scored on its
-exact model and by milling it.
+"""Low-speed tool-path planning on drawn robots (issue 82): the redundant angle in steel at 300-3,000
+rev/min, planned from a lab's campaign of the robot that mills, scored on its exact model and by
+milling it.
 
 Per drawn robot ``i`` of ``--robots`` (``rng = default_rng([seed, i])``):
 
