@@ -295,8 +295,9 @@ def test_path_plan_refuses_a_bad_reorient_in_one_line(tmp_path):
 
 
 @pytest.mark.parametrize("option, value, message", [("--min-turn-gain", "-5", "--min-turn-gain must be a percentage"),
-                                                    ("--exact-modes", "every", "--exact-modes must be bands or all")],
-                         ids=["min-turn-gain", "exact-modes"])
+                                                    ("--exact-modes", "every", "--exact-modes must be bands or all"),
+                                                    ("--speed-by", "rate", "--speed-by must be depth or removal")],
+                         ids=["min-turn-gain", "exact-modes", "speed-by"])
 def test_path_plan_refuses_a_bad_turn_gain_or_exact_modes_in_one_line(tmp_path, option, value, message):
     code, out, err = _main(["path", "plan", "contour", "--predictor", str(tmp_path / "none.npz"), "--speed", "400",
                             f"{option}={value}"])

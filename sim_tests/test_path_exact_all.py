@@ -16,7 +16,7 @@ import pytest
 from rmbench.errors import InputError
 from rmbench.io.toolpath import ToolPath
 from rmbench.path import PlanSettings, exact_modes, load_plan, mill_schedule, plan_path, save_plan
-from rmbench.path.planner import EXACT_MODES
+from rmbench.path.planner import EXACT_MODES, SPEED_BY
 from rmbench.robot import Robot
 from rmbench.stability import STEEL_C45
 
@@ -104,3 +104,25 @@ def test_milling_reference_is_the_plans_own_exact_depth_along_the_feed(endmill, 
 def test_a_saved_plan_keeps_the_modes_it_saw(every, tmp_path):
     plan, _ = load_plan(save_plan(every, tmp_path / "plan.npz"))
     assert (plan.exact_modes, plan.f_max) == ("all", 8000.0)
+
+
+# -- the speed kept: by depth or by removal rate -------------------------------------------------------
+def test_by_removal_the_faster_speed_is_kept_where_its_depth_falls_less_than_the_speed_rises():
+    """Aluminium slot on the dummy tool at (1550-1650, 0): 15,000 rev/min keeps the larger smallest
+    depth, 16,000 a depth under 7 % smaller, so a removal rate (depth x speed) about 5 % larger."""
+    dummy = Robot.load("irb6660", tool="dummy")
+    xy = np.array([[1.55, 0.0], [1.65, 0.0]])
+    tp = ToolPath(xy, np.full(2, -2e-3), np.full(2, 0.05), np.full(2, np.nan), np.array([False, True]),
+                  np.arange(1, 3))
+    plans = {by: plan_path(dummy, None, tp, speed_rpm=[15000.0, 16000.0], settings=PlanSettings(
+        theta=tuple(np.radians([-30.0, 0.0, 30.0])), spacing=50e-3, eval_spacing=50e-3, speed_by=by))
+        for by in SPEED_BY}
+    a = np.array(plans["depth"].speed_scan["min_alim"])
+    assert a[0] > a[1] and 16000 * a[1] > 15000 * a[0]
+    assert plans["depth"].speed_rpm == 15000.0 and plans["removal"].speed_rpm == 16000.0
+
+
+def test_depth_is_the_default_speed_choice_and_a_bad_one_is_one_line_input_error():
+    assert PlanSettings().speed_by == "depth" and SPEED_BY == ("depth", "removal")
+    with pytest.raises(InputError, match="depth or removal"):
+        PlanSettings(speed_by="rate")

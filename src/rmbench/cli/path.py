@@ -36,6 +36,9 @@ def register(sub) -> None:
                    help="how θ changes: ramps of one angle step while cutting (the default), or also any turn at a "
                         "corner (the heading turning by more than 30°), the feed stopped and the tool standing while "
                         "the joints move at their limits (the dwell is reported: a standing tool rubs)")
+    p.add_argument("--speed-by", default="depth", metavar="depth|removal",
+                   help="among several speeds keep the one with the largest smallest critical depth (the default) "
+                        "or with the largest removal rate (that depth times the speed)")
     p.add_argument("--min-turn-gain", type=float, default=5.0, metavar="PCT",
                    help="with --reorient corners: the least rise of the smallest critical depth over ramps alone "
                         "that standing turns must buy, else none is taken, %% (default 5)")
@@ -126,7 +129,7 @@ def _settings(args):
     """The planner's settings from the options (mm and degrees to m and rad; it checks them)."""
     import numpy as np
 
-    from rmbench.path import EXACT_MODES, FEEDS, REORIENTS, PlanSettings
+    from rmbench.path import EXACT_MODES, FEEDS, REORIENTS, SPEED_BY, PlanSettings
 
     if args.feed not in FEEDS:
         raise InputError(f"--feed must be {' or '.join(FEEDS)}, got {args.feed!r}")
@@ -134,13 +137,15 @@ def _settings(args):
         raise InputError(f"--reorient must be {' or '.join(REORIENTS)}, got {args.reorient!r}")
     if args.exact_modes not in EXACT_MODES:
         raise InputError(f"--exact-modes must be {' or '.join(EXACT_MODES)}, got {args.exact_modes!r}")
+    if args.speed_by not in SPEED_BY:
+        raise InputError(f"--speed-by must be {' or '.join(SPEED_BY)}, got {args.speed_by!r}")
     if not args.min_turn_gain >= 0:
         raise InputError(f"--min-turn-gain must be a percentage >= 0, got {args.min_turn_gain!r}")
     return PlanSettings(theta=tuple(_theta(args)), fixed_theta=float(np.radians(args.fixed_theta)),
                         spacing=1e-3 * args.spacing, max_joint_rate=float(np.radians(args.max_joint_rate)),
                         ramp_length=1e-3 * args.ramp, max_joint_accel=float(np.radians(args.max_joint_accel)),
                         feed=args.feed, reorient=args.reorient, min_turn_gain=1e-2 * args.min_turn_gain,
-                        exact_modes=args.exact_modes)
+                        exact_modes=args.exact_modes, speed_by=args.speed_by)
 
 
 def _cutting(args):

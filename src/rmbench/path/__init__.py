@@ -38,14 +38,14 @@ from rmbench.path.margin import (DepthBand, DepthGrid, TipModes, depth_band, exa
                                  predicted_modes)
 from rmbench.path.plan import Schedule, best_fixed_schedule, fixed_schedule, plan_schedule, pointwise_schedule
 from rmbench.path.milling import PathMilling, mill_schedule, sample_locations
-from rmbench.path.planner import CUTTINGS, EXACT_MODES, FEEDS, RANGE_SPEEDS, REORIENTS, PathPlan, PlanSettings, plan_path, with_band
+from rmbench.path.planner import CUTTINGS, EXACT_MODES, FEEDS, RANGE_SPEEDS, SPEED_BY, REORIENTS, PathPlan, PlanSettings, plan_path, with_band
 from rmbench.path.plan_file import load_plan, save_plan
 from rmbench.path.reach import Reach, reach_grid
 
 __all__ = ["ChainResult", "tool_structures", "predicted_tool_structures", "predicted_lobes", "EXAMPLES",
            "example", "Reach", "reach_grid", "Schedule", "plan_schedule", "fixed_schedule", "best_fixed_schedule", "pointwise_schedule",
            "DepthBand", "DepthGrid", "TipModes", "depth_band", "predicted_modes", "exact_modes", "predicted_depths", "exact_depths", "PathPlan", "PlanSettings", "plan_path", "with_band", "save_plan", "load_plan",
-           "CUTTINGS", "FEEDS", "RANGE_SPEEDS", "REORIENTS", "EXACT_MODES",
+           "CUTTINGS", "FEEDS", "RANGE_SPEEDS", "REORIENTS", "EXACT_MODES", "SPEED_BY",
            "PathMilling", "mill_schedule", "sample_locations"]
 
 #: the bundled tool paths, on the seed's workpiece plane
