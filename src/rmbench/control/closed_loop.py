@@ -11,7 +11,9 @@ nonlinear MuJoCo model at the operating point's equilibrium, integrated by semi-
 2 kHz). MuJoCo's constraints are off (no contacts, no joint limits: they would cost half the
 speed); the stages' end stops are stiff damped springs beyond ±stroke instead, applied here, so a
 run that asks for more travel than the stage has hits them, with the acceleration spikes that
-brings (``end_stop`` in the record: the fraction of samples at a stop).
+brings (``end_stop`` in the record: the fraction of samples at a stop). With
+``Hardware.anti_windup`` the controller's state follows the force the limit let through
+(:mod:`rmbench.control.antiwindup`), not the command it asked for.
 
 Disturbances: the disturbance voice coils ``shaker_<axis>`` (a force history per sample, N; ``d``
 on the robot is minus the coil force), and the spindle turning its eccentric mass at a constant
@@ -31,6 +33,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from rmbench.control.antiwindup import observer_gain
 from rmbench.control.controller import Controller
 from rmbench.control.plant import AXES, axis_directions
 from rmbench.control.schedule import Schedule
@@ -83,6 +86,15 @@ class Hardware:
         Fractions of the stroke.
     guard_rest, guard_fade : float
         Seconds.
+    force_limit : float or None
+        The amplifier's current limit as a coil force, N, on the dynamic part (the static gravity
+        share rides on top); None: the coil's own range (the MJCF ``ctrlrange``) alone.
+    anti_windup : bool
+        Observer-form anti-windup (:func:`rmbench.control.antiwindup.observer_gain`): each
+        controller's state is corrected by ``L (u_sat − u)``, ``u_sat`` the force the coil's range
+        and ``force_limit`` let through (the stroke guard's fade is a deliberate gain, not a limit:
+        the correction is taken per unit of that gain, and the guard's reset covers a full fade).
+        Off by default: the loop is then exactly the plain controller.
     """
 
     fs: float = 2000.0
@@ -99,11 +111,14 @@ class Hardware:
     guard_rearm: float = 0.3
     guard_rest: float = 0.5
     guard_fade: float = 0.05
+    force_limit: float | None = None
+    anti_windup: bool = False
 
     def __post_init__(self):
         if not (self.fs > 0 and self.substeps >= 1 and self.delay_samples >= 0 and self.amp_bandwidth > 0
                 and self.acc_noise >= 0 and self.encoder_resolution >= 0
-                and 0 < self.guard_rearm < self.guard_trip and self.guard_rest >= 0 and self.guard_fade > 0):
+                and 0 < self.guard_rearm < self.guard_trip and self.guard_rest >= 0 and self.guard_fade > 0
+                and (self.force_limit is None or self.force_limit > 0)):
             raise InputError(f"invalid hardware settings: {self}")
 
 
@@ -135,6 +150,8 @@ class LoopRecord:
         Times the stroke guard took the controller out (:class:`Hardware`).
     guard_off : float
         Fraction of samples with the controller faded (partly or wholly) out by the guard.
+    saturation_events : int
+        Times the command went into the force limit (runs of saturated samples).
     """
 
     t: np.ndarray
@@ -149,6 +166,7 @@ class LoopRecord:
     q_arm: np.ndarray | None = None
     guard_trips: int = 0
     guard_off: float = 0.0
+    saturation_events: int = 0
 
     @property
     def stroke_exceeded(self) -> bool:
@@ -168,8 +186,8 @@ class LoopRecord:
     def to_dict(self) -> dict:
         """The run's figures as strict JSON values (the traces left out): duration (s), rms and
         peak acceleration per recorded axis (m/s²), peak force (N), stroke used, end-stop and
-        saturated fractions, stroke-guard trips and faded fraction, real-time factor (None if
-        unmeasured)."""
+        saturated fractions, saturation events, stroke-guard trips and faded fraction, real-time
+        factor (None if unmeasured)."""
         from rmbench.io.strict_json import jsonable
 
         return jsonable({"duration_s": self.duration, "samples": len(self.t), "axes": list(self.axes),
@@ -177,18 +195,21 @@ class LoopRecord:
                          "acc_peak": {a: float(np.abs(self.acc[:, i]).max()) for i, a in enumerate(self.axes)},
                          "force_max": float(np.abs(self.force).max(initial=0.0)),
                          "stroke_used": self.stroke_used, "end_stop": self.end_stop, "saturated": self.saturated,
+                         "saturation_events": self.saturation_events,
                          "guard_trips": self.guard_trips, "guard_off": self.guard_off,
                          "realtime_factor": self.realtime_factor})
 
     def summary(self) -> str:
         """Duration, rms acceleration per axis (m/s²), and the suppressor's use: peak force (N),
-        stroke (% of ±stroke), end-stop and saturated samples (%), guard trips; real-time factor."""
+        stroke (% of ±stroke), end-stop and saturated samples (%) and saturation events, guard trips;
+        real-time factor."""
         d = self.to_dict()
         acc = ", ".join(f"{a} {v:.4g}" for a, v in d["acc_rms"].items())
         return "\n".join([
             f"{d['duration_s']:.3g} s closed loop ({d['samples']} samples); acceleration rms {acc} m/s²",
             f"peak force {d['force_max']:.1f} N, stroke used {100 * self.stroke_used:.0f} % of ±stroke, "
-            f"at an end stop {100 * self.end_stop:.1f} % and saturated {100 * self.saturated:.1f} % of samples, "
+            f"at an end stop {100 * self.end_stop:.1f} % and saturated {100 * self.saturated:.1f} % of samples "
+            f"({self.saturation_events} saturation event(s)), "
             f"stroke guard tripped {self.guard_trips} time(s); {self.realtime_factor:.1f}x real time"])
 
     def plot(self, ax=None):
@@ -266,10 +287,13 @@ class _Coils:
         joints = [_joint(m, f"pm_{a}") for a in axes]
         self.pm_adr = np.array([m.jnt_qposadr[j] for j in joints], int)
         self.pm_dof = np.array([m.jnt_dofadr[j] for j in joints], int)
-        self.lo, self.hi = m.actuator_ctrlrange[self.vc, 0], m.actuator_ctrlrange[self.vc, 1]
         stroke = np.array([max(abs(m.jnt_range[j])) for j in joints])
         self.stroke = np.where(stroke > 0, stroke, np.inf)        # m; inf where the joint has no range
         self.base = ctrl0[self.vc]                                # the static (gravity) share, N
+        self.lo, self.hi = m.actuator_ctrlrange[self.vc, 0], m.actuator_ctrlrange[self.vc, 1]
+        if hw.force_limit is not None:
+            self.lo = np.maximum(self.lo, self.base - hw.force_limit)
+            self.hi = np.minimum(self.hi, self.base + hw.force_limit)
         self.alpha = 1.0 - np.exp(-2 * np.pi * hw.amp_bandwidth / (hw.fs * hw.substeps))
         self.f_app = np.zeros(len(axes))                          # dynamic force applied, N
         self.at_stop = False
@@ -330,11 +354,14 @@ class _Controllers:
     """The controllers (one, or a schedule's) stepped side by side at ``fs`` on the same measurements,
     their outputs blended by the schedule's weights of the measured joint angles."""
 
-    def __init__(self, controller: Controller | Schedule, fs: float, arm_adr: np.ndarray):
+    def __init__(self, controller: Controller | Schedule, fs: float, arm_adr: np.ndarray, anti_windup: bool):
         self.k_ax = len(controller.axes)
         parts = controller.controllers if isinstance(controller, Schedule) else (controller,)
+        disc = [c.discretize(fs) for c in parts]
         # [u_1 … u_N; x+] = step_mat @ [x; y]
-        self.step_mat, self.n_k, self.n_parts = _stacked_step(parts, fs, self.k_ax)
+        self.step_mat, self.n_k, self.n_parts = _stacked_step(disc, self.k_ax)
+        # every part is corrected by the blended command's excess, so an unsaturated loop is untouched
+        self.aw = np.vstack([observer_gain(*d) for d in disc]) if anti_windup else None
         self.z = np.zeros(self.n_k + 2 * self.k_ax)
         self.blend = np.ones(1)
         self.schedule = controller if isinstance(controller, Schedule) else None
@@ -356,6 +383,10 @@ class _Controllers:
 
     def reset(self) -> None:
         self.z[:self.n_k] = 0.0
+
+    def unwind(self, excess: np.ndarray) -> None:
+        """Anti-windup: correct the state just advanced by ``L (u_sat − u)``, ``excess`` (k_ax,) N."""
+        self.z[:self.n_k] += self.aw @ excess
 
 
 def _spindle(m, d, spindle_hz: float | None):
@@ -406,7 +437,7 @@ class _Rig:
         self.spin = _spindle(m, d, spindle_hz)
         self.arm_act, self.arm_adr = _arm(m, op.robot.arm_joints)
         self.q_cmd_t = _commands(trajectory, op, len(self.arm_act), n, hw.fs)
-        self.loop = _Controllers(controller, hw.fs, self.arm_adr) if controller is not None else None
+        self.loop = _Controllers(controller, hw.fs, self.arm_adr, hw.anti_windup) if controller is not None else None
         self.guard = _Guard(hw) if hw.guard and self.loop is not None else None
 
     def command(self, k: int, y_acc: np.ndarray, p: np.ndarray, u_hist: np.ndarray) -> tuple[np.ndarray, bool]:
@@ -421,7 +452,10 @@ class _Rig:
             if guard.step(float(np.max(np.abs(p) / self.coils.stroke))):
                 loop.reset()
             gain = guard.gain
-        u_hist[k + self.hw.delay_samples] = gain * u
+        v = u_hist[k + self.hw.delay_samples] = gain * u
+        if loop.aw is not None and gain > 0:
+            # the limit is static, so the force this command will get is known now, delay or not
+            loop.unwind((self.coils.target(v)[0] - v) / gain)
         return self.coils.target(u_hist[k])
 
 
@@ -458,19 +492,20 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
     rig = _Rig(op, controller, n, hw, shaker, spindle_hz, tuple(record_axes), trajectory)
     noise = np.random.default_rng(seed).normal(0.0, hw.acc_noise, (n, rig.k_ax)) + hw.acc_bias
     t0 = time.perf_counter()
-    acc_all, pos, force, q_arm, sat, stops = _simulate(rig, noise)
+    acc_all, pos, force, q_arm, sat, events, stops = _simulate(rig, noise)
     if not np.isfinite(acc_all).all():
         raise LoopDiverged("the closed loop diverged")
     wall = time.perf_counter() - t0
     used = float(np.max(np.abs(pos) / rig.coils.stroke)) if rig.k_ax else 0.0
     guard = rig.guard
     return LoopRecord(np.arange(n) / hw.fs, rig.record_axes, acc_all[:, :rig.n_rec], pos, force, sat / n, used,
-                      stops / n, wall, q_arm, guard.trips if guard else 0, guard.off / n if guard else 0.0)
+                      stops / n, wall, q_arm, guard.trips if guard else 0, guard.off / n if guard else 0.0, events)
 
 
 def _simulate(rig: _Rig, noise: np.ndarray):
     """The sample loop: accelerations (n, n_rec + k_ax) m/s², positions and forces (n, k_ax) m and N,
-    arm angles (n, n_arm) rad or None, and the counts of saturated and end-stop samples."""
+    arm angles (n, n_arm) rad or None, the count of saturated samples, of saturation events (runs of
+    them) and of end-stop samples."""
     m, d, hw, n, coils, loop = rig.m, rig.d, rig.hw, rig.n, rig.coils, rig.loop
     k_ax, n_rec, adr, E_all, c0, pm_adr = rig.k_ax, rig.n_rec, rig.adr, rig.E_all, rig.c0, coils.pm_adr
     shake_idx, shake_f, shake_base, spin = rig.shake_idx, rig.shake_f, rig.shake_base, rig.spin
@@ -480,7 +515,8 @@ def _simulate(rig: _Rig, noise: np.ndarray):
     force = np.empty((n, k_ax))
     q_arm = np.empty((n, len(rig.arm_adr))) if rig.q_cmd_t is not None else None
     sens, qpos, ctrl = d.sensordata, d.qpos, d.ctrl
-    sat = stops = 0
+    sat = events = stops = 0
+    clipped = False
     for k in range(n):
         a = E_all @ sens[adr:adr + 3] - c0
         acc_all[k] = a
@@ -490,8 +526,10 @@ def _simulate(rig: _Rig, noise: np.ndarray):
             ctrl[rig.arm_act] = rig.q_cmd_t[k]
             q_arm[k] = qpos[rig.arm_adr]
         if loop is not None:
+            was = clipped
             target, clipped = rig.command(k, a[n_rec:] + noise[k], p, u_hist)
             sat += clipped
+            events += clipped and not was
         for _ in range(hw.substeps):
             if loop is not None:
                 coils.substep(target)
@@ -504,13 +542,13 @@ def _simulate(rig: _Rig, noise: np.ndarray):
         stops += coils.at_stop
         if k % 256 == 0 and (not np.isfinite(d.qacc).all() or (k_ax and np.abs(qpos[pm_adr]).max() > 1.0)):
             raise LoopDiverged(f"the closed loop diverged at t = {k / hw.fs:.3f} s")
-    return acc_all, pos, force, q_arm, sat, stops
+    return acc_all, pos, force, q_arm, sat, events, stops
 
 
-def _stacked_step(parts, fs: float, k_ax: int) -> tuple[np.ndarray, int, int]:
+def _stacked_step(disc, k_ax: int) -> tuple[np.ndarray, int, int]:
     """One step matrix for controllers running side by side on the same measurements:
-    ``[u_1; …; u_N; x+] = M @ [x; y]`` with the Tustin forms of each, and the total state count."""
-    disc = [c.discretize(fs) for c in parts]
+    ``[u_1; …; u_N; x+] = M @ [x; y]`` from the discrete forms ``(Ad, Bd, Cd, Dd)`` of each, and the
+    total state count."""
     n_k = sum(d[0].shape[0] for d in disc)
     N = len(disc)
     M = np.zeros((N * k_ax + n_k, n_k + 2 * k_ax))
