@@ -122,8 +122,8 @@ def demo_low_speed(out: Path, page) -> None:
 
     print(f"\nlow-speed tool path: the same contour in steel C45 (6 teeth, half immersion, climb), "
           f"{LOW_SPEEDS} speeds over 300-3,000 rev/min, the feed along the path, θ every {LOW_THETA_DEG[2]:g} "
-          "degrees from -60 to 60 and turned at the corners with the tool standing; planned on the exact model "
-          "(the robot's own modes, where they set the limit)")
+          "degrees from -60 to 60 and turned at the corners with the tool standing; planned on every mode of the "
+          "exact model below 8 kHz, the tool's included (those the milling sees)")
     robot = Robot.load("irb6660", tool="dummy")
     plan = low_speed_plan(robot)
     _print_low_speed(plan)
