@@ -76,8 +76,12 @@ def test_tune_linear_grid_tabulates_every_case(cli, tmp_path):
 GRID = """axes = ["tangential"]
 hold = "j5"
 duration = 24.0
+reach = 3.0
 [joints]
 j2 = [-5.0, 10.0]
+[span]
+j1 = 180.0
+j4 = 10.0
 """
 
 
@@ -110,6 +114,21 @@ def test_run_along_a_trajectory_reports_the_reduction_over_the_move(cli, schedul
     # the static designs reach ~85 % at their own postures; over a move through the grid the
     # windowed energy at the mode keeps most of it (the bench measures the drop; here: it works)
     assert code == 0 and data["reduction"] > 0.6 and data["saturated"] == 0 and data["transient"] < 1
+
+
+def test_schedule_keeps_the_grid_files_reach_and_span(scheduled):
+    from rmbench.control.schedule import Schedule
+
+    sch = Schedule.load(scheduled / "k.npz")
+    np.testing.assert_allclose(np.degrees(sch.reach), [3.0])
+    np.testing.assert_allclose(np.degrees(sch.span), [180.0, 0, 0, 10.0, 0, 0])
+
+
+def test_a_move_leaving_the_schedules_span_is_refused_before_it_runs(cli, scheduled):
+    (scheduled / "far.csv").write_text("t_s,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n"
+                                       "0,0,-5,0,0,95,0\n6,0,-5,0,25,95,0\n")
+    code, _, err = cli("control", "run", scheduled / "k.npz", "--trajectory", scheduled / "far.csv")
+    assert code == 2 and "J4 departs +25.0 deg" in err and len(err.strip().splitlines()) == 1
 
 
 def test_schedule_without_a_trajectory_is_a_one_line_error(cli, scheduled):

@@ -113,6 +113,50 @@ def test_grid_posture_turns_the_hold_joint_against_the_scheduled_ones():
     np.testing.assert_allclose(q, [0, 0.1, 0.2, 0, 1.2, 0])  # J2 + J3 + J5 unchanged: spindle keeps its tilt
 
 
+# -- where the schedule vouches for its loop ---------------------------------------------------------
+def limited(sch):
+    """``sch`` vouching for 5 deg beyond its grid and for J1 anywhere, J4 within 15 deg."""
+    from dataclasses import replace
+
+    return replace(sch, reach=(np.radians(5.0),) * 2, span=tuple(np.radians([180.0, 0, 0, 15.0, 0, 0])))
+
+
+def test_a_posture_in_the_extrapolation_ring_is_covered(schedule):
+    sch = limited(schedule[0])
+    q = sch.posture(np.radians([23.0, 0.0]))  # 3 deg past J2's edge, inside the 5 deg reach
+    assert sch.refusal(q) is None
+
+
+def test_a_posture_past_the_reach_is_refused_naming_the_joint(schedule):
+    sch = limited(schedule[0])
+    with pytest.raises(InputError, match=r"J2 at 27\.0 deg lies 7\.0 deg beyond .* reach of 5\.0 deg"):
+        sch.check(sch.posture(np.radians([27.0, 0.0])))
+
+
+def test_an_unscheduled_joint_past_its_span_is_refused(schedule):
+    sch = limited(schedule[0])
+    q = sch.posture(np.radians([0.0, 0.0]))
+    q[3] += np.radians(20.0)  # J4 20 deg off against 15 allowed
+    assert "J4 departs +20.0 deg" in sch.refusal(q)
+    q[3] -= np.radians(10.0)
+    q[0] += np.radians(120.0)  # J1 free, J4 within its span
+    assert sch.refusal(q) is None
+
+
+def test_the_hold_joint_follows_the_scheduled_ones_before_its_span_is_checked(schedule):
+    sch = limited(schedule[0])
+    q = sch.posture(np.radians([15.0, 25.0]))  # J5 turned by -(J2 + J3 moves): the schedule's own posture
+    assert sch.refusal(q) is None
+    q[4] += np.radians(1.0)  # J5 has no span: any departure is refused
+    assert "J5" in sch.refusal(q)
+
+
+def test_reach_and_span_survive_the_schedule_file(schedule, tmp_path):
+    sch = limited(schedule[0])
+    back = Schedule.load(sch.save(tmp_path / "k.npz"))
+    assert back.reach == sch.reach and back.span == sch.span
+
+
 # -- certificate -----------------------------------------------------------------------------------
 def test_certificate_passes_for_designs_on_their_own_plants(schedule):
     sch, plants = schedule

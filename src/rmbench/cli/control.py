@@ -15,6 +15,9 @@ from rmbench.errors import InputError
 
 __all__ = ["register"]
 
+# --material: the stability stage's cuts (rmbench.stability) by name
+CUTS = {"steel": "STEEL_C45", "titanium": "TI6AL4V", "aluminium": "ALUMINIUM_6061"}
+
 
 def register(sub) -> None:
     csub = command_group(sub, "control", "H-infinity proof-mass vibration suppression (METHODS.md §8)")
@@ -57,6 +60,20 @@ def register(sub) -> None:
                         "under a random force on the first axis's disturbance coil, uncontrolled and controlled "
                         "(a schedule needs one)")
     r.add_argument("--force-rms", type=float, default=10.0, help="--trajectory: random force, N rms (default 10)")
+    r.add_argument("--disturbance", choices=("random", "eccentric", "milling"), default="random",
+                   help="--trajectory: what shakes the moving arm: the random force (default), the spindle's "
+                        "eccentric mass at --rpm, or a rigid tool's cutting force (--material, --rpm, --depth) "
+                        "on the first axis's disturbance coil")
+    r.add_argument("--rpm", type=float, default=None, help="eccentric, milling: spindle speed, rev/min")
+    r.add_argument("--material", choices=tuple(CUTS), default="steel",
+                   help="milling: the cut (steel: C45, 6 teeth at half immersion; titanium: Ti-6Al-4V, 4 teeth "
+                        "at half immersion; aluminium: 6061, 2-tooth slot); default steel")
+    r.add_argument("--depth", type=float, default=None, help="milling: axial depth of cut, mm")
+    r.add_argument("--feed-per-tooth", type=float, default=0.05, help="milling: mm (default 0.05)")
+    r.add_argument("--runout", type=float, default=0.0,
+                   help="milling: one tooth's radial runout, µm (default 0): a force line at the spindle speed")
+    r.add_argument("--force-component", choices=("feed", "normal"), default="feed",
+                   help="milling: the cutting force's component the coil applies (default feed)")
     r.add_argument("--axis", default=None, help="sweep: the disturbed axis (default the controller's first)")
     r.add_argument("--amplitude", type=float, default=20.0, help="sweep: sine amplitude, N (default 20)")
     r.add_argument("--freqs", default=None, metavar="F1,F2,...",
@@ -135,6 +152,7 @@ def cmd_design(args) -> int:
 
 def _design_schedule(args) -> int:
     import time
+    from dataclasses import replace
 
     from rmbench.control.grid import load_schedule_grid, plants_from_campaign, plants_from_model
     from rmbench.control.schedule import certify, design_schedule
@@ -156,15 +174,15 @@ def _design_schedule(args) -> int:
         plants = plants_from_model(robot, grid)
         source = f"model {args.robot}"
     idx, g, hold, q_ref = grid.resolve(robot)
+    reach, span = grid.limits(robot)
     sch = design_schedule(plants, g, idx, q_ref, hold=hold, weights=_weights(args.set), order=args.order,
-                          mimo=grid.mimo, progress=None if args.json else _dots(len(plants)))
+                          mimo=grid.mimo, progress=None if args.json else _dots(len(plants)), reach=reach, span=span)
     from rmbench.control.closed_loop import Hardware
 
     # certified on the loop the hardware runs (2 kHz, its delay, hold and amplifier), not the continuous one
     cert = certify(sch, plants, hardware=Hardware())
     seconds = time.perf_counter() - t0
-    sch = type(sch)(sch.axes, sch.joints, sch.grid, sch.controllers, sch.q_ref, sch.hold,
-                    dict(sch.meta, source=source, robot=args.robot, certificate=cert.headline()))
+    sch = replace(sch, meta=dict(sch.meta, source=source, robot=args.robot, certificate=cert.headline()))
     sch.save(args.out)
     modes = [c.meta["mode_hz"] for c in sch.controllers]
     summary = {"out": str(args.out), "axes": list(sch.axes), "structure": sch.meta["structure"],
@@ -257,9 +275,10 @@ def _run_moving(args, ctrl) -> int:
     op = robot.at(traj.q[0])
     if args.force_rms <= 0:
         raise InputError(f"--force-rms must be positive, got {args.force_rms}")
-    ds = moving_test(op, {"controlled": ctrl}, traj, axis=ctrl.axes[0], force_rms=args.force_rms)
+    ds = moving_test(op, {"controlled": ctrl}, traj, axis=ctrl.axes[0], force_rms=args.force_rms,
+                     **_moving_disturbance(args))
     result = {"trajectory": str(args.trajectory), "duration_s": float(traj.t[-1]), "axis": ctrl.axes[0],
-              **moving_figures(ds, "controlled")}
+              "disturbance": ds.attrs["label"], **moving_figures(ds, "controlled")}
     if args.out:
         from rmbench.impact.dataset import save
 
@@ -267,16 +286,55 @@ def _run_moving(args, ctrl) -> int:
     if args.json:
         print_json(result)
         return 0
-    print(f"{result['duration_s']:.1f} s along {args.trajectory}, random force {args.force_rms:g} N rms on the "
-          f"{result['axis']} coil")
+    shaken = (f"random force {args.force_rms:g} N rms on the {result['axis']} coil" if args.disturbance == "random"
+              else result["disturbance"])
+    print(f"{result['duration_s']:.1f} s along {args.trajectory}, {shaken}")
     print(f"{'t, s':>6} {'mode, Hz':>9} {'reduction':>10}")
     for w in result["windows"]:
         print(f"{w['t_s']:6.1f} {w['mode_hz']:9.2f} {100 * w['reduction']:9.1f}%")
     print(f"over the move: reduction {100 * result['reduction']:.1f} % at the mode; loudest 0.25 s "
           f"{result['transient']:.2f} of the uncontrolled level; stroke used {100 * result['stroke_used']:.0f} %, "
-          f"saturated {100 * result['saturated']:.1f} % of samples, stroke guard tripped {result['guard_trips']} "
+          f"saturated {100 * result['saturated']:.1f} % of samples ({result['saturation_events']} saturation "
+          f"event(s)), stroke guard tripped {result['guard_trips']} "
           f"time(s); {result['realtime_factor']:.1f}x real time")
     return 0
+
+
+def _moving_disturbance(args) -> dict:
+    """``moving_test``'s disturbance arguments from ``--disturbance`` and its options (rev/min, mm
+    and µm here; rev/s and m there)."""
+    kind = args.disturbance
+    given = [f"--{k.replace('_', '-')}" for k, default in (("rpm", None), ("depth", None), ("runout", 0.0))
+             if getattr(args, k) != default]
+    if kind == "random":
+        if given:
+            raise InputError(f"{', '.join(given)}: only with --disturbance eccentric or milling")
+        return {}
+    if args.rpm is None or not (np.isfinite(args.rpm) and args.rpm > 0):
+        raise InputError(f"--disturbance {kind} needs a positive spindle speed --rpm (rev/min), got {args.rpm}")
+    if kind == "eccentric":
+        if args.depth is not None or args.runout != 0.0:
+            raise InputError("--depth and --runout: only with --disturbance milling")
+        return {"disturbance": "none", "spindle_hz": args.rpm / 60.0,
+                "label": f"spindle's eccentric mass at {args.rpm:g} rev/min"}
+    from rmbench import stability
+
+    if args.depth is None or not (np.isfinite(args.depth) and args.depth > 0):
+        raise InputError(f"--disturbance milling needs a positive axial depth --depth (mm), got {args.depth}")
+    if not (np.isfinite(args.feed_per_tooth) and args.feed_per_tooth > 0):
+        raise InputError(f"--feed-per-tooth must be positive (mm), got {args.feed_per_tooth}")
+    if not (np.isfinite(args.runout) and args.runout >= 0):
+        raise InputError(f"--runout must be ≥ 0 (µm), got {args.runout}")
+    cut, column = getattr(stability, CUTS[args.material]), ("feed", "normal").index(args.force_component)
+
+    def force(t):
+        return stability.cutting_force(cut, args.rpm, args.depth * 1e-3, t, feed_per_tooth=args.feed_per_tooth * 1e-3,
+                             runout=args.runout * 1e-6)[:, column]
+
+    return {"disturbance": force,
+            "label": f"milling {args.material} at {args.rpm:g} rev/min, {args.depth:g} mm deep, "
+                     f"{args.feed_per_tooth:g} mm/tooth, runout {args.runout:g} µm: its {args.force_component} "
+                     "force on the disturbance coil"}
 
 
 def cmd_run(args) -> int:
@@ -287,6 +345,8 @@ def cmd_run(args) -> int:
     ctrl = _load_any(args.controller)
     if args.trajectory:
         return _run_moving(args, ctrl)
+    if args.disturbance != "random":
+        raise InputError(f"--disturbance {args.disturbance} shakes a moving arm: give it a --trajectory")
     if not isinstance(ctrl, Controller):
         raise InputError(f"{args.controller} is a posture schedule: run it along a move with --trajectory TRAJ.csv")
     op = _operating_point(args)

@@ -15,7 +15,8 @@ Signals in SI (N, m, m/s²); frequencies in Hz. Sign convention ``u = K y`` (hin
 """
 
 from rmbench.control.axes import AxesDesign, design_axes
-from rmbench.control.analysis import closed_loop_matrix, is_stable, peak_near, reduction, sensitivity
+from rmbench.control.analysis import (amplification_db, closed_loop_matrix, fullband_ratio, is_stable, peak_near,
+                                      reduction, rms_ratio, sensitivity)
 from rmbench.control.closed_loop import Hardware, LoopDiverged, LoopRecord, eccentric_force_amplitude, run_loop
 from rmbench.control.controller import CONTROLLER_VERSION, Controller
 from rmbench.control.design import (Design, DesignError, achieves_gamma, controller_order, design, generalized_plant,
@@ -33,7 +34,8 @@ __all__ = ["AXES", "Plant", "ReactionMass", "reaction_mass", "robot_plant", "two
            "ModeFit", "fit_mode", "fit_modes", "plant_from_frf", "measure_accelerance", "measured_plant",
            "Weights", "Design", "DesignError", "design", "achieves_gamma", "generalized_plant", "modify", "robust_design",
            "Controller", "CONTROLLER_VERSION", "closed_loop_matrix", "is_stable", "sensitivity",
-           "reduction", "peak_near", "Hardware", "LoopRecord", "LoopDiverged", "run_loop",
+           "reduction", "peak_near", "amplification_db", "rms_ratio", "fullband_ratio",
+           "Hardware", "LoopRecord", "LoopDiverged", "run_loop",
            "eccentric_force_amplitude", "sine_sweep", "eccentric_test", "excitation_frequencies",
            "reduction_at", "settle_time", "posture_for_mode_ratio",
            "SuppressionTest", "suppression_test", "suppression_frequencies",

@@ -484,11 +484,20 @@ def run_loop(op, controller: Controller | Schedule | None, duration: float, *, h
     trajectory : Trajectory, optional
         Arm joint commands over time (from ``op``'s posture: its first row must be ``op.q_cmd``);
         without it the arm holds ``op``'s posture.
+
+    Raises
+    ------
+    InputError
+        A schedule that does not cover the posture or a row of the trajectory
+        (:meth:`~rmbench.control.schedule.Schedule.check`).
     """
     hw = hardware if hardware is not None else Hardware()
     n = int(round(duration * hw.fs))
     if n < 2:
         raise InputError(f"duration {duration!r} s is shorter than two controller samples")
+    if isinstance(controller, Schedule):
+        # refused before it runs: past its reach or span the schedule's designs say nothing
+        controller.check(op.q_cmd if trajectory is None else trajectory.q)
     rig = _Rig(op, controller, n, hw, shaker, spindle_hz, tuple(record_axes), trajectory)
     noise = np.random.default_rng(seed).normal(0.0, hw.acc_noise, (n, rig.k_ax)) + hw.acc_bias
     t0 = time.perf_counter()

@@ -8,11 +8,17 @@ A grid file (validated before anything runs; unknown keys are errors)::
     mimo = true                # one design over the axes; false: one SISO loop per axis
     hold = "j5"                # joint turned against the scheduled ones ("" for none)
     duration = 64.0            # s of random force per shaker test
+    reach = 5.0                # degrees beyond the grid's edges the schedule still holds (optional)
     [joints]                   # scheduled joints and their grid angles, degrees (>= 2, increasing)
     j2 = [-10, 0, 10, 20]
     j3 = [-10, 3.333, 16.667, 30]
+    [span]                     # optional: how far each unscheduled joint may depart, degrees
+    j1 = 180                   # (a joint not named here must stay at the schedule's posture)
+    j4 = 15
 
-Unscheduled joints sit at the robot's reference posture. A campaign
+Unscheduled joints sit at the robot's reference posture. ``reach`` and ``span`` say where the
+designed schedule vouches for its loop (:class:`~rmbench.control.schedule.Schedule`); outside them
+it refuses the posture with a message. Without them it holds its edge anywhere. A campaign
 (:func:`measure_campaign`) is a dataset of 2 × 2 (or n × n) accelerance matrices, one per grid
 posture, saved like an impact campaign (netCDF, complex ``H``); :func:`plants_from_campaign` fits
 each (:func:`~rmbench.control.identify.plant_from_frf_matrix`) with the reaction masses the
@@ -51,6 +57,8 @@ class ScheduleGrid(BaseModel):
     hold: str = ""
     duration: float = Field(64.0, ge=24.0)  # s: three 8 s segments at least (the first is dropped)
     joints: dict[str, list[float]]
+    reach: float | None = Field(None, ge=0.0)
+    span: dict[str, float] | None = None
 
     @field_validator("axes")
     @classmethod
@@ -68,6 +76,28 @@ class ScheduleGrid(BaseModel):
             if len(angles) < 2 or np.any(np.diff(angles) <= 0):
                 raise ValueError(f"{name}: at least two increasing angles (degrees)")
         return v
+
+    @field_validator("span")
+    @classmethod
+    def _span(cls, v):
+        if v is not None and any(not np.isfinite(a) or a < 0 for a in v.values()):
+            raise ValueError("span: one non-negative angle (degrees) per named joint")
+        return v
+
+    def limits(self, robot) -> tuple[tuple[float, ...] | None, tuple[float, ...] | None]:
+        """The schedule's ``reach`` (per scheduled joint) and ``span`` (per arm joint), rad, on
+        ``robot`` (None where the file gives none); a joint of ``span`` the arm lacks, or a
+        scheduled joint in it, is an error."""
+        arm = list(robot.arm_joints)
+        reach = None if self.reach is None else (float(np.radians(self.reach)),) * len(self.joints)
+        if self.span is None:
+            return reach, None
+        for name in self.span:
+            if name not in arm:
+                raise InputError(f"span names joint {name!r}; the robot's arm joints are {', '.join(arm)}")
+            if name in self.joints:
+                raise InputError(f"span names {name}, a scheduled joint: its range is the grid and the reach")
+        return reach, tuple(float(np.radians(self.span.get(name, 0.0))) for name in arm)
 
     def resolve(self, robot) -> tuple[tuple[int, ...], tuple[np.ndarray, ...], int | None, np.ndarray]:
         """Joint indices, grid angles (rad), hold joint index and reference posture (rad) on ``robot``.

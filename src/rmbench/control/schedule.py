@@ -38,6 +38,7 @@ __all__ = ["Schedule", "grid_posture", "design_schedule", "Certificate", "certif
 
 SCHEDULE_VERSION = 1
 F_BAND = (2.0, 40.0)  # Hz: where a design looks for the mode it targets (the suppressor's band)
+ANGLE_TOL = 1e-4  # rad: a posture's rounding (a trajectory file's 0.001°, a reference posture's IK) is no departure
 
 
 def grid_posture(q_ref, joints, s, hold: int | None = None) -> np.ndarray:
@@ -76,6 +77,16 @@ class Schedule:
         Joint turned against the scheduled ones (see :func:`grid_posture`).
     meta : dict
         Design record, JSON-serialisable.
+    reach : tuple of float or None
+        Per scheduled joint, rad: how far beyond its grid's edges the schedule still vouches for its
+        loop (it holds the edge's controllers there: the extrapolation ring). ``None``: no limit.
+    span : tuple of float or None
+        Per arm joint, rad: how far an unscheduled joint may depart from the schedule's posture
+        (:meth:`posture` of the scheduling variables) and still be covered; scheduled joints'
+        entries are not used. ``None``: not checked.
+
+    A posture outside the reach or the span is refused (:meth:`refusal`, :meth:`check`) with a
+    message naming the joint: the schedule's designs say nothing there.
     """
 
     axes: tuple[str, ...]
@@ -85,6 +96,8 @@ class Schedule:
     q_ref: np.ndarray
     hold: int | None = None
     meta: dict = field(default_factory=dict, compare=False)
+    reach: tuple[float, ...] | None = None
+    span: tuple[float, ...] | None = None
 
     def __post_init__(self):
         if len(self.grid) != len(self.joints) or not self.joints:
@@ -98,6 +111,11 @@ class Schedule:
                              f"controllers, got {len(self.controllers)}")
         if any(c.axes != self.axes for c in self.controllers):
             raise InputError(f"every controller of the schedule must drive the axes {self.axes}")
+        if self.reach is not None and (len(self.reach) != len(self.joints) or min(self.reach) < 0):
+            raise InputError(f"reach needs one non-negative angle per scheduled joint ({len(self.joints)}), "
+                             f"got {self.reach}")
+        if self.span is not None and (len(self.span) != len(self.q_ref) or min(self.span) < 0):
+            raise InputError(f"span needs one non-negative angle per arm joint ({len(self.q_ref)}), got {self.span}")
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -125,6 +143,44 @@ class Schedule:
     def variables(self, q) -> np.ndarray:
         """Scheduling variables of an arm posture ``q`` (rad): its scheduled joints' angles."""
         return np.asarray(q, float)[list(self.joints)]
+
+    def refusal(self, q) -> str | None:
+        """Why the schedule does not cover arm posture(s) ``q`` (rad, shape (n_arm,) or (n, n_arm)):
+        a one-line message naming the first joint out of :attr:`reach` or :attr:`span`, or None
+        where every posture is covered."""
+        Q = np.atleast_2d(np.asarray(q, float))
+        S = Q[:, list(self.joints)]
+        if self.reach is not None:
+            for k, (j, g, r) in enumerate(zip(self.joints, self.grid, self.reach)):
+                out = np.maximum(g[0] - S[:, k], S[:, k] - g[-1])
+                i = int(np.argmax(out))
+                if out[i] > r + ANGLE_TOL:
+                    return (f"J{j + 1} at {np.degrees(S[i, k]):.1f} deg lies {np.degrees(out[i]):.1f} deg beyond the "
+                            f"schedule's grid ({np.degrees(g[0]):.1f} to {np.degrees(g[-1]):.1f} deg), past its reach "
+                            f"of {np.degrees(r):.1f} deg: no controller was designed or certified there "
+                            "(extend the grid)")
+        if self.span is not None:
+            moved = S - self.q_ref[list(self.joints)]
+            nominal = np.repeat(self.q_ref[None], len(Q), axis=0)
+            if self.hold is not None:
+                nominal[:, self.hold] -= moved.sum(axis=1)
+            dev = Q - nominal
+            for j, lim in enumerate(self.span):
+                if j in self.joints:
+                    continue
+                i = int(np.argmax(np.abs(dev[:, j])))
+                if abs(dev[i, j]) > lim + ANGLE_TOL:
+                    return (f"J{j + 1} departs {np.degrees(dev[i, j]):+.1f} deg from the schedule's posture, more "
+                            f"than the {np.degrees(lim):.1f} deg its designs cover (schedule that joint, or "
+                            "measure and design there)")
+        return None
+
+    def check(self, q) -> None:
+        """Raise :class:`~rmbench.errors.InputError` with :meth:`refusal`'s message where the
+        schedule does not cover ``q`` (rad, shape (n_arm,) or (n, n_arm))."""
+        why = self.refusal(q)
+        if why is not None:
+            raise InputError(f"the schedule refuses this posture: {why}")
 
     def inside(self, s) -> bool:
         """Whether ``s`` lies in the grid's box (outside it the schedule holds its edge)."""
@@ -179,6 +235,8 @@ class Schedule:
         for i, c in enumerate(self.controllers):
             arrays.update({f"{x}_{i}": getattr(c, x) for x in "ABCD"})
         meta = dict(self.meta, axes=list(self.axes), joints=list(self.joints), hold=self.hold,
+                    reach=None if self.reach is None else [float(v) for v in self.reach],
+                    span=None if self.span is None else [float(v) for v in self.span],
                     controllers=[c.meta for c in self.controllers], rmbench_schedule_version=SCHEDULE_VERSION,
                     rmbench_controller_version=CONTROLLER_VERSION)
         return write_npz(path, arrays, meta)
@@ -203,9 +261,11 @@ class Schedule:
             raise InputError(f"no schedule file {path}") from None
         except (OSError, ValueError, KeyError, TypeError, IndexError) as exc:
             raise InputError(f"{path} is not an rmbench schedule file ({exc})") from None
-        hold = meta.get("hold")
-        rest = {k: v for k, v in meta.items() if k not in ("axes", "joints", "hold", "controllers")}
-        return cls(axes, joints, grid, ctrls, q_ref, None if hold is None else int(hold), rest)
+        hold, reach, span = meta.get("hold"), meta.get("reach"), meta.get("span")
+        rest = {k: v for k, v in meta.items() if k not in ("axes", "joints", "hold", "controllers", "reach", "span")}
+        return cls(axes, joints, grid, ctrls, q_ref, None if hold is None else int(hold), rest,
+                   None if reach is None else tuple(float(v) for v in reach),
+                   None if span is None else tuple(float(v) for v in span))
 
 
 def _block_diag(blocks) -> np.ndarray:
@@ -220,7 +280,8 @@ def _block_diag(blocks) -> np.ndarray:
 
 
 def design_schedule(plants, grid, joints, q_ref, *, hold: int | None = None, weights: Weights | None = None,
-                    order: int | None = None, mimo: bool = True, progress=None) -> Schedule:
+                    order: int | None = None, mimo: bool = True, progress=None, reach=None,
+                    span=None) -> Schedule:
     """Design one controller per grid posture.
 
     Parameters
@@ -239,6 +300,8 @@ def design_schedule(plants, grid, joints, q_ref, *, hold: int | None = None, wei
         One design over all the plant's axes; else one SISO loop per axis, side by side.
     progress : callable, optional
         Called with each posture's index once designed.
+    reach, span : sequence of float, optional
+        Where the schedule vouches for its loop beyond its grid, rad (see :class:`Schedule`).
 
     Each design targets, on each axis, the plant's lowest strong resonance
     (:func:`~rmbench.control.plant.first_strong_mode`), so that one mode is followed over the grid.
@@ -271,7 +334,8 @@ def design_schedule(plants, grid, joints, q_ref, *, hold: int | None = None, wei
     meta = {"structure": "MIMO" if mimo and len(axes) > 1 else "SISO",
             "weights": (weights or Weights()).as_dict()}
     return Schedule(tuple(axes), tuple(int(j) for j in joints), grid, tuple(ctrls), np.asarray(q_ref, float),
-                    hold, meta)
+                    hold, meta, None if reach is None else tuple(float(v) for v in reach),
+                    None if span is None else tuple(float(v) for v in span))
 
 
 def blend_plants(plants, weights, *, tol: float = 1e-9) -> Plant:

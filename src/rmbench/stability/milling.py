@@ -51,6 +51,7 @@ import numpy as np
 
 from rmbench.errors import InputError
 from rmbench.stability.cutting import Cutting
+from rmbench.stability.forces import tooth_force
 
 __all__ = ["MillingRun", "Motion", "mill", "chatter_metrics", "mill_grid"]
 
@@ -248,7 +249,7 @@ def mill(op, cutting: Cutting, rpm: float, depth: float, *, feed_per_tooth: floa
         raise InputError(f"depth of cut must be positive, got {depth} m")
     dt = stable_step(op) if dt is None else float(dt)
     period = 60.0 / (cutting.teeth * rpm)
-    force = _tooth_forces(cutting, depth, feed_per_tooth)
+    force = tooth_force(cutting, depth, feed_per_tooth)
     m, d = stepping_model(op, dt=dt)
     n = int(np.ceil(periods * period / dt))
     # the state after each step is read against the equilibrium at that step's time
@@ -275,33 +276,6 @@ def _turns(heading: float, motion: Motion | None, n: int, dt: float) -> list:
     if heading != 0:
         raise InputError("give the feed heading once: in the motion (per knot) or as the cut's heading")
     return list(zip(np.cos(per_step).tolist(), np.sin(per_step).tolist()))
-
-
-def _tooth_forces(cutting: Cutting, depth: float, feed_per_tooth: float):
-    """``force(phase, dq)``: the cutting force on the tool tip, shape (2,), N, in the feed and
-    normal directions, at cutter angle ``phase`` (rad) with the tip displaced by ``dq`` (m, a pair
-    (x, y)) from where the previous tooth left the surface; a tooth whose chip vanishes cuts nothing."""
-    st, ex = cutting.angles
-    # each tooth's angle behind the first, and the force coefficients, as the loop would compute them
-    offsets = [2 * np.pi * j / cutting.teeth for j in range(cutting.teeth)]
-    kt, kn, turn = cutting.k_t * depth, cutting.k_n * depth, 2 * np.pi
-    sin, cos = np.sin, np.cos
-
-    def force(phase, dq):
-        fx = fy = 0.0
-        dx, dy = dq
-        for off in offsets:
-            phi = (phase + off) % turn
-            if st <= phi <= ex:
-                s, c = sin(phi), cos(phi)
-                h = feed_per_tooth * s + dx * s + dy * c
-                if h > 0:
-                    ft, fn = kt * h, kn * h
-                    fx += -ft * c - fn * s
-                    fy += ft * s - fn * c
-        return np.array([fx, fy])
-
-    return force
 
 
 def _start(op, m: mujoco.MjModel, d: mujoco.MjData, force, teeth: int, sampled, kick: float, turn: tuple):
