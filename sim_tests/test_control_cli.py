@@ -131,6 +131,21 @@ def test_a_move_leaving_the_schedules_span_is_refused_before_it_runs(cli, schedu
     assert code == 2 and "J4 departs +25.0 deg" in err and len(err.strip().splitlines()) == 1
 
 
+def test_robust_design_certifies_draws_of_the_measured_fits(cli, scheduled, tmp_path):
+    code, out, _ = cli("control", "design", "--schedule", scheduled / "grid.toml", "--from", scheduled / "c.nc",
+                       "--out", tmp_path / "k.npz", "--robust", "5", "--json")
+    robust = json.loads(out)["robust_certificate"]
+    # 2 grid postures x 5 draws from each fit's covariance, every sampled loop stable
+    assert code == 0 and robust["stable"] and robust["draws"] == 5 and robust["postures"] == 2
+
+
+def test_robust_without_a_campaign_is_refused_before_designing(cli, tmp_path):
+    (tmp_path / "g.toml").write_text(GRID)
+    code, out, err = cli("control", "design", "--schedule", tmp_path / "g.toml", "--out", tmp_path / "k.npz",
+                         "--robust", "5")
+    assert code == 2 and "--from" in err and not (tmp_path / "k.npz").exists()
+
+
 def test_schedule_without_a_trajectory_is_a_one_line_error(cli, scheduled):
     code, _, err = cli("control", "run", scheduled / "k.npz")
     assert code == 2 and "--trajectory" in err and len(err.strip().splitlines()) == 1

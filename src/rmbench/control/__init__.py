@@ -23,9 +23,12 @@ from rmbench.control.design import (Design, DesignError, achieves_gamma, control
                                     modify, plant_order, robust_design)
 from rmbench.control.experiments import (eccentric_test, excitation_frequencies, measure_accelerance, measured_plant,
                                          reduction_at, settle_time, sine_sweep)
-from rmbench.control.identify import ModeFit, fit_mode, fit_modes, plant_from_frf
+from rmbench.control.identify import (MatrixModes, ModeFit, fit_mode, fit_modes, fit_modes_matrix, plant_from_frf,
+                                      plant_from_frf_matrix)
 from rmbench.control.plant import AXES, Plant, ReactionMass, reaction_mass, robot_plant, two_mass_plant
 from rmbench.control.postures import posture_for_mode_ratio
+from rmbench.control.robust import (RobustCertificate, certify_robust, certify_schedule_robust, draw_modes,
+                                    draw_plants, measured_modes, scenario_draws, scenario_epsilon)
 from rmbench.control.sampled import SampledCertificate, certify_sampled, sampled_loop, sampled_radius, sampled_stable
 from rmbench.control.suppression import SuppressionTest, suppression_frequencies, suppression_test
 from rmbench.control.weights import Weights
@@ -40,4 +43,7 @@ __all__ = ["AXES", "Plant", "ReactionMass", "reaction_mass", "robot_plant", "two
            "reduction_at", "settle_time", "posture_for_mode_ratio",
            "SuppressionTest", "suppression_test", "suppression_frequencies",
            "AxesDesign", "design_axes", "plant_order", "controller_order",
-           "sampled_loop", "sampled_radius", "sampled_stable", "SampledCertificate", "certify_sampled"]
+           "sampled_loop", "sampled_radius", "sampled_stable", "SampledCertificate", "certify_sampled",
+           "MatrixModes", "fit_modes_matrix", "plant_from_frf_matrix",
+           "scenario_epsilon", "scenario_draws", "draw_modes", "draw_plants", "measured_modes",
+           "RobustCertificate", "certify_robust", "certify_schedule_robust"]

@@ -201,6 +201,16 @@ class MatrixModes:
     n_residual : int
     rel_error : float
         RMS of the fit's error relative to √(|H_ii| |H_jj|) over the band's lines and entries.
+    cov : ndarray, shape (n_params, n_params), or None
+        Covariance of :attr:`params` from the least-squares fit, ``σ² (JᵀJ)⁺`` (``J`` the
+        residuals' Jacobian at the optimum, ``σ²`` the residual variance per degree of freedom).
+        None where no fit made it (a hand-built or drawn set of modes).
+    f_std, zeta_std : ndarray, shape (n_modes,), or None
+        Standard errors of ``f_n`` (Hz) and ``zeta`` (first order in the log parameters: ``f σ_ln f``);
+        zero for the pseudo-modes, whose frequency and damping are fixed.
+    shapes_std : ndarray, shape (n, n_modes), or None
+        Standard errors of ``shapes``, 1/√kg. The pseudo-modes' shapes enter the model squared:
+        where they are small the linearised errors of theirs are meaningless (far above their values).
     """
 
     f_n: np.ndarray
@@ -208,6 +218,47 @@ class MatrixModes:
     shapes: np.ndarray
     n_residual: int
     rel_error: float
+    cov: np.ndarray | None = None
+    f_std: np.ndarray | None = None
+    zeta_std: np.ndarray | None = None
+    shapes_std: np.ndarray | None = None
+
+    @property
+    def params(self) -> np.ndarray:
+        """The fit's parameter vector, shape (2 m + n m + n k,) for ``m`` fitted modes and ``k =
+        n_residual``: ``[ln f_n, ln zeta, shapes (n, m) row-major, residual shapes (n, k) row-major]``
+        over the fitted modes (the pseudo-modes' frequency and damping are fixed)."""
+        k = self.n_residual
+        return np.concatenate([np.log(self.f_n[k:]), np.log(self.zeta[k:]), self.shapes[:, k:].ravel(),
+                               self.shapes[:, :k].ravel()])
+
+    def with_params(self, params) -> "MatrixModes":
+        """The same modes with :attr:`params` replaced (a draw from :attr:`cov`), mode order kept;
+        no covariance or standard errors (they belong to the fit)."""
+        params = np.asarray(params, float)
+        k, (n, N) = self.n_residual, self.shapes.shape
+        m = N - k
+        if params.shape != (2 * m + n * N,):
+            raise InputError(f"these modes have {2 * m + n * N} parameters, got shape {params.shape}")
+        shapes = np.hstack([params[2 * m + n * m:].reshape(n, k), params[2 * m:2 * m + n * m].reshape(n, m)])
+        return MatrixModes(np.concatenate([self.f_n[:k], np.exp(params[:m])]),
+                           np.concatenate([self.zeta[:k], np.exp(params[m:2 * m])]), shapes, k, self.rel_error)
+
+
+def _fit_covariance(sol, perm) -> np.ndarray:
+    """``σ² (JᵀJ)⁺`` of a least-squares solution, rows and columns reordered by ``perm``.
+
+    The pseudo-inverse drops the directions the residuals cannot see (singular values of ``J``
+    below 1e-9 of the largest): the pseudo-modes share one frequency and damping, so only ``Vr Vrᵀ``
+    of their shapes enters the model and turning ``Vr`` by an orthogonal matrix changes nothing.
+    """
+    J = np.asarray(sol.jac, float)
+    _, s, vt = np.linalg.svd(J, full_matrices=False)
+    keep = s > 1e-9 * s[0] if s.size and s[0] > 0 else np.zeros(s.shape, bool)
+    dof = max(J.shape[0] - int(keep.sum()), 1)
+    sigma2 = float(np.sum(sol.fun**2)) / dof
+    cov = (vt[keep].T / s[keep]**2) @ vt[keep] * sigma2
+    return cov[np.ix_(perm, perm)]
 
 
 def _matrix_model(freq, f_n, zeta, V):
@@ -286,22 +337,40 @@ def fit_modes_matrix(freq, accelerance, f_min: float = 2.0, f_max: float = 40.0,
 
     p0 = np.concatenate([np.log(f0), np.log(z0), np.array(v0).T.ravel(), res0.ravel()])
     sol = least_squares(resid, p0, method="lm", max_nfev=200 * len(p0))
-    f, z, V, Vr = unpack(sol.x)
-    order = np.argsort(f)
+    return _sorted_modes(sol, *unpack(sol.x), fr, zr)
+
+
+def _sorted_modes(sol, f, z, V, Vr, fr, zr) -> MatrixModes:
+    """:func:`fit_modes_matrix`'s result: the fitted modes sorted by frequency after the pseudo-modes
+    (``fr``, ``zr``, shapes ``Vr``), with the solution's covariance in that order."""
+    (n, N), order = V.shape, np.argsort(f)
     rms = float(np.sqrt(np.mean(sol.fun**2) * 2))
-    return MatrixModes(np.concatenate([fr, f[order]]), np.concatenate([zr, z[order]]),
-                       np.hstack([Vr, V[:, order]]), n, rms)
+    # the solver's parameters [ln f, ln ζ, V, Vr] permuted into the order of MatrixModes.params
+    perm = np.concatenate([order, N + order, 2 * N + np.arange(n * N).reshape(n, N)[:, order].ravel(),
+                           2 * N + n * N + np.arange(n * n)])
+    cov = _fit_covariance(sol, perm)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    f_s, z_s = f[order], z[order]
+    return MatrixModes(np.concatenate([fr, f_s]), np.concatenate([zr, z_s]), np.hstack([Vr, V[:, order]]), n, rms,
+                       cov=cov, f_std=np.concatenate([np.zeros(n), f_s * sd[:N]]),
+                       zeta_std=np.concatenate([np.zeros(n), z_s * sd[N:2 * N]]),
+                       shapes_std=np.hstack([sd[2 * N + n * N:].reshape(n, n), sd[2 * N:2 * N + n * N].reshape(n, N)]))
 
 
 def plant_from_frf_matrix(freq, accelerance, masses, axes, *, f_min: float = 2.0, f_max: float = 40.0) -> Plant:
     """Multi-axis plant from a measured accelerance matrix and the reaction-mass hardware.
 
     :func:`fit_modes_matrix`, then :func:`~rmbench.control.plant.modal_plant`; the fit is in
-    ``info["fit"]`` (frequencies, damping, relative error).
+    ``info["fit"]``: the fitted modes' ``f_n`` (Hz), ``zeta`` and their standard errors ``f_std``
+    (Hz), ``zeta_std``, the relative error ``rel_error``, ``n_residual`` and ``cov``, the
+    covariance of :attr:`MatrixModes.params` (nested lists, for drawing plants:
+    :mod:`rmbench.control.robust`).
     """
     axes = parse_axes(axes)
     fit = fit_modes_matrix(freq, accelerance, f_min, f_max)
     p = modal_plant(fit.f_n, fit.zeta, fit.shapes, list(masses), axes, source="measured")
-    info = dict(p.info, fit={"f_n": fit.f_n[fit.n_residual:].tolist(), "zeta": fit.zeta[fit.n_residual:].tolist(),
-                             "rel_error": fit.rel_error})
+    k = fit.n_residual
+    info = dict(p.info, fit={"f_n": fit.f_n[k:].tolist(), "zeta": fit.zeta[k:].tolist(),
+                             "rel_error": fit.rel_error, "f_std": fit.f_std[k:].tolist(),
+                             "zeta_std": fit.zeta_std[k:].tolist(), "n_residual": k, "cov": fit.cov.tolist()})
     return Plant(p.axes, p.A, p.B, p.C, p.D, p.source, p.mode_hz, info)
