@@ -133,3 +133,12 @@ def test_certificate_plot_returns_axes(passing):
     matplotlib.use("Agg")
     ax = passing.plot()
     assert len(ax.lines) >= 3
+
+
+def test_a_mode_the_fit_leaves_undetermined_fails_the_certificate_without_a_crash(fit, controller):
+    # a log-frequency standard error of 400 draws frequencies of exp(±400): no plant; such a draw
+    # cannot be vouched for, so it counts against the certificate
+    cert = certify_robust(wide_on_target(fit, 400.0), [RM], ("tangential",), controller, Hardware(), draws=4)
+    assert not cert.stable and cert.unbuildable >= 1 and cert.unstable >= cert.unbuildable
+    assert "drew no plant" in cert.summary()
+    json.dumps(cert.to_dict(), allow_nan=False)

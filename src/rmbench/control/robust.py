@@ -94,7 +94,10 @@ def draw_modes(fit: MatrixModes, n_draws: int, *, seed: int | np.random.SeedSequ
     lam, U = np.linalg.eigh(0.5 * (fit.cov[:nf, :nf] + fit.cov[:nf, :nf].T))
     root = U * np.sqrt(np.clip(lam, 0.0, None))            # root @ rootᵀ = cov (positive semi-definite)
     z = np.random.default_rng(seed).standard_normal((n_draws, nf))
-    return [fit.with_params(np.concatenate([theta[:nf] + spread * root @ zi, theta[nf:]])) for zi in z]
+    # a parameter the data leave undetermined may draw far out (exp of a huge log-frequency):
+    # kept as drawn, non-finite included; :func:`certify_robust` counts such a draw as failed
+    with np.errstate(over="ignore", invalid="ignore"):
+        return [fit.with_params(np.concatenate([theta[:nf] + spread * root @ zi, theta[nf:]])) for zi in z]
 
 
 def draw_plants(fit: MatrixModes, masses, axes, n_draws: int, *, seed=0, spread: float = 1.0) -> list[Plant]:
@@ -160,6 +163,12 @@ class RobustCertificate:
         return int(np.sum(self.spectral_radius >= 1.0))
 
     @property
+    def unbuildable(self) -> int:
+        """Drawn parameter sets that make no plant (counted in :attr:`unstable`): the fit leaves a
+        parameter so undetermined that its draws leave the physical range."""
+        return int(np.sum(~np.isfinite(self.spectral_radius)))
+
+    @property
     def nominal_unstable(self) -> int:
         """Postures whose nominal (fitted) plant's loop is unstable."""
         return int(np.sum(self.nominal_radius >= 1.0))
@@ -182,12 +191,14 @@ class RobustCertificate:
         return int(i), int(j)
 
     def headline(self) -> dict:
-        """``{"stable", "draws", "unstable", "epsilon", "beta", "max_spectral_radius"}``: what a
-        schedule file's ``meta`` keeps of it (plain floats and ints)."""
+        """``{"stable", "draws", "unstable", "unbuildable", "epsilon", "beta", "max_spectral_radius"}``:
+        what a schedule file's ``meta`` keeps of it (plain floats and ints; the radius None where a
+        draw made no plant)."""
         i, j = self.worst
-        return {"stable": self.stable, "draws": self.draws, "unstable": self.unstable,
+        return {"stable": self.stable, "draws": self.draws, "unstable": self.unstable, "unbuildable": self.unbuildable,
                 "epsilon": float(self.epsilon), "beta": float(self.beta),
-                "max_spectral_radius": float(self.spectral_radius[i, j])}
+                "max_spectral_radius": (float(self.spectral_radius[i, j]) if np.isfinite(self.spectral_radius[i, j])
+                                        else None)}
 
     def to_dict(self) -> dict:
         """Verdict, scenario bound, counts, the worst draw and every spectral radius, as strict
@@ -197,7 +208,7 @@ class RobustCertificate:
         i, j = self.worst
         return jsonable({
             "loop": "sampled", "stable": self.stable, "postures": len(self.nominal_radius), "draws": self.draws,
-            "unstable": self.unstable, "nominal_unstable": self.nominal_unstable,
+            "unstable": self.unstable, "unbuildable": self.unbuildable, "nominal_unstable": self.nominal_unstable,
             "scenario": {"epsilon": self.epsilon, "beta": self.beta, "confidence": 1.0 - self.beta,
                          "valid": self.stable},
             "worst": {"posture": i, "draw": j, "spectral_radius": self.spectral_radius[i, j]},
@@ -213,14 +224,16 @@ class RobustCertificate:
         lines = [f"robust sampled-data certificate at {hw['fs']:g} Hz ({hw['delay_samples']} sample(s) delay, "
                  f"amplifier {hw['amp_bandwidth']:g} Hz): {'PASSES' if self.stable else 'FAILS'}",
                  f"{self.draws} plants drawn per posture over {n_p} posture(s), spread x{self.spread:g} of the "
-                 f"fit's standard errors: {self.unstable} unstable; nominal {self.nominal_unstable} unstable"]
+                 f"fit's standard errors: {self.unstable} unstable"
+                 + (f" ({self.unbuildable} drew no plant: a parameter the fit leaves undetermined)"
+                    if self.unbuildable else "") + f"; nominal {self.nominal_unstable} unstable"]
         if self.stable:
             per = "per posture, " if n_p > 1 else ""
             lines.append(f"guarantee: P(unstable) <= {100 * self.epsilon:.2f} % {per}with confidence "
                          f"{100 * (1 - self.beta):g} % (scenario bound 1 - beta^(1/N))")
         else:
             lines.append("no guarantee: a drawn or nominal loop is unstable")
-        lines.append(f"largest spectral radius {self.spectral_radius[i, j]:.6f}{where}, nominal largest "
+        lines.append(f"largest spectral radius {self.spectral_radius[i, j]:.6g}{where}, nominal largest "
                      f"{self.nominal_radius.max():.6f}")
         return "\n".join(lines)
 
@@ -234,9 +247,11 @@ class RobustCertificate:
         ax = axes_or_new(ax, (6, 3.5))
         n_p, n = self.spectral_radius.shape
         x = np.arange(n_p)[:, None] + np.linspace(-0.3, 0.3, n)[None]  # a strip per posture
+        # a draw that made no plant is drawn as a cross at the limit
+        rho = np.where(np.isfinite(self.spectral_radius), self.spectral_radius, 1.0)
         bad = self.spectral_radius >= 1.0
-        ax.plot(x.ravel(), self.spectral_radius.ravel(), ".", color="C0", ms=3, label="drawn plants")
-        ax.plot(x[bad], self.spectral_radius[bad], "x", color="red", label="unstable")
+        ax.plot(x.ravel(), rho.ravel(), ".", color="C0", ms=3, label="drawn plants")
+        ax.plot(x[bad], rho[bad], "x", color="red", label="unstable or no plant")
         ax.plot(np.arange(n_p), self.nominal_radius, "D", color="k", ms=5, label="nominal")
         ax.axhline(1.0, color="k", lw=0.8, ls="--", label="stability limit")
         ax.set_xlabel("grid posture" if n_p > 1 else "")
@@ -253,10 +268,24 @@ def _hardware_dict(hardware) -> dict:
             "delay_samples": int(hardware.delay_samples), "amp_bandwidth": float(hardware.amp_bandwidth)}
 
 
+def _radius(modes: MatrixModes, masses, axes, controller, hardware) -> float:
+    """The sampled loop's spectral radius with the plant of ``modes``; infinite where they make no
+    plant (a non-finite or non-positive frequency or damping drawn for a parameter the data leave
+    undetermined): a loop on such a plant cannot be vouched for."""
+    if not all(np.all(np.isfinite(v)) for v in (modes.f_n, modes.zeta, modes.shapes)):
+        return np.inf
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            plant = modal_plant(modes.f_n, modes.zeta, modes.shapes, list(masses), axes, source="drawn")
+            return sampled_radius(plant, controller, hardware)
+    except (InputError, np.linalg.LinAlgError):  # a frequency so far out that the matrices overflow
+        return np.inf
+
+
 def _radii(fit, masses, axes, controller, hardware, draws, seed, spread) -> tuple[np.ndarray, float]:
     nominal = modal_plant(fit.f_n, fit.zeta, fit.shapes, list(masses), axes, source="measured")
-    rho = [sampled_radius(p, controller, hardware)
-           for p in draw_plants(fit, masses, axes, draws, seed=seed, spread=spread)]
+    rho = [_radius(m, masses, axes, controller, hardware)
+           for m in draw_modes(fit, draws, seed=seed, spread=spread)]
     return np.array(rho), sampled_radius(nominal, controller, hardware)
 
 
