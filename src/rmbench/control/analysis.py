@@ -114,9 +114,8 @@ def amplification_db(freq, open_mag, closed_mag, f0: float, above: float = 2.0) 
 
     Parameters
     ----------
-    freq : array_like, shape (n_freq,), Hz
-    open_mag, closed_mag : array_like, shape (n_freq,)
-        Magnitudes without and with control, in one unit (|a/d| in m/s²/N, say).
+    freq, open_mag, closed_mag : array_like, shape (n_freq,)
+        Lines (Hz) and the magnitudes at them, as :func:`reduction` takes them.
     f0 : float
         The axis's mode, Hz.
     above : float
