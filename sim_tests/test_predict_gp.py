@@ -13,6 +13,7 @@ from _posture_grid import smooth as _smooth
 from rmbench.errors import InputError
 from rmbench.predict import (MTGP, STGP, ExtrapolationWarning, GroupedMTGP, PosturePredictor,
                              TrainingSet, cross_validate, predicted_frf, seed_groups)
+from rmbench.predict.mtgp import split_by_postures
 from rmbench.predict.posterior import KronPosterior, loo_residuals, rbf
 from rmbench.robot.modes import PARAMS
 
@@ -209,6 +210,25 @@ def test_grouped_mtgp_leaves_a_mode_seen_at_too_few_postures_unlearnt_and_learns
     pred = m.predict(X[:4])
     assert m.unlearnt_ == [1]
     assert np.all(np.isfinite(pred[:, :2])) and np.all(np.isnan(pred[:, 2]))
+
+
+def test_a_group_whose_mode_is_lost_at_half_the_postures_splits_so_the_others_keep_their_data():
+    # one Kronecker model needs all its tasks at the same postures: kept together, tasks 0 and 1
+    # would learn from the half where task 2 was found and extrapolate over the other half
+    X = _grid()
+    Y = np.column_stack([_smooth(X), 2 * _smooth(X), 3 * _smooth(X)])
+    Y[: len(X) // 2, 2] = np.nan
+    m = GroupedMTGP([[0, 1, 2]]).fit(X, Y)
+    assert m.groups == [[0, 1], [2]]
+    assert m.models_[0].dropped_ == 0
+
+
+def test_a_mode_missed_at_a_few_postures_keeps_its_group():
+    # losing a tenth of the postures costs the group-mates less than sharing one model gains them
+    X = _grid()
+    Y = np.column_stack([_smooth(X), 2 * _smooth(X), 3 * _smooth(X)])
+    Y[: len(X) // 10, 2] = np.nan
+    assert split_by_postures([[0, 1, 2]], np.isfinite(Y)) == [[0, 1, 2]]
 
 
 def test_seed_groups_follow_the_seeds_rule():
