@@ -258,6 +258,15 @@ def test_a_candidate_that_does_not_move_the_held_out_gap_from_the_null_is_not_st
     assert c.start == "null" and not c.second_start
 
 
+def test_a_candidate_that_makes_the_held_out_gap_worse_from_the_null_is_started_again(monkeypatch):
+    # the candidate holds the null (its sizes at zero): from the null's end it can end worse on the
+    # held-out postures only in another basin (seed 53076's sliding foundations, stalled beside a
+    # calibrated tilt that had mimicked them, closed -1.4 and -2.9 of the null's excess χ²)
+    c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0, closes=-1.4)
+    assert starts == [{"j1_flex.stiffness": 0.2}, None]
+    assert c.start == "nominal" and c.second_start
+
+
 def test_a_candidate_that_reaches_the_noise_from_the_null_is_not_started_again(monkeypatch):
     # a run that reached the held-out noise did not stall: no second basin is sought for it
     c, starts = _two_starts(monkeypatch, from_nominal=142.0, from_null=368.0, closes=0.99, near_at_noise=True)
