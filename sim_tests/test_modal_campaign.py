@@ -149,33 +149,6 @@ def test_tracking_opens_a_track_for_a_mode_unlike_every_tracked_one():
     assert np.isnan(tracked[0, 1, 0]) and tracked[1, 1, 0] == 30.0
 
 
-def test_a_mode_whose_frequency_moved_far_between_grid_points_keeps_its_track_by_shape():
-    """A small arm's first mode falls 22 % over one coarse grid step (the Panda's, 10.0 to 7.8 Hz,
-    beyond the tracking gate's 15 % at equal shapes) while a mode above it is not found there: the
-    moved mode keeps its number by its unchanged shape, rather than opening a track that frequency
-    order would then slot below every other mode."""
-    from rmbench.impact.dataset import track_modes
-
-    v, w, u = [1, 0.2, 0, 0], [0, 1, 0.3, 0], [0, 0, 0.2, 1]
-    tables = [_table([10.0, 15.7, 56.4], [v, w, u], [v, w, u]), _table([7.8, 14.9], [v, w], [v, w])]
-    tracked = track_modes(tables)
-    assert tracked.shape[1] == 3
-    np.testing.assert_allclose(tracked[1, :2, 0], [7.8, 14.9])
-    assert np.isnan(tracked[1, 2, 0])
-
-
-def test_a_moved_frequency_of_another_shape_still_opens_a_track():
-    # the shape, not the free slot, decides: a mode 22 % below a missing one, shaped unlike it, is
-    # another mode
-    from rmbench.impact.dataset import track_modes
-
-    v, w = [1, 0, 1, 0], [0, 1, 0, 1]
-    tables = [_table([10.0, 30.0], [v, w], [v, w]), _table([7.8, 30.1], [w, w], [w, w])]
-    tracked = track_modes(tables)
-    assert tracked.shape[1] == 3
-    assert np.isnan(tracked[1, 0, 0]) and tracked[1, 2, 0] == 7.8
-
-
 def test_phil_fallback_fixes_the_campaign_wide_largest_element_and_keeps_the_model():
     """METHODS.md §2: where φL's 1aY nears zero the largest element over the campaign is fixed
     to 1 at every posture; φR φLᵀ, hence the FRF, is unchanged (to rounding)."""

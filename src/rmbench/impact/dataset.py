@@ -63,9 +63,7 @@ def track_modes(tables: list, positions: np.ndarray | None = None, *, freq_tol: 
     jumps across the workspace between two comparisons — by minimum cost
     ``(1 − MAC([φR, φL])) + |Δf| / (f · freq_tol)`` (Hungarian assignment); a mode missing at
     the parent is compared with its value further up the tree. A mode whose best pairing costs
-    more than ``max_cost`` keeps a track the assignment left free whose shape it matches (MAC ≥ 0.95,
-    frequencies within a factor 1.5: a frequency that moved far between coarse grid points), or
-    else starts a new track, numbered after the existing ones. Comparing φR and φL together (8 complex entries) separates close modes
+    more than ``max_cost`` starts a new track, numbered after the existing ones. Comparing φR and φL together (8 complex entries) separates close modes
     better than φR alone; the frequency term dominates once two modes are more than
     ``freq_tol`` apart, because base-frame eigenvector components rotate with the wrist (two
     perpendicular spindle bending modes swap their X/Y shapes as θ turns) while a mode's
@@ -106,7 +104,6 @@ def track_modes(tables: list, positions: np.ndarray | None = None, *, freq_tol: 
         tracks = [known[i] for i in range(len(columns))]  # (f, shape) of each track
         pairs = pair_modes(t.f_n, [f for f, _ in tracks], shapes, np.array([s for _, s in tracks]),
                            freq_scale=freq_tol, freq="relative", max_cost=max_cost)
-        pairs = _same_shape_pairs(pairs, t.f_n, shapes, tracks)
         params = t.params()
         paired = set()
         for j, i in zip(*pairs):
@@ -121,27 +118,6 @@ def track_modes(tables: list, positions: np.ndarray | None = None, *, freq_tol: 
                 known[len(columns) - 1] = origin[-1]
         state[p] = known
     return np.stack(columns, axis=1)
-
-
-def _same_shape_pairs(pairs, f_n, shapes, tracks, *, min_mac: float = 0.95, window: float = 1.5):
-    """``pairs`` with the modes it left unpaired paired, by shape, with the tracks it left free.
-
-    Between neighbouring postures of a coarse grid a mode's frequency may move beyond the tracking
-    gate: a small arm's first mode falls 22 % over 12 cm of reach (the Panda's, 10.0 to 7.8 Hz,
-    MAC 0.997), and as a new track it made frequency order shift every mode above it. Such a mode
-    keeps its track where its shape matches one left free (MAC of both sides' shapes at least
-    ``min_mac``; the frequency only breaks ties) and the frequencies lie within ``window``. Only
-    what the first assignment left over is paired: it decides every pair it can make.
-    """
-    rows, cols = pairs
-    left = np.setdiff1d(np.arange(len(f_n)), rows)
-    free = np.setdiff1d(np.arange(len(tracks)), cols)
-    if not len(left) or not len(free):
-        return pairs
-    more = pair_modes(np.asarray(f_n)[left], [tracks[i][0] for i in free], shapes[left],
-                      np.array([tracks[i][1] for i in free]), freq_scale=100.0, freq="log",
-                      max_cost=1.0 - min_mac, window=window)
-    return np.concatenate([rows, left[more[0]]]), np.concatenate([cols, free[more[1]]])
 
 
 def _shapes(table) -> np.ndarray:

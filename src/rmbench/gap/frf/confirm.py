@@ -404,9 +404,9 @@ class _Recalibration:
           three times one from the null's end (the gross grid, the modes, then the FRFs), and it
           is run only where the null's end shows the candidate on the way but not yet there: its
           run removed at least ``options.second_start`` of the null's excess held-out χ²
-          (:meth:`Confirmed.closes`) and stayed above the noise, or where that run left the
-          held-out gap at least as much worse (a candidate holds the null: ending worse, it moved
-          the modes into another basin). A candidate that does not move the held-out gap from
+          (:meth:`Confirmed.closes`) and stayed above the noise, or added as much (a sliding
+          foundation beside a calibrated tilt that had mimicked it stalled at 8 of 41 µm/kN, held-out
+          χ² 1470 against the null's 1022). A candidate that does not move the held-out gap from
           there is not one a second basin is sought for, nor is one that reached the noise from
           there (it did not stall).
         """
@@ -417,14 +417,10 @@ class _Recalibration:
             other = calibrate(setup.nominal, used, held=setup.held_data, settings=settings,
                               start=_values(null.calibration))
             near = self._scored(effect, terms, other, replace(run, started="null"))
-            # a second basin is sought only for a run that stalled short of the noise having moved
-            # the null's excess χ² a fifth of the way, or made it a fifth worse: the candidate
-            # holds the null (its sizes at zero), so a run from the null's end that ends worse on
-            # the held-out postures moved the modes into another basin (a sliding foundation
-            # beside a calibrated tilt that had mimicked it stalled at 8 of 41 µm/kN, held-out χ²
-            # 1470 against the null's 1022). One at the noise did not stall. A null whose χ² passes
-            # the noise test (significant by its peak alone) has no excess χ² that is signal, no
-            # share to judge by: :func:`_favourite` starts one candidate again instead
+            # a second basin is sought for a run that stalled short of the noise having moved the
+            # null's excess χ² a fifth of the way, or a fifth worse (it holds the null: ending worse,
+            # it is in another basin). A null whose χ² passes the noise test has no excess χ² that
+            # is signal, no share to judge by: :func:`_favourite` starts one candidate again instead
             if (not near.significant or not _chi2_gap(null, self.options)
                     or abs(near.closes(null)) < self.options.second_start):
                 return near
