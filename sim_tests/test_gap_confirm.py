@@ -204,11 +204,12 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
 
 
 def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, closes: float = 0.5,
-                near_at_noise: bool = False, null_chi2: float = 100.0):
+                near_at_noise: bool = False, null_chi2: float = 100.0, terms=None, null_u=None):
     """``_Recalibration._candidate`` with calibrations that stand in for the two starts, each
     ending at the given training objective; the run from the null's end removes ``closes`` of the
     null's excess held-out χ² (the null: 100 on 50 residuals) and reaches the noise where
-    ``near_at_noise``. The starts each was given recorded."""
+    ``near_at_noise``. The starts each was given recorded; ``terms``: the candidate's
+    (:func:`candidate_terms`), ``null_u``: the null's end (default: ``{"j1_flex.stiffness": 0.2}``)."""
     from types import SimpleNamespace
 
     import rmbench.calibrate
@@ -230,9 +231,11 @@ def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, c
     monkeypatch.setattr(rmbench.calibrate, "calibrate", calibrate)
     monkeypatch.setattr(_Recalibration, "_scored", scored)
     run = _Recalibration(SimpleNamespace(nominal=None, held_data=None), None, ConfirmOptions(), None, None)
-    base = SimpleNamespace(calibration=SimpleNamespace(params=[SimpleNamespace(name="j1_flex.stiffness")],
-                                                       u=np.array([0.2])), chi2_held=null_chi2, n_held=50)
-    c = run._candidate(None, None, None, None, base if null else None, _Run("nominal", False, None, 0.0))
+    null_u = null_u or {"j1_flex.stiffness": 0.2}
+    base = SimpleNamespace(calibration=SimpleNamespace(params=[SimpleNamespace(name=n) for n in null_u],
+                                                       u=np.array(list(null_u.values()))), chi2_held=null_chi2,
+                           n_held=50)
+    c = run._candidate(None, terms, None, None, base if null else None, _Run("nominal", False, None, 0.0))
     return c, starts
 
 
@@ -242,6 +245,16 @@ def test_a_candidate_keeps_the_null_recalibrations_end_where_that_start_ends_low
     c, starts = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0)
     assert starts == [{"j1_flex.stiffness": 0.2}, None]
     assert c.start == "null" and c.calibration.start == {"j1_flex.stiffness": 0.2} and c.second_start
+
+
+def test_a_sliding_foundation_starts_from_the_nulls_end_with_the_tilt_at_the_nominal(monkeypatch, irb,
+                                                                                      calibrated_library):
+    # tilt and slide both sway the robot on its base: a calibration without the slide bends the
+    # tilt to mimic it, and from there the slide stalls (the tilt holds the sway modes)
+    terms = candidate_terms(calibrated_library["base_compliance@base"], {}, ("joints", "base"), irb)
+    _, starts = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0, terms=terms,
+                            null_u={"j1_flex.stiffness": 0.2, "base.tilt_compliance": 3.0})
+    assert starts[0] == {"j1_flex.stiffness": 0.2}
 
 
 def test_a_candidate_keeps_the_nominal_start_where_that_ends_lower(monkeypatch):

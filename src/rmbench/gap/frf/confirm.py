@@ -13,11 +13,9 @@ ordinary parameter, which keeps its prior. The FRF residuals are on, since a hol
 stiffness shows in the FRFs between the modes more than in the modes. A *null* recalibration with
 the same settings and no candidate, continued from the first calibration, is the baseline, so
 that the candidate is credited only with what it adds to a calibration that was given the same
-data. A candidate runs from two starts, the nominal (a freed parameter at the best of its gross
-sizes) and the null's end, and keeps the one with the lower training objective: neither start
-alone reaches the data's minimum on every kind (``_Recalibration._candidate``). A candidate that
-closes most of the null's gap but is not yet at the noise is continued once, and the null with
-it.
+data. A candidate runs from the null's end and, where it stalls there, the nominal, keeping the
+lower training objective (``_Recalibration._candidate``); one that closes most of the null's gap
+short of the noise is continued once, and the null with it.
 
 A candidate explains the gap when its recalibrated model's held-out residual is noise (the
 selection engine's test) and it closes at least ``min_shrink`` of the null's held-out rms gap.
@@ -27,11 +25,9 @@ chose.
 A sensor's placement and the spindle's speed are no MJCF numbers but are parameters of the model
 under test all the same (:func:`rmbench.calibrate.design.sensor_parameter`,
 :func:`rmbench.calibrate.model.spindle_parameter`): freed in the recalibration beside the ordinary
-parameters. A sensor candidate starts from the size the joint search fitted (the data read through
-the design so corrected, its placement freed from there), since a turned sensor's angle is found
-there close to its size; the fit moves it the rest of the way once the ordinary parameters the
-first calibration had bent to meet it come back. Load-dependent stiffness maps onto no parameter
-and keeps the joint search's verdict.
+parameters. A sensor candidate starts from the size the joint search fitted (a turned sensor's
+angle is found there close to its size), the data read through the design so corrected.
+Load-dependent stiffness maps onto no parameter and keeps the joint search's verdict.
 """
 
 from __future__ import annotations
@@ -244,6 +240,7 @@ class CandidateTerms:
     values: object         # callable: {name: u} of the recalibration -> the effect's values
     change: Change = Change()   # the test design the data are read through (a sensor candidate's)
     reread: bool = False   # not in the MJCF (a sensor, the spindle's speed): scored through its change
+    reset: tuple = ()      # ordinary look-alikes: at the nominal in the start from the null's end
 
 
 def confirmable(effect: Effect) -> bool:
@@ -286,13 +283,15 @@ def candidate_terms(effect: Effect, cal_u: dict, groups: tuple, nominal, size=No
         return CandidateTerms(() if name in cal_u else (name,), (name,), groups,
                               lambda u: np.array([m0 * np.exp(u[name]) - m0]))
     if k == "base_compliance":
-        # the plate's mass is fitted too, with its prior (half to three times): a foundation's moving
-        # mass is never known, and its sway frequency fixes compliance and mass together, so a mass
-        # held wrong biases the compliance (e.g. at the library's 1000 kg, a slab of 2000 kg made
+        # the plate's mass is fitted too, with its prior (half to three times): its sway frequency
+        # fixes compliance and mass together (held at the library's 1000 kg, a slab of 2000 kg made
         # the foundation 48 % too soft: 56.3 against 38.0 µm/kN)
         lat, plate = "base.lateral_compliance", "base_mount.mass"
         if effect.n_params == 1:          # lateral only, on a calibrated foundation
-            return CandidateTerms((lat, plate), (lat,), groups, lambda u: np.array([u[lat]]))
+            # tilt and slide both sway the robot on its base: a calibration without the slide bends
+            # the tilt to mimic it, and from there the slide stalls (the tilt holds the sway modes)
+            return CandidateTerms((lat, plate), (lat,), groups, lambda u: np.array([u[lat]]),
+                                  reset=("base.tilt_compliance",))
         tilt = "base.tilt_compliance"
         groups = groups if "base" in groups else groups + ("base",)
         return CandidateTerms((lat, plate), (lat, tilt), groups, lambda u: np.array([u[lat], u[tilt]]))
@@ -391,7 +390,8 @@ class _Recalibration:
         (``run``: the start from the nominal; without ``null``, that start alone).
 
         * From the null's end, the freed parameters where it left them (at their gross sizes
-          where it lacks them). From the nominal, the modes-alone stage trades the freed sizes
+          where it lacks them), its ordinary look-alikes at the nominal (:attr:`CandidateTerms.reset`:
+          a foundation's tilt for its slide). From the nominal, the modes-alone stage trades the freed sizes
           against the centres of mass and the foundation, which the modes alone cannot tell
           apart, and can end in another basin (e.g. a tool holder ×3.40: training objective
           341 + 27 from the nominal, 127 + 15 from the null's end; the truth's parameters give
@@ -414,8 +414,8 @@ class _Recalibration:
 
         setup = self.setup
         if null is not None:
-            other = calibrate(setup.nominal, used, held=setup.held_data, settings=settings,
-                              start=_values(null.calibration))
+            start = {n: u for n, u in _values(null.calibration).items() if n not in getattr(terms, "reset", ())}
+            other = calibrate(setup.nominal, used, held=setup.held_data, settings=settings, start=start)
             near = self._scored(effect, terms, other, replace(run, started="null"))
             # a second basin is sought for a run that stalled short of the noise having moved the
             # null's excess χ² a fifth of the way, or a fifth worse (it holds the null: ending worse,

@@ -54,7 +54,7 @@ class Recalibrated:
     first_chi2: float
 
 
-def confirmed(dg: Diagnosis, problem: SearchData, first: FirstCalibration, settings, say, t) -> Diagnosis:
+def confirmed(dg: Diagnosis, problem: SearchData, first: FirstCalibration, settings, say, t) -> tuple:
     """The diagnosis ``dg`` after the confirmable candidates were recalibrated in place,
     best-ranked first (:mod:`rmbench.gap.frf.confirm`): explained by the best of those whose
     held-out residual is noise, that closes ``settings.min_shrink`` of the baseline's held-out gap
@@ -62,7 +62,9 @@ def confirmed(dg: Diagnosis, problem: SearchData, first: FirstCalibration, setti
     gap" when the null recalibration alone reaches the noise; otherwise unexplained as before.
 
     ``problem``: the prepared data with the nominal robot; ``first``: its first calibration;
-    ``say``: the progress callback; ``t``: the step times, to which the confirmation's is added."""
+    ``say``: the progress callback; ``t``: the step times, to which the confirmation's is added.
+    Returns the diagnosis and the calibration it reports where that is the null recalibration of
+    the ordinary parameters alone (None: the first calibration, or one with an effect freed)."""
     from rmbench.gap.frf.confirm import ConfirmOptions, ConfirmSetup, confirm
 
     cal, sub, cal_settings = first.cal, first.data, first.settings
@@ -78,7 +80,7 @@ def confirmed(dg: Diagnosis, problem: SearchData, first: FirstCalibration, setti
     else:
         picks = on_bound[:settings.confirm]
     if not picks:
-        return dg
+        return dg, None
     held_sub = list(range(len(problem.train), len(problem.train) + len(problem.held)))
     # the baseline: the better of the null recalibration and the first calibration (a short
     # recalibration can end worse than it started; a candidate must beat the best model without it)
@@ -155,16 +157,17 @@ def _baseline(dg: Diagnosis, null, first_chi2: float, first: FirstCalibration, p
                    chi2_held_posture=np.asarray(dg.models[0]["chi2_held_posture"]))
 
 
-def _verdict(dg: Diagnosis, winners, outcome: Recalibrated, problem, settings, t) -> Diagnosis:
+def _verdict(dg: Diagnosis, winners, outcome: Recalibrated, problem, settings, t) -> tuple:
     """The verdict after the recalibrations ``outcome``, with notes on the candidates that reached
-    the noise but do not explain the gap (inside their spread, or too small a share of it)."""
+    the noise but do not explain the gap (inside their spread, or too small a share of it), and the
+    calibration reported where it is the null recalibration (:func:`confirmed`)."""
     null, base, done, record, gap = outcome.null, outcome.base, outcome.done, outcome.record, outcome.gap
     notes = list(dg.notes)
     if not gap and not winners:
         notes.append(f"{', '.join(record['pinned'])} ended on a bound of the ordinary spread; recalibrated "
                      "with the structural effect behind it freed, no size beyond the spread explains the data "
                      "better: no structural effect is needed")
-        return replace(dg, notes=tuple(notes), confirmation=record, seconds=step_seconds(t))
+        return replace(dg, notes=tuple(notes), confirmation=record, seconds=step_seconds(t)), None
     fits = [c for c in done if not c.significant and c.shrink_against(base) >= settings.min_shrink]
     if null.same_chance and not null.significant:
         notes.append(f"{', '.join(c.effect.name for c in done if not c.significant)} reached the noise, "
@@ -186,7 +189,7 @@ def _verdict(dg: Diagnosis, winners, outcome: Recalibrated, problem, settings, t
             notes.append("recalibrated with the FRFs, the ordinary parameters bring the held-out gap "
                          "to the noise: no structural effect is needed")
             better = better_calibration(dg, null, outcome.first_chi2, notes)
-            return replace(dg, verdict="no significant gap", notes=tuple(notes), confirmation=record,
-                           seconds=step_seconds(t), **better)
-        return replace(dg, notes=tuple(notes), confirmation=record, seconds=step_seconds(t))
-    return explained(dg, winners, outcome, problem, settings, notes, t)
+            return (replace(dg, verdict="no significant gap", notes=tuple(notes), confirmation=record,
+                            seconds=step_seconds(t), **better), null.calibration if better else None)
+        return replace(dg, notes=tuple(notes), confirmation=record, seconds=step_seconds(t)), None
+    return explained(dg, winners, outcome, problem, settings, notes, t), None

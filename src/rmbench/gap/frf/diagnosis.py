@@ -86,23 +86,30 @@ def diagnose(nominal, data, *, test: str | None = None, tool=None, workers: int 
         dg = spread_checked(dg, problem.robot, first)
     # "no significant gap" too: a calibration that reached the noise only by pushing an ordinary
     # parameter onto the edge of its spread may have mimicked a structural effect (picks.pinned)
+    reported = None
     if settings.confirm > 0 and dg.verdict in ("unexplained", "no significant gap"):
         from rmbench.gap.frf.confirmed import confirmed
 
-        dg = confirmed(dg, problem, first, settings, say, t)
-    return with_form(dg, problem, first, say)
+        dg, reported = confirmed(dg, problem, first, settings, say, t)
+    return with_form(dg, problem, first, say, cal=reported)
 
 
-def with_form(dg, problem, first, say):
-    """``dg`` with the first calibration's lack-of-fit test (:mod:`rmbench.calibrate.form`), and
-    the verdict "model form" where the test fails and no effect explains the gap: the ordinary
-    parameters cannot explain the held-out frequencies, whether or not the FRF noise test saw a
-    gap (a robot that rocks on its base can miss every mode by ten times the modal fit's error,
-    each residual below the FRF test's floors)."""
+def with_form(dg, problem, first, say, *, cal=None):
+    """``dg`` with the lack-of-fit test (:mod:`rmbench.calibrate.form`) of the calibration it
+    reports, and the verdict "model form" where the test fails and no effect explains the gap: the
+    ordinary parameters cannot explain the held-out frequencies, whether or not the FRF noise test
+    saw a gap (a robot that rocks on its base can miss every mode by ten times the modal fit's
+    error, each residual below the FRF test's floors).
+
+    ``cal``: the null recalibration where the diagnosis reports it (the ordinary parameters alone,
+    continued with the FRFs), else None: the first calibration. The test asks whether the ordinary
+    parameters can explain the data, so it judges their best fit: a first calibration that stopped
+    short of the data fails it on an in-model robot. The localisation, where the test fails, reads
+    the first calibration's linearisation."""
     from rmbench.calibrate.form import check_calibration
 
     t0 = time.perf_counter()
-    form = check_calibration(problem.robot, first.data, first.cal, first.settings)
+    form = check_calibration(problem.robot, first.data, first.cal if cal is None else cal, first.settings)
     if form is None:
         return dg
     say(form.summary())
