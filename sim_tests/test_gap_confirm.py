@@ -226,7 +226,8 @@ def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, c
         chi2 = 100.0 - 50.0 * closes if cal.start is not None else 60.0
         return Confirmed(effect=None, values=None, calibration=cal, robot=None, chi2_held=chi2, n_held=50,
                          peak_held=0.0, chi2_held_posture=np.ones(1), objective=None,
-                         significant=not (near_at_noise and cal.start is not None), seconds=0.0, start=run.started)
+                         significant=not (near_at_noise and cal.start is not None),
+                         seconds=1.0 if cal.start is not None else 3.0, start=run.started)
 
     monkeypatch.setattr(rmbench.calibrate, "calibrate", calibrate)
     monkeypatch.setattr(_Recalibration, "_scored", scored)
@@ -245,6 +246,13 @@ def test_a_candidate_keeps_the_null_recalibrations_end_where_that_start_ends_low
     c, starts = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0)
     assert starts == [{"j1_flex.stiffness": 0.2}, None]
     assert c.start == "null" and c.calibration.start == {"j1_flex.stiffness": 0.2} and c.second_start
+
+
+def test_a_candidate_started_twice_is_timed_over_both_starts(monkeypatch):
+    # the record says what the confirmation cost: the start from the nominal runs after the one
+    # from the null's end (its clock, 3 s here against 1 s, holds both), whichever is kept
+    c, _ = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0)
+    assert c.start == "null" and c.seconds == 3.0
 
 
 def test_a_sliding_foundation_starts_from_the_nulls_end_with_the_tilt_at_the_nominal(monkeypatch, irb,

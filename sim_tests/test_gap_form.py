@@ -77,8 +77,11 @@ def _diagnosis(verdict: str) -> Diagnosis:
 
 
 @pytest.mark.parametrize("verdict", ["unexplained", "no significant gap"])
-def test_a_gap_no_effect_explains_on_a_robot_of_another_form_is_called_model_form(bent, verdict):
-    dg = with_form(_diagnosis(verdict), *bent, say=lambda msg: None)
+def test_a_gap_no_effect_explains_on_a_robot_of_another_form_is_called_model_form(bent, bent_located, verdict):
+    # the bending lower arm either way. Its "unexplained" call is the one ``bent_located`` makes
+    # (the same call on the twelve-posture campaign, read by the localisation tests below): making
+    # it again on the eight-posture one would cost another localisation
+    dg = bent_located if verdict == "unexplained" else with_form(_diagnosis(verdict), *bent, say=lambda msg: None)
     assert dg.verdict == "model form"
     assert dg.form["flagged"] and any(verdict in n for n in dg.notes)
 

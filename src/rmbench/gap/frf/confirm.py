@@ -429,7 +429,7 @@ class _Recalibration:
         if null is None:
             return far
         best = near if _objective(other) < _objective(cal) else far
-        return replace(best, second_start=True)
+        return replace(best, second_start=True, seconds=far.seconds)   # far ran last: both starts
 
 
 @dataclass(frozen=True)
