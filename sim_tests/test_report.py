@@ -13,6 +13,11 @@ import xarray as xr
 from rmbench.impact import open_campaign, parse_config, run_campaign
 from rmbench.report.page import Page, script_json
 
+# The seed's two bands at half their line density (0.25 Hz, 4 Hz instead of 0.125 Hz, 2 Hz): what
+# the reports draw and decode does not depend on the lines' count, and every mode keeps several
+# lines in its half-power band (the first, 7.8 Hz at ζ = 4 %: 0.66 Hz, 2.6 lines; the high band's,
+# ≥ 44 Hz: 11 lines), so the fits find the same 6 + 4 modes at every posture, all fit_ok, in about
+# 40 % less time (the modal fits are this file's largest cost: here, and in the commands that fit).
 SMALL = """
 seed = 3
 method = "linear"
@@ -23,6 +28,26 @@ kind = "product"
 x_mm = [1600, 1800]
 y_mm = [-100, 100]
 theta_deg = [0, 20]
+[bands.low]
+f_min = 4.0
+f_max = 40.0
+sensor = "laser"
+s_1a_mm = 33.4
+sample_rate = 1024.0
+line_spacing = 0.25
+[bands.low.hammer]
+pulse_ms = 8.0
+peak_n = 300.0
+[bands.high]
+f_min = 600.0
+f_max = 1400.0
+sensor = "accelerometer"
+s_1a_mm = 20.0
+sample_rate = 12800.0
+line_spacing = 4.0
+[bands.high.hammer]
+pulse_ms = 0.6
+peak_n = 400.0
 """
 
 @pytest.fixture(scope="module")

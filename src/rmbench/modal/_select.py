@@ -44,7 +44,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rmbench.modal import mdof
-from rmbench.modal._candidates import distinct, left_of, lsfd_scaled, scan_missing, split_left
+from rmbench.modal._candidates import (MissingScan, distinct, left_of, lsfd_scaled, scan_missing,
+                                       split_left)
 from rmbench.modal._varpro import Problem, Solution, pack_theta
 from rmbench.modeshape import mac
 
@@ -185,6 +186,8 @@ class _State:
         self.hz_lines = problem.omega * ws / (2 * np.pi)
         self.dw = float(problem.omega[1] - problem.omega[0])    # line spacing, scaled
         self.band_peak = float(np.abs(problem.H).max())
+        # the missing-mode scan of this band (keeps what does not change between its calls)
+        self.scan = MissingScan(self.hz_lines, problem.H, problem.W, problem.residuals)
         self.merged, self.unresolved, self.removed, self.added = [], [], [], []
         self.tried = set()      # keys of moves already tried on the same model size
         self.capped = False
@@ -426,8 +429,7 @@ class _State:
     def add(self, sol, extra):
         """Add the candidate pole that lowers the BIC most, if any does and stays physical."""
         lam = sol.lam if sol is not None else np.zeros(0, complex)
-        found = scan_missing(self.hz_lines, self.p.H, self.p.W, lam * self.ws,
-                             self.p.residuals, self.open_grid(lam))
+        found = self.scan(lam * self.ws, self.open_grid(lam))
         p_val = found[0][1] if found else 1.0
         # nothing even a free residue per FRF would explain: no pole can pay for itself
         cands = [pole / self.ws for pole, p in found if p < 1e-3]
@@ -531,8 +533,7 @@ class _State:
     def _add_any(self, sol):
         """The best scanned pole, added whatever the BIC says (for a fixed mode count)."""
         lam = sol.lam if sol is not None else np.zeros(0, complex)
-        found = scan_missing(self.hz_lines, self.p.H, self.p.W, lam * self.ws, self.p.residuals,
-                             self.open_grid(lam))
+        found = self.scan(lam * self.ws, self.open_grid(lam))
         c = found[0][0] / self.ws
         if sol is None:
             return self.fit_from_poles(np.array([c]))

@@ -105,6 +105,14 @@ class Problem:
         b = np.transpose(W * H, (1, 2, 0))                               # (j, k, f)
         self.b = np.stack([b.real, b.imag], axis=2).reshape(self.n_out, -1)
         self.resid_cols = mdof.residual_basis(omega) if residuals else np.zeros((self.n_f, 0))
+        # the residual terms' columns of every row block (input k's own, zero at the other
+        # inputs) do not depend on θ: built once, copied into each evaluation's basis
+        R, n_res = self.resid_cols, self.resid_cols.shape[1]
+        self._resid_block = np.zeros((self.n_out, self.n_in, 2, self.n_f, n_res * self.n_in))
+        for k in range(self.n_in):
+            cols = slice(n_res * k, n_res * (k + 1))
+            self._resid_block[:, k, 0, :, cols] = self.Wt[:, k, :, None] * R.real
+            self._resid_block[:, k, 1, :, cols] = self.Wt[:, k, :, None] * R.imag
         self._cache = None
 
     @property
@@ -138,16 +146,13 @@ class Problem:
         Y = phi_l.conj().T[:, None, :] * gc[None]
         S, Dd = X + Y, X - Y
         Wt = self.Wt[..., None]
-        A = np.zeros((self.n_out, self.n_in, 2, self.n_f, n_col))
-        A[:, :, 0, :, :n] = Wt * S.real
-        A[:, :, 1, :, :n] = Wt * S.imag
-        A[:, :, 0, :, n:2 * n] = -Wt * Dd.imag
-        A[:, :, 1, :, n:2 * n] = Wt * Dd.real
-        R = self.resid_cols
-        for k in range(self.n_in):
-            cols = slice(2 * n + n_res * k, 2 * n + n_res * (k + 1))
-            A[:, k, 0, :, cols] = self.Wt[:, k, :, None] * R.real
-            A[:, k, 1, :, cols] = self.Wt[:, k, :, None] * R.imag
+        # every column written (products straight into place, no temporaries)
+        A = np.empty((self.n_out, self.n_in, 2, self.n_f, n_col))
+        np.multiply(Wt, S.real, out=A[:, :, 0, :, :n])
+        np.multiply(Wt, S.imag, out=A[:, :, 1, :, :n])
+        np.multiply(-Wt, Dd.imag, out=A[:, :, 0, :, n:2 * n])
+        np.multiply(Wt, Dd.real, out=A[:, :, 1, :, n:2 * n])
+        A[..., 2 * n:] = self._resid_block
         A = A.reshape(self.n_out, -1, n_col)
         proj = _Projector(A)
         c = proj.solve(self.b[..., None])[..., 0]                   # (j, c)
@@ -187,15 +192,16 @@ class Problem:
             S, Dd = T + Tc, T - Tc
             w = self.Wt[:, k, :, None]                              # (j, f, 1)
             m = len(modes)
+            Em, Edm = E[..., modes], Ed[..., modes]
             D = np.empty((self.n_out, 2, self.n_f, 2 * n + 2 * m))
-            D[:, 0, :, :n] = w * S.real           # ∂/∂σ: P g² + conj(P) gc²
-            D[:, 1, :, :n] = w * S.imag
-            D[:, 0, :, n:2 * n] = -w * Dd.imag    # ∂/∂ω: i (P g² − conj(P) gc²)
-            D[:, 1, :, n:2 * n] = w * Dd.real
-            D[:, 0, :, 2 * n:2 * n + m] = w * E[..., modes].real
-            D[:, 1, :, 2 * n:2 * n + m] = w * E[..., modes].imag
-            D[:, 0, :, 2 * n + m:] = -w * Ed[..., modes].imag
-            D[:, 1, :, 2 * n + m:] = w * Ed[..., modes].real
+            np.multiply(w, S.real, out=D[:, 0, :, :n])           # ∂/∂σ: P g² + conj(P) gc²
+            np.multiply(w, S.imag, out=D[:, 1, :, :n])
+            np.multiply(-w, Dd.imag, out=D[:, 0, :, n:2 * n])    # ∂/∂ω: i (P g² − conj(P) gc²)
+            np.multiply(w, Dd.real, out=D[:, 1, :, n:2 * n])
+            np.multiply(w, Em.real, out=D[:, 0, :, 2 * n:2 * n + m])
+            np.multiply(w, Em.imag, out=D[:, 1, :, 2 * n:2 * n + m])
+            np.multiply(-w, Edm.imag, out=D[:, 0, :, 2 * n + m:])
+            np.multiply(w, Edm.real, out=D[:, 1, :, 2 * n + m:])
             cols = np.concatenate([r8, r8 + 1, N_THETA * modes + 2 + q,
                                    N_THETA * modes + 2 + n_free + q])
             blocks.append((cols, D.reshape(self.n_out, 2 * self.n_f, -1)))
