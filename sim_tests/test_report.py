@@ -11,7 +11,22 @@ import pytest
 import xarray as xr
 
 from rmbench.impact import open_campaign, parse_config, run_campaign
+from rmbench.impact.config import default_bands
 from rmbench.report.page import Page, script_json
+
+
+def _bands_at_half_density() -> str:
+    """The default bands (:func:`rmbench.impact.config.default_bands`, the seed's) as TOML, their
+    line spacing doubled."""
+    out = []
+    for name, band in default_bands().items():
+        fields = band.model_dump(exclude_defaults=True) | {"line_spacing": 2 * band.line_spacing}
+        tables = {k: fields.pop(k) for k in list(fields) if isinstance(fields[k], dict)}
+        out += [f"[bands.{name}]"] + [f"{k} = {json.dumps(v)}" for k, v in fields.items()]
+        for sub, values in tables.items():
+            out += [f"[bands.{name}.{sub}]"] + [f"{k} = {json.dumps(v)}" for k, v in values.items()]
+    return "\n".join(out) + "\n"
+
 
 # The seed's two bands at half their line density (0.25 Hz, 4 Hz instead of 0.125 Hz, 2 Hz): what
 # the reports draw and decode does not depend on the lines' count, and every mode keeps several
@@ -28,27 +43,7 @@ kind = "product"
 x_mm = [1600, 1800]
 y_mm = [-100, 100]
 theta_deg = [0, 20]
-[bands.low]
-f_min = 4.0
-f_max = 40.0
-sensor = "laser"
-s_1a_mm = 33.4
-sample_rate = 1024.0
-line_spacing = 0.25
-[bands.low.hammer]
-pulse_ms = 8.0
-peak_n = 300.0
-[bands.high]
-f_min = 600.0
-f_max = 1400.0
-sensor = "accelerometer"
-s_1a_mm = 20.0
-sample_rate = 12800.0
-line_spacing = 4.0
-[bands.high.hammer]
-pulse_ms = 0.6
-peak_n = 400.0
-"""
+""" + _bands_at_half_density()
 
 @pytest.fixture(scope="module")
 def files(tmp_path_factory):
