@@ -135,14 +135,11 @@ def test_first_order_modes_of_many_changes_are_each_change_alone(irb_op):
         np.testing.assert_allclose(m.poles, one.poles, rtol=1e-12)
 
 
-def test_chord_settling_from_a_nearby_equilibrium_reaches_the_same_state(irb):
-    # a heavier forearm settled from the nominal's equilibrium on the nominal's stiffness (chord
-    # steps) lands where Newton from the undeflected commands lands, to the settling tolerance
+def _heavier_forearm(irb):
+    """The operating point at (1800, -200, 0) mm and a copy of its model with a forearm 10 % heavier."""
     import copy
 
     import mujoco
-
-    from rmbench.robot.linear import equilibrium
 
     op = irb.at(Posture.from_mm_deg(1800, -200, 0))
     model = copy.copy(op.robot.model)
@@ -150,6 +147,17 @@ def test_chord_settling_from_a_nearby_equilibrium_reaches_the_same_state(irb):
     model.body_mass[b] *= 1.1
     model.body_inertia[b] *= 1.1
     mujoco.mj_setConst(model, mujoco.MjData(model))
+    return op, model
+
+
+def test_chord_settling_from_a_nearby_equilibrium_reaches_the_same_state(irb):
+    # a heavier forearm settled from the nominal's equilibrium on the nominal's stiffness (chord
+    # steps) lands where Newton from the undeflected commands lands, to the settling tolerance
+    import mujoco
+
+    from rmbench.robot.linear import equilibrium
+
+    op, model = _heavier_forearm(irb)
     held = np.unique(model.jnt_dofadr[model.actuator_trnid[:, 0]])     # the servo-held joints
     fresh, chord = mujoco.MjData(model), mujoco.MjData(model)
     fresh.qpos[:] = op.data.qpos
@@ -162,6 +170,39 @@ def test_chord_settling_from_a_nearby_equilibrium_reaches_the_same_state(irb):
     # 1e-10 of the largest joint stiffness in N·m is the settling tolerance: the states agree to
     # far below a micro-radian
     assert np.abs(chord.qpos - fresh.qpos).max() < 1e-9
+
+
+def test_forward_differences_give_a_mass_step_s_stiffness_change_as_central_ones_do(irb):
+    # the calibration's mass columns difference two forward-difference stiffnesses at one state:
+    # each errs by the difference step (10⁻⁶ rad) times K's slope, nearly the same in both, so
+    # their difference must match the central differences' to 10⁻⁴ of the change itself (the
+    # gravity stiffness a 10 % heavier forearm adds, about 40 N·m/rad beside entries of 3·10⁸)
+    import mujoco
+
+    from rmbench.robot.linear import linearize
+
+    op, heavy = _heavier_forearm(irb)
+
+    def k_of(model, differences):
+        data = mujoco.MjData(model)
+        data.qpos[:] = op.data.qpos
+        data.ctrl[:] = op.data.ctrl
+        return linearize(model, data, op.linear.C, differences=differences).K
+
+    central = k_of(heavy, "central") - k_of(op.robot.model, "central")
+    forward = k_of(heavy, "forward") - k_of(op.robot.model, "forward")
+    assert np.abs(central).max() > 10.0
+    assert np.abs(forward - central).max() < 1e-4 * np.abs(central).max()
+
+
+def test_linearize_refuses_an_unknown_difference_scheme(irb_op):
+    import mujoco
+
+    from rmbench.robot.linear import linearize
+
+    data = mujoco.MjData(irb_op.robot.model)
+    with pytest.raises(ValueError, match="central"):
+        linearize(irb_op.robot.model, data, differences="backward")
 
 
 def test_the_nearest_mode_is_the_one_whose_natural_frequency_is_closest():

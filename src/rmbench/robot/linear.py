@@ -227,15 +227,23 @@ def equilibrium(model: mujoco.MjModel, data: mujoco.MjData, held: np.ndarray, *,
     _hold_with_actuators(model, data)
 
 
-def linearize(model: mujoco.MjModel, data: mujoco.MjData, damping: np.ndarray | None = None) -> LinearModel:
+def linearize(model: mujoco.MjModel, data: mujoco.MjData, damping: np.ndarray | None = None, *,
+              differences: str = "central") -> LinearModel:
     """M, C, K of ``model`` about the state in ``data`` (call after :func:`equilibrium`).
 
     ``damping`` (shape (nv, nv)) is C where it is already known: at rest the velocity terms are the
     joints' and servos' damping alone, which a change of masses leaves as they are.
+    ``differences="forward"`` takes K by one-sided differences (half the inverse dynamics). Its
+    error is of the order of the step (10⁻⁶) times K's own slope, and nearly the same for two
+    models at the same state, so it is meant for a *difference* of two such linearisations (a
+    sensitivity), not for modes.
     """
+    if differences not in ("central", "forward"):
+        raise ValueError(f"differences must be 'central' or 'forward', got {differences!r}")
     nv = model.nv
     every = np.arange(nv)
-    k = _central_fd(model, data, every, velocity=False, actuation=True)
+    sides = (_FD_EPS, -_FD_EPS) if differences == "central" else (_FD_EPS,)
+    k = _central_fd(model, data, every, velocity=False, actuation=True, sides=sides)
     if damping is None:
         c = _central_fd(model, data, every, velocity=True, actuation=True)
     else:
@@ -247,15 +255,17 @@ def linearize(model: mujoco.MjModel, data: mujoco.MjData, damping: np.ndarray | 
     return LinearModel(dof_names=names, M=m, C=c, K=k)
 
 
-def _central_fd(model, data, dofs, *, velocity: bool, actuation: bool) -> np.ndarray:
+def _central_fd(model, data, dofs, *, velocity: bool, actuation: bool,
+                sides: tuple = (_FD_EPS, -_FD_EPS)) -> np.ndarray:
     """∂f/∂q (or ∂f/∂q') of the force that holds the state at zero acceleration, shape (nv, len(dofs)).
 
     ``f = qfrc_inverse`` at ``qacc = 0`` (else M(q)·qacc leaks into K), less the actuator forces
     when ``actuation`` (so that servo gains enter K and C). Central differences in MuJoCo's C code:
     :func:`mujoco.mjd_inverseFD` takes forward differences, so it runs once forward and once
-    backward and the two are averaged. It keeps ``data``'s state and zeroes its ``qacc``; the
-    derived quantities are left at a perturbed state, so a caller runs ``mj_forward`` or
-    ``mj_inverse`` before reading them.
+    backward and the two are averaged (``sides``: the steps taken; a single one gives forward
+    differences). It keeps ``data``'s state and zeroes its ``qacc``; the derived quantities are
+    left at a perturbed state, so a caller runs ``mj_forward`` or ``mj_inverse`` before reading
+    them.
     """
     nv = model.nv
     work = data
@@ -266,7 +276,7 @@ def _central_fd(model, data, dofs, *, velocity: bool, actuation: bool) -> np.nda
     # inverse dynamics integrates nothing; mjd_inverseFD refuses a model set to RK4 all the same
     model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     try:
-        for eps in (_FD_EPS, -_FD_EPS):
+        for eps in sides:
             if velocity:
                 mujoco.mjd_inverseFD(model, work, eps, int(actuation), None, part, None, None, None, None, None)
             else:
@@ -275,7 +285,7 @@ def _central_fd(model, data, dofs, *, velocity: bool, actuation: bool) -> np.nda
     finally:
         model.opt.integrator = integrator
     # MuJoCo's derivative matrices are transposed (row: the perturbed coordinate)
-    return 0.5 * out.T[:, np.asarray(dofs)]
+    return out.T[:, np.asarray(dofs)] / len(sides)
 
 
 def _qpos_of(model: mujoco.MjModel, dofs: np.ndarray) -> np.ndarray:
