@@ -173,6 +173,7 @@ def test_a_candidate_continued_to_the_noise_gets_the_same_check(monkeypatch):
         at_noise = (effect is not None and prev is not None) or warm is not None
         # held-out χ² on 700 residuals: the null's 900 fails the χ² test itself (not by a peak alone)
         return SimpleNamespace(effect=effect, significant=not at_noise, same_chance=warm is not None, freed=("x",),
+                               stalled=False,
                                chi2_held=200.0 if at_noise else (300.0 if effect else 900.0), n_held=700,
                                train_objective=1.0, shrink_against=lambda null: 0.42 if effect else 0.0)
 

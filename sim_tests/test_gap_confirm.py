@@ -6,7 +6,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from rmbench.calibrate import TestDesign
+from rmbench.calibrate import CalibrationSettings, TestDesign
 from rmbench.gap.frf.confirm import candidate_terms, confirmable
 from rmbench.gap.selection import bootstrap_shrink
 from rmbench.gap.frf.effects import library
@@ -204,21 +204,24 @@ def test_a_freed_mass_is_beyond_its_spread_only_when_its_interval_clears_the_ran
 
 
 def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, closes: float = 0.5,
-                near_at_noise: bool = False, null_chi2: float = 100.0, terms=None, null_u=None):
+                near_at_noise: bool = False, null_chi2: float = 100.0, terms=None, null_u=None, budgets=None):
     """``_Recalibration._candidate`` with calibrations that stand in for the two starts, each
     ending at the given training objective; the run from the null's end removes ``closes`` of the
     null's excess held-out χ² (the null: 100 on 50 residuals) and reaches the noise where
     ``near_at_noise``. The starts each was given recorded; ``terms``: the candidate's
-    (:func:`candidate_terms`), ``null_u``: the null's end (default: ``{"j1_flex.stiffness": 0.2}``)."""
+    (:func:`candidate_terms`), ``null_u``: the null's end (default: ``{"j1_flex.stiffness": 0.2}``);
+    ``budgets``: a list each start's (where, evaluations) is appended to."""
     from types import SimpleNamespace
 
     import rmbench.calibrate
-    from rmbench.gap.frf.confirm import ConfirmOptions, Confirmed, _Recalibration, _Run
+    from rmbench.gap.frf.confirm import ConfirmOptions, Confirmed, _kept, _Recalibration, _Run
 
     starts = []
 
     def calibrate(robot, data, *, held=(), settings=None, start=None, progress=None):
         starts.append(start)
+        if budgets is not None:
+            budgets.append(("nominal" if start is None else "null's end", settings.max_iter))
         end = from_nominal if start is None else from_null
         return SimpleNamespace(chi2_after=end - 10.0, chi2_prior=10.0, start=start)
 
@@ -236,7 +239,10 @@ def _two_starts(monkeypatch, from_nominal: float, from_null: float, null=True, c
     base = SimpleNamespace(calibration=SimpleNamespace(params=[SimpleNamespace(name=n) for n in null_u],
                                                        u=np.array(list(null_u.values()))), chi2_held=null_chi2,
                            n_held=50)
-    c = run._candidate(None, terms, None, None, base if null else None, _Run("nominal", False, None, 0.0))
+    c = run._candidate(None, terms, None, CalibrationSettings(), base if null else None,
+                       _Run("nominal", False, None, 0.0))
+    if c.stalled:        # its second start, as :func:`confirm` asks for it
+        c = _kept(c, run._far(None, terms, None, CalibrationSettings(), _Run("nominal", False, None, 0.0)))
     return c, starts
 
 
@@ -249,10 +255,19 @@ def test_a_candidate_keeps_the_null_recalibrations_end_where_that_start_ends_low
 
 
 def test_a_candidate_started_twice_is_timed_over_both_starts(monkeypatch):
-    # the record says what the confirmation cost: the start from the nominal runs after the one
-    # from the null's end (its clock, 3 s here against 1 s, holds both), whichever is kept
+    # the record says what the confirmation cost: 1 s from the null's end and 3 s from the
+    # nominal, whichever is kept
     c, _ = _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0)
-    assert c.start == "null" and c.seconds == 3.0
+    assert c.start == "null" and c.seconds == 4.0
+
+
+def test_a_candidates_run_from_the_nulls_end_has_the_nulls_budget(monkeypatch):
+    # it starts where the null stopped, as the null's own continuation does (8 evaluations); the
+    # start from the nominal keeps the calibration's full budget for its gross grid, modes and FRFs
+    budgets = []
+    _two_starts(monkeypatch, from_nominal=368.0, from_null=142.0, budgets=budgets)
+    assert budgets == [("null's end", 8), ("nominal", CalibrationSettings().max_iter)]
+    assert CalibrationSettings().max_iter > 8
 
 
 def test_a_sliding_foundation_starts_from_the_nulls_end_with_the_tilt_at_the_nominal(monkeypatch, irb,
@@ -474,3 +489,62 @@ def test_an_explanation_whose_total_size_stays_inside_the_ordinary_spread_is_no_
     assert held_back.verdict == "no significant gap" and "within its ordinary spread" in held_back.notes[-1]
     dg, first = _holder_diagnosis(np.log(0.2))
     assert spread_checked(dg, irb, first) is dg
+
+
+class _StallRun(_FakeRun):
+    """:class:`_FakeRun` whose candidates run from the null's end (``ends[(name, "null's end")]``
+    as ``(training objective, held-out χ², significant, stalled)``), and whose second starts
+    (:meth:`second_start`) are recorded in ``calls`` and end at ``ends[(name, "nominal")]``."""
+
+    def __call__(self, effect, prev=None, *, from_nominal=False, null=None, rank=0, warm=None):
+        from dataclasses import replace
+
+        if effect is None or null is None:
+            return super().__call__(effect, prev, from_nominal=from_nominal, rank=rank, warm=warm)
+        obj, chi2, sig, stalled = self.ends[(effect, "null's end")]
+        self.calls.append((effect, "null's end"))
+        c = super().__call__(effect)
+        self.calls.pop()
+        return replace(c, calibration=SimpleNamespace(chi2_after=obj, chi2_prior=0.0), chi2_held=chi2,
+                       significant=sig, start="null", stalled=stalled)
+
+    def second_start(self, near):
+        from dataclasses import replace
+
+        self.calls.append((near.effect, "second start"))
+        obj, chi2, sig = self.ends.get((near.effect, "nominal"), (1e4, 1e4, True))
+        return replace(near, calibration=SimpleNamespace(chi2_after=obj, chi2_prior=0.0), chi2_held=chi2,
+                       significant=sig, second_start=True)
+
+
+def _stalled_with(monkeypatch, ends, names=("tool", "slide")):
+    import rmbench.gap.frf.confirm as C
+
+    fake = _StallRun(ends)
+    monkeypatch.setattr(C, "_Recalibration", lambda *a, **k: fake)
+    setup = C.ConfirmSetup(None, None, None, SimpleNamespace(params=[], u=np.zeros(0)), None)
+    null, done = C.confirm(setup, list(names), accept=lambda c, n: not c.significant)
+    return fake.calls, null, done
+
+
+# a null at held-out χ² 7,400 on 700 residuals; a tool holder from its end stalled (moved the
+# gap a fifth of the way and stopped short of the noise)
+_TOOL_STALLED = {("null", "nominal"): (3000.0, 7400.0, True), ("tool", "null's end"): (2000.0, 5000.0, True, True)}
+
+
+def test_a_stalled_candidate_is_started_again_where_none_explains_the_gap_from_the_nulls_end(monkeypatch):
+    calls, _, done = _stalled_with(monkeypatch, {**_TOOL_STALLED,
+                                                 ("slide", "null's end"): (2900.0, 7000.0, True, False)})
+    assert ("tool", "second start") in calls and ("slide", "second start") not in calls
+    assert done[0].second_start
+
+
+def test_a_stalled_candidate_is_not_started_again_where_another_explains_the_gap_from_the_nulls_end(monkeypatch):
+    # the slide reaches the noise from the null's end, listed after the stalled holder: that end
+    # lies in the data's basin, and a start from the nominal (three runs from the null's end)
+    # would not rescue the holder from a wrong one
+    calls, _, done = _stalled_with(monkeypatch, {**_TOOL_STALLED, ("slide", "null's end"): (800.0, 650.0, False, False),
+                                                 ("null", "from null"): (2000.0, 5000.0, True)})
+    assert not any(how == "second start" for _, how in calls)
+    assert done[0].stalled and not done[0].second_start and not done[1].significant
+

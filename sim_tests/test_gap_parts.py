@@ -313,6 +313,35 @@ def test_a_far_worse_second_single_gets_no_pairs_of_its_own():
     assert [f.name for f in bases] == ["a"]
 
 
+def _search_pairs(monkeypatch, calibrate):
+    """Runs the diagnosis's search on stand-in singles far from the noise (none explains) and
+    returns whether pairs were fitted; ``calibrate``: the settings' calibrated groups."""
+    from types import SimpleNamespace
+
+    import rmbench.gap.frf.diagnosis as D
+    from rmbench.gap.frf.settings import DiagnosisSettings
+
+    fitted = []
+    monkeypatch.setattr(D, "pairs", lambda *a: fitted.append(True) or (a[3], []))
+    refiner = SimpleNamespace(screen=lambda effects, e0: [SimpleNamespace(effect=e, values=np.zeros(1), chi2=1e4)
+                                                          for e in effects],
+                              run=lambda jobs: [_single(j[0][0].name, 5000, 5000) for j in jobs])
+    nom = _single("nominal", 9000, 9000)
+    D._search(refiner, None, nom, [_Eff("a"), _Eff("b")], None, DiagnosisSettings(calibrate=calibrate),
+              lambda msg: None, {})
+    return bool(fitted)
+
+
+def test_pairs_are_fitted_where_no_single_explains_the_gap_of_the_nominal_model(monkeypatch):
+    assert _search_pairs(monkeypatch, calibrate=None)
+
+
+def test_no_pairs_are_fitted_beside_a_calibration(monkeypatch):
+    # its verdict rests on a recalibration with one effect freed, which a pair fitted to first
+    # order beside the calibrated parameters cannot have
+    assert not _search_pairs(monkeypatch, calibrate=("joints",))
+
+
 def test_a_single_refitted_from_a_pair_replaces_its_stalled_fit():
     from rmbench.gap.frf.pairs import better_singles
 

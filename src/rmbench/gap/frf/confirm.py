@@ -13,9 +13,10 @@ ordinary parameter, which keeps its prior. The FRF residuals are on, since a hol
 stiffness shows in the FRFs between the modes more than in the modes. A *null* recalibration with
 the same settings and no candidate, continued from the first calibration, is the baseline, so
 that the candidate is credited only with what it adds to a calibration that was given the same
-data. A candidate runs from the null's end and, where it stalls there, the nominal, keeping the
-lower training objective (``_Recalibration._candidate``); one that closes most of the null's gap
-short of the noise is continued once, and the null with it.
+data. A candidate runs from the null's end and, where it stalls there and no candidate explains
+the gap from that end, the nominal, keeping the lower training objective
+(``_Recalibration._candidate``); one that closes most of the null's gap short of the noise is
+continued once, and the null with it.
 
 A candidate explains the gap when its recalibrated model's held-out residual is noise (the
 selection engine's test) and it closes at least ``min_shrink`` of the null's held-out rms gap.
@@ -36,11 +37,11 @@ import time
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.stats import chi2 as chi2_dist
 
 from rmbench.gap.frf.effects import Change, Effect
 from rmbench.gap.frf.model import ModelBench
 from rmbench.gap.frf.search import Objective, peak_residual
+from rmbench.gap.frf.restarts import chi2_gap, favourite, further_starts, same_chance
 from rmbench.gap.selection import significant
 
 __all__ = ["CONFIRMABLE", "DESIGN_KINDS", "Confirmed", "ConfirmSetup", "ConfirmOptions", "CandidateTerms",
@@ -92,8 +93,11 @@ class Confirmed:
     second_start : bool
         A candidate that also ran from the nominal (its run from the null's end was promising,
         :attr:`ConfirmOptions.second_start`).
+    stalled : bool
+        A candidate whose run from the null's end stopped on the way (a second start is sought
+        for it; :meth:`_Recalibration._candidate`), whether or not that start was run.
     warm : bool
-        A null recalibration run from an accepted candidate's end (:func:`_same_chance`).
+        A null recalibration run from an accepted candidate's end (:func:`~rmbench.gap.frf.restarts.same_chance`).
     """
 
     effect: Effect | None
@@ -114,6 +118,7 @@ class Confirmed:
     start: str = "nominal"
     second_start: bool = False
     warm: bool = False
+    stalled: bool = False
 
     @property
     def name(self) -> str:
@@ -147,7 +152,7 @@ class Confirmed:
                "iterations": self.calibration.iterations, "rounds": self.rounds, "seconds": self.seconds,
                "chi2_train": float(self.calibration.chi2_after), "chi2_prior": float(self.calibration.chi2_prior),
                "from_nominal": self.from_nominal, "start": self.start, "second_start": self.second_start,
-               "warm": self.warm}
+               "stalled": self.stalled, "warm": self.warm}
         if self.effect is not None:
             out["params"] = self.effect.params_dict(self.values)
             out["description"] = self.effect.describe(self.values)
@@ -195,8 +200,9 @@ class ConfirmOptions:
     Attributes
     ----------
     max_iter : int
-        Evaluations of the null recalibration and of each continuation; a candidate's runs
-        ``settings.max_iter`` from the nominal. A null that reaches the noise at this limit is
+        Evaluations of the null recalibration, of each continuation and of a candidate's run from
+        the null's end (each starts where a fit stopped); a candidate's start from the nominal runs
+        ``settings.max_iter``. A null that reaches the noise at this limit is
         continued once (it is the calibration reported).
     p_noise : float
         Level of the noise test of a recalibration's held-out residual.
@@ -213,7 +219,7 @@ class ConfirmOptions:
         from the null's end removed at least this share of the null's excess held-out χ², or
         added at least as much (:meth:`Confirmed.closes`; :meth:`_Recalibration._candidate`), or where the null's χ²
         passes the noise test (its gap is in its peak alone: no share to judge by; then the
-        candidate the training objective favours starts again, :func:`_favourite`).
+        candidate the training objective favours starts again, :func:`~rmbench.gap.frf.restarts.favourite`).
     need_gap : bool
         False: run the candidates even where the null reaches the noise (an ordinary parameter
         that ended on its bound: the calibration reached the data only by pushing it to the edge
@@ -321,16 +327,9 @@ class _Recalibration:
         from rmbench.calibrate import calibrate
 
         t0 = time.perf_counter()
-        setup, max_iter = self.setup, self.options.max_iter
-        settings, nominal, data = setup.settings, setup.nominal, setup.data
-        terms = None if effect is None else candidate_terms(effect, self.cal_u, tuple(settings.groups), nominal,
-                                                            self.sizes.get(effect.name))
-        change = Change() if terms is None else terms.change
-        # a sensor candidate: the data read through the corrected design
-        used = data if change.is_null() else replace(data, design=data.design.with_offsets(change.offsets))
-        s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
-                    max_iter=max_iter, extra=() if terms is None else terms.extra,
-                    free=() if terms is None else terms.free)
+        setup = self.setup
+        settings, nominal = setup.settings, setup.nominal
+        terms, used, s = self._prepared(effect)
         c = None
         if rank:                        # a further gross start
             cal = calibrate(nominal, used, held=setup.held_data,
@@ -355,10 +354,39 @@ class _Recalibration:
             c = self._scored(effect, terms, cal, _Run(started, from_nominal, prev, t0))
         if warm is not None:
             c = replace(c, warm=True)
+        self._said(c)
+        return c
+
+    def second_start(self, near: Confirmed) -> Confirmed:
+        """The start from the nominal of a candidate ``near`` whose run from the null's end
+        stalled (:attr:`Confirmed.stalled`), the lower training objective of the two kept and
+        timed over both."""
+        t0 = time.perf_counter()
+        terms, used, s = self._prepared(near.effect)
+        far = self._far(near.effect, terms, used, replace(s, max_iter=self.setup.settings.max_iter),
+                        _Run("nominal", False, None, t0))
+        c = _kept(near, far)
+        self._said(c)
+        return c
+
+    def _prepared(self, effect) -> tuple:
+        """The candidate's terms (None for the null), the data it reads (a sensor candidate's
+        through the corrected design) and the recalibration's settings with ``options.max_iter``."""
+        settings, data = self.setup.settings, self.setup.data
+        terms = None if effect is None else candidate_terms(effect, self.cal_u, tuple(settings.groups),
+                                                            self.setup.nominal, self.sizes.get(effect.name))
+        change = Change() if terms is None else terms.change
+        used = data if change.is_null() else replace(data, design=data.design.with_offsets(change.offsets))
+        s = replace(settings, groups=tuple(settings.groups) if terms is None else terms.groups, frf=True,
+                    max_iter=self.options.max_iter, extra=() if terms is None else terms.extra,
+                    free=() if terms is None else terms.free)
+        return terms, used, s
+
+    def _said(self, c: Confirmed) -> None:
         alone = c.start == "null" and not c.second_start
         self.say(f"recalibrated with {c.name}: held-out χ²/residual {c.chi2_held / max(c.n_held, 1):.3g}"
-                 + (" (noise)" if not c.significant else "") + (" (from the null's end alone)" if alone else ""))
-        return c
+                 + (" (noise)" if not c.significant else "") + (" (from the null's end alone)" if alone else "")
+                 + (", stalled there" if c.stalled and not c.second_start else ""))
 
     def _scored(self, effect, terms, cal, run: "_Run") -> Confirmed:
         """A recalibration ``cal`` scored on the held-out postures, with the candidate's size."""
@@ -385,9 +413,11 @@ class _Recalibration:
                          start=run.started)
 
     def _candidate(self, effect, terms, used, settings, null, run: "_Run") -> Confirmed:
-        """A candidate's recalibration from the ``null`` recalibration's end and, where that one
-        is promising, from the nominal too: the one with the lower training objective, scored
-        (``run``: the start from the nominal; without ``null``, that start alone).
+        """A candidate's recalibration from the ``null`` recalibration's end, with the null's
+        budget (``options.max_iter``: it continues from where the null stopped), marked
+        :attr:`~Confirmed.stalled` where a start from the nominal is to be sought too
+        (:meth:`second_start`; the lower training objective is kept there); without ``null``, the
+        start from the nominal alone with ``settings`` (``run``: that start).
 
         * From the null's end, the freed parameters where it left them (at their gross sizes
           where it lacks them), its ordinary look-alikes at the nominal (:attr:`CandidateTerms.reset`:
@@ -413,23 +443,27 @@ class _Recalibration:
         from rmbench.calibrate import calibrate
 
         setup = self.setup
-        if null is not None:
-            start = {n: u for n, u in _values(null.calibration).items() if n not in getattr(terms, "reset", ())}
-            other = calibrate(setup.nominal, used, held=setup.held_data, settings=settings, start=start)
-            near = self._scored(effect, terms, other, replace(run, started="null"))
-            # a second basin is sought for a run that stalled short of the noise having moved the
-            # null's excess χ² a fifth of the way, or a fifth worse (it holds the null: ending worse,
-            # it is in another basin). A null whose χ² passes the noise test has no excess χ² that
-            # is signal, no share to judge by: :func:`_favourite` starts one candidate again instead
-            if (not near.significant or not _chi2_gap(null, self.options)
-                    or abs(near.closes(null)) < self.options.second_start):
-                return near
-        cal = calibrate(setup.nominal, used, held=setup.held_data, settings=settings)
-        far = self._scored(effect, terms, cal, run)
         if null is None:
-            return far
-        best = near if _objective(other) < _objective(cal) else far
-        return replace(best, second_start=True, seconds=far.seconds)   # far ran last: both starts
+            return self._far(effect, terms, used, settings, run)
+        start = {n: u for n, u in _values(null.calibration).items() if n not in getattr(terms, "reset", ())}
+        other = calibrate(setup.nominal, used, held=setup.held_data,
+                          settings=replace(settings, max_iter=self.options.max_iter), start=start)
+        near = self._scored(effect, terms, other, replace(run, started="null"))
+        # a second basin is sought for a run that stalled short of the noise having moved the
+        # null's excess χ² a fifth of the way, or a fifth worse (it holds the null: ending worse,
+        # it is in another basin). A null whose χ² passes the noise test has no excess χ² that is
+        # signal, no share to judge by: :func:`~rmbench.gap.frf.restarts.favourite` starts one
+        # candidate again instead
+        stalled = (near.significant and chi2_gap(null, self.options)
+                   and abs(near.closes(null)) >= self.options.second_start)
+        return replace(near, stalled=stalled)
+
+    def _far(self, effect, terms, used, settings, run: "_Run") -> Confirmed:
+        """The candidate's recalibration from the nominal, with ``settings``."""
+        from rmbench.calibrate import calibrate
+
+        cal = calibrate(self.setup.nominal, used, held=self.setup.held_data, settings=settings)
+        return self._scored(effect, terms, cal, run)
 
 
 @dataclass(frozen=True)
@@ -443,31 +477,10 @@ class _Run:
     t0: float
 
 
-def _chi2_gap(null: Confirmed, options: ConfirmOptions) -> bool:
-    """Whether the null's held-out χ² alone fails the noise test (not its peak)."""
-    return significant(null.chi2_held, null.n_held, p=options.p_noise)
-
-
-def _favourite(run, null: Confirmed, done: list, options: ConfirmOptions) -> list:
-    """``done`` with the training data's favourite started again from the nominal, where the null
-    is significant by its peak alone.
-
-    Against such a null the share of its excess χ² a candidate removed is noise, so it cannot say
-    which candidate stalled on the way (:meth:`_Recalibration._candidate`); the training objective
-    can: the candidate whose run from the null's end lowered it most, still short of the noise, is
-    the one the data ask for, and a second basin is sought for it alone (ordinary parameters mimic
-    a foundation's slide to within the χ² test, and from their end the slide stalls: seed 97414
-    robot 2, 50 µm/kN stalled at 8), the lower training objective kept. Every candidate started
-    again costs three runs from the null's end."""
-    if _chi2_gap(null, options):
-        return done
-    alone = [c for c in done if c.significant and c.start == "null" and not c.second_start]
-    if not alone:
-        return done
-    best = min(alone, key=lambda c: c.train_objective)
-    other = run(best.effect)
-    kept = replace(other if other.train_objective < best.train_objective else best, second_start=True)
-    return [kept if c is best else c for c in done]
+def _kept(near: Confirmed, far: Confirmed) -> Confirmed:
+    """Of a candidate's two starts, the one with the lower training objective, timed over both."""
+    best = near if near.train_objective < far.train_objective else far
+    return replace(best, second_start=True, stalled=True, seconds=round(near.seconds + far.seconds, 1))
 
 
 def _values(cal) -> dict:
@@ -498,7 +511,7 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
         candidate runs, in its order, also after one is accepted (the choice among those that
         explain the gap is the caller's); none run when the null recalibration reaches the noise, unless
         ``options.need_gap`` is False. Once one is accepted (with ``need_gap``), a null is run from
-        the accepted candidate's end with the candidates' budget (:func:`_same_chance`); where it
+        the accepted candidate's end with the candidates' budget (:func:`~rmbench.gap.frf.restarts.same_chance`); where it
         reaches the noise it is the null returned (the gap was the first calibration's, not the
         data's).
     sizes : dict, optional
@@ -523,16 +536,20 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
             # so that its intervals are those of a minimum
             null = run(None, prev=null)
         return null, done
-    for effect in candidates:
-        done.append(run(effect, null=null))
+    done = [run(effect, null=null) for effect in candidates]
+    if accept is None or not any(accept(c, null) for c in done):
+        # the starts from the nominal, only where no candidate explains the gap from the null's
+        # end: one that does shows that end to lie in the data's basin, so another that stalled
+        # there is not held by a wrong basin but fits the data less well
+        done = [run.second_start(c) if c.stalled else c for c in done]
     if accept is not None and not any(accept(c, null) for c in done):
-        done = _favourite(run, null, done, options)
+        done = favourite(run, null, done, options)
     # every candidate runs, also after one explains the gap: a look-alike further down the list
     # may explain it better, and the choice among them and its confidence (a selection frequency
     # among the models run) need all of them; stopped at the first accepted, the first look-alike
     # would win at confidence 1 (e.g. a wrist's mass listed before the flange's that was added)
     if accept is not None and any(accept(c, null) for c in done):
-        return _same_chance(run, null, done, accept, options), done
+        return same_chance(run, null, done, accept, options), done
     promising = [c for c in done if c.significant and c.shrink_against(null) >= options.min_shrink]
     if not promising:
         return null, done
@@ -543,58 +560,5 @@ def confirm(setup: ConfirmSetup, candidates, *, options: ConfirmOptions = Confir
     if accept is None:
         return null, done
     if any(accept(c, null) for c in done):
-        return _same_chance(run, null, done, accept, options), done
-    return _further_starts(run, null, best, done, accept, options)
-
-
-def _further_starts(run, null: Confirmed, best: Confirmed, done: list, accept, options: ConfirmOptions) -> tuple:
-    """A promising candidate ``best`` still short of the noise after its continuation, run from
-    the nominal's next ``options.further`` gross starts, each kept where its training objective
-    is lower, until one is accepted. Returns the null and the candidates run (``done``, with
-    ``best`` replaced by its kept run).
-
-    The fit may have ended in another basin than the data's. The coarse residual that picked its
-    gross start does not rank the basins, so the next starts are tried, and the lower training
-    objective kept: the training data, not the held-out ones, choose among fits of one model
-    (e.g. a foundation sliding 58 µm/kN under a tilting one, held-out χ² 1,716 on 712 residuals
-    from the best start, 82 from the second)."""
-    for rank in range(1, options.further + 1):
-        other = run(best.effect, rank=rank)
-        if other.train_objective < best.train_objective:
-            best = other
-            done = [best if c.effect is best.effect else c for c in done]
-        if accept(best, null):
-            return _same_chance(run, null, done, accept, options), done
-    return null, done
-
-
-def _same_chance(run, null: Confirmed, done: list, accept, options: ConfirmOptions) -> Confirmed:
-    """The null a candidate that explains the gap is credited against.
-
-    The accepted candidate may have run from the nominal, or on for a second round, or from a
-    further gross start; the null only on from the first calibration. A first calibration caught
-    in a local minimum leaves a gap that a better start closes with or without the candidate. So
-    a null runs from where the accepted candidate ended (the lowest training objective among the
-    accepted): its ordinary parameters, the candidate's own dropped, with the candidate's full
-    budget, a start in the basin the candidate found. From there it is a continuation (a few
-    evaluations of the FRF stage), where a start from the nominal repeats the gross starts and the
-    modes-alone stage.
-
-    Where that null reaches the held-out noise too, the held-out postures cannot tell the two
-    apart, and the training data with the prior decide: the candidate nests the null (its k
-    parameters at zero), so its training objective (data χ² and prior) below the null's by more
-    than the χ²(k) quantile at ``options.p_noise`` is a likelihood-ratio test the null fails (the
-    ordinary parameters reach the held-out noise only pulled out of their spread, e.g. a wrist
-    2.8 times its mass: 570 against 179). Otherwise the null is returned (the gap was the first
-    calibration's, or an ordinary parameter takes the candidate's part) and no candidate is
-    credited. Not where the candidates ran without a gap (``options.need_gap`` False)."""
-    if not options.need_gap:
-        return null
-    winner = min((c for c in done if accept(c, null)), key=lambda c: c.train_objective)
-    fresh = run(None, warm=winner)
-    if fresh.significant:
-        return null
-    k = max(len(winner.freed), 1)     # a sensor candidate frees nothing: its one held size
-    if fresh.train_objective - winner.train_objective > float(chi2_dist.ppf(1 - options.p_noise, k)):
-        return null
-    return fresh
+        return same_chance(run, null, done, accept, options), done
+    return further_starts(run, null, best, done, accept, options)

@@ -290,7 +290,9 @@ def _search(refiner: Refiner, obj_train, nom: Fitted, effects, e0, settings, say
     say(f"refined {len(singles)} candidates")
     scored = [nom] + singles
     best = min(singles, key=lambda f: f.score)
-    if not explains(best, nom, settings) and settings.pairs_of > 0:
+    # no pairs beside a calibration: its verdicts rest on a recalibration with one effect freed
+    # (:mod:`rmbench.gap.frf.confirm`), which a pair fitted to first order cannot have
+    if not explains(best, nom, settings) and settings.pairs_of > 0 and not settings.calibrate:
         singles, paired = pairs(refiner, obj_train, effects, singles, screens, settings.pairs_of)
         if paired:
             scored = [nom] + singles + paired

@@ -21,7 +21,8 @@ class DiagnosisSettings(SearchSettings):
     ----------
     pairs_of : int
         When no single effect explains the gap, this many second effects (the best of a screening
-        on top of each of the two best singles) are paired with each and refined.
+        on top of each of the two best singles) are paired with each and refined; none with
+        ``calibrate`` (a verdict there rests on a recalibration with one effect freed).
     max_train : int
         Most training postures used by the screening and the refinement (spread evenly).
     max_held : int
